@@ -1,0 +1,99 @@
+#!/usr/bin/env bash
+# torchirid: set up the virtualenv and run the main job or the tests.
+#
+#   bash run.sh                 set up .venv, then write out/spectrum.png and out/spectrum.npz
+#   bash run.sh test [ARGS...]  set up .venv, then run the tests (ARGS go to pytest)
+#
+# Works unattended (CI=true, no stdin). Everything it needs is installed here: torch first,
+# pinned (pip takes the local CPU wheel for exactly this version; an unpinned torch would
+# pull a multi-GB CUDA build), then the project in editable mode with its dev extra.
+set -euo pipefail
+
+TORCH_PIN="torch==2.13.0"
+
+cd "$(dirname "${BASH_SOURCE[0]}")"
+ROOT="$(pwd)"
+VENV="$ROOT/.venv"
+PY="$VENV/bin/python"
+STAMP="$VENV/.torchirid-installed"
+
+export PIP_DISABLE_PIP_VERSION_CHECK=1
+export PIP_NO_INPUT=1
+export MPLBACKEND=Agg
+
+usage() {
+    sed -n '2,5p' "$ROOT/run.sh" | sed 's/^# \{0,1\}//'
+}
+
+# pip -q still prints warnings; drop only the noise about index locations that this
+# machine's pip configuration names but that do not exist. Errors always show.
+pip_install() {
+    local log rc=0
+    log="$(mktemp)"
+    "$PY" -m pip install -q "$@" 2>"$log" || rc=$?
+    grep -v "^WARNING: Location '.*' is ignored: it is neither a file nor a directory\.$" "$log" >&2 || true
+    rm -f "$log"
+    if [[ $rc -ne 0 ]]; then
+        echo "run.sh: pip install $* failed (exit $rc)" >&2
+        exit "$rc"
+    fi
+}
+
+ensure_venv() {
+    # A venv whose interpreter no longer runs (deleted Python) or that lacks pip (an
+    # interrupted `python3 -m venv`) is rebuilt.
+    if [[ -e "$VENV" ]] && ! "$PY" -c 'import pip' >/dev/null 2>&1; then
+        echo "run.sh: $VENV is broken; recreating it" >&2
+        rm -rf "$VENV"
+    fi
+    if [[ ! -x "$PY" ]]; then
+        echo "run.sh: creating virtualenv $VENV" >&2
+        python3 -m venv "$VENV"
+    fi
+    if ! "$PY" -c 'import sys; sys.exit(sys.version_info < (3, 10))'; then
+        echo "run.sh: torchirid needs Python >= 3.10; $("$PY" --version 2>&1) found" >&2
+        exit 1
+    fi
+
+    # The stamp records what was installed: pyproject.toml, the torch pin and the repo path
+    # (an editable install points at the source tree). Any change triggers a reinstall.
+    local want
+    want="$("$PY" - "$TORCH_PIN" "$ROOT" <<'EOF'
+import hashlib, pathlib, sys
+h = hashlib.sha256()
+h.update(pathlib.Path("pyproject.toml").read_bytes())
+h.update(("\0" + sys.argv[1] + "\0" + sys.argv[2]).encode())
+print(h.hexdigest())
+EOF
+)"
+    if [[ -f "$STAMP" && "$(cat "$STAMP")" == "$want" ]]; then
+        return 0
+    fi
+    echo "run.sh: installing $TORCH_PIN and torchirid[dev] into $VENV (quiet; may take a few minutes)" >&2
+    rm -f "$STAMP"
+    pip_install "$TORCH_PIN"
+    pip_install -e ".[dev]"
+    printf '%s\n' "$want" >"$STAMP"
+}
+
+cmd="${1:-}"
+case "$cmd" in
+    "")
+        ensure_venv
+        "$VENV/bin/torchirid" spectrum --out out/
+        echo "run.sh: done; files are in $ROOT/out/ (spectrum.png, spectrum.npz)"
+        ;;
+    test)
+        shift
+        ensure_venv
+        "$PY" -m pytest -q tests "$@"
+        ;;
+    -h | --help | help)
+        usage
+        ;;
+    *)
+        echo "run.sh: unknown command '$cmd'" >&2
+        usage >&2
+        exit 2
+        ;;
+esac

@@ -1,0 +1,177 @@
+"""Argument validation and dtype/device resolution: one place, errors name the parameter.
+
+Every public function calls these *before* doing any work. Validation never uses
+``assert`` (``python -O`` strips it) and never "fixes" NaN: NaN fails no comparison, so
+it passes the checks and propagates through the physics.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Sequence
+
+import torch
+
+POLARIZATIONS = ("s", "p", "unpolarized")
+
+
+def _is_tensorlike(x) -> bool:
+    return isinstance(x, torch.Tensor) or hasattr(x, "__array__")
+
+
+def resolve_dtype_device(*args) -> tuple[torch.dtype, torch.device]:
+    """The real floating dtype and the device shared by ``args``.
+
+    float64/complex128 anywhere → float64; otherwise float32/complex64 → float32;
+    only Python numbers and integer tensors → ``torch.get_default_dtype()``.
+    The device is the first tensor's device (torch raises later if they differ).
+    """
+    dtype = None
+    device = None
+    for a in args:
+        if a is None:
+            continue
+        if not isinstance(a, torch.Tensor):
+            if hasattr(a, "__array__"):
+                a = torch.as_tensor(a)
+            else:
+                continue
+        if device is None:
+            device = a.device
+        if a.dtype in (torch.float64, torch.complex128):
+            dtype = torch.float64
+        elif a.dtype in (torch.float32, torch.complex64, torch.float16, torch.bfloat16):
+            if dtype is None:
+                dtype = torch.float32
+    if dtype is None:
+        dtype = torch.get_default_dtype()
+    if device is None:
+        device = torch.device("cpu")
+    return dtype, device
+
+
+def complex_dtype(real_dtype: torch.dtype) -> torch.dtype:
+    return torch.complex128 if real_dtype == torch.float64 else torch.complex64
+
+
+def as_real(x, name: str, dtype, device) -> torch.Tensor:
+    """``x`` as a real tensor of ``dtype`` on ``device``; complex input is an error.
+
+    Python numbers are built directly in ``dtype`` (never via float32 and cast up).
+    """
+    if isinstance(x, complex):
+        raise ValueError(f"{name} must be real, got a complex number")
+    if isinstance(x, bool):
+        raise ValueError(f"{name} must be a real number, got a bool")
+    if isinstance(x, numbers.Real):
+        return torch.as_tensor(float(x), dtype=dtype, device=device)
+    t = torch.as_tensor(x, device=device)
+    if t.is_complex():
+        raise ValueError(f"{name} must be real, got a complex tensor")
+    if t.dtype == torch.bool:
+        raise ValueError(f"{name} must be a real number, got a boolean tensor")
+    return t.to(dtype)
+
+
+def as_index(x, name: str, dtype, device) -> torch.Tensor:
+    """A refractive index ``n + iκ`` as a real tensor (if real) or complex tensor."""
+    if isinstance(x, bool):
+        raise ValueError(f"{name} must be a refractive index, got a bool")
+    if isinstance(x, complex):
+        return torch.as_tensor(x, dtype=complex_dtype(dtype), device=device)
+    if isinstance(x, numbers.Real):
+        return torch.as_tensor(float(x), dtype=dtype, device=device)
+    t = torch.as_tensor(x, device=device)
+    if t.dtype == torch.bool:
+        raise ValueError(f"{name} must be a refractive index, got a boolean tensor")
+    if t.is_complex():
+        return t.to(complex_dtype(dtype))
+    return t.to(dtype)
+
+
+def check_positive(t: torch.Tensor, name: str, unit: str = "nm") -> None:
+    with torch.no_grad():
+        if bool((t <= 0).any()):
+            raise ValueError(f"{name} must be > 0 {unit}; got min {t.min().item():g}")
+
+
+def check_nonnegative(t: torch.Tensor, name: str, unit: str = "nm") -> None:
+    with torch.no_grad():
+        if bool((t < 0).any()):
+            raise ValueError(f"{name} must be >= 0 {unit}; got min {t.min().item():g}")
+
+
+def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
+    with torch.no_grad():
+        if bool(((t < 0) | (t > 1)).any()):
+            bad = t[(t < 0) | (t > 1)]
+            raise ValueError(
+                f"{name} must lie in [0, 1] (cosine of the incidence angle); got {bad.flatten()[0].item():g}"
+            )
+
+
+def check_index(t: torch.Tensor, name: str) -> None:
+    """Real part > 0 and extinction κ = Im ≥ 0 (κ > 0 means absorption)."""
+    with torch.no_grad():
+        re = t.real if t.is_complex() else t
+        if bool((re <= 0).any()):
+            raise ValueError(f"{name} must have a real part > 0; got min {re.min().item():g}")
+        if t.is_complex() and bool((t.imag < 0).any()):
+            raise ValueError(
+                f"{name} must have an extinction coefficient κ = Im({name}) >= 0 (absorption); "
+                f"got min {t.imag.min().item():g}"
+            )
+
+
+def check_real_index(t: torch.Tensor, name: str) -> None:
+    """An incident medium: real (lossless) with n > 0."""
+    with torch.no_grad():
+        if t.is_complex():
+            if bool((t.imag != 0).any()):
+                raise ValueError(f"{name} must be real (a lossless incident medium); got a complex index")
+        check_index(t, name)
+
+
+def as_cells(cells, device) -> torch.Tensor:
+    """Number of Bragg cells as an int64 tensor; ValueError if not an integer >= 1."""
+    if isinstance(cells, bool):
+        raise ValueError("cells must be an integer >= 1, got a bool")
+    if isinstance(cells, numbers.Integral):
+        if cells < 1:
+            raise ValueError(f"cells must be an integer >= 1; got {cells}")
+        return torch.as_tensor(int(cells), dtype=torch.int64, device=device)
+    if isinstance(cells, numbers.Real) and not _is_tensorlike(cells):
+        if cells != int(cells) or cells < 1:
+            raise ValueError(f"cells must be an integer >= 1; got {cells}")
+        return torch.as_tensor(int(cells), dtype=torch.int64, device=device)
+    t = torch.as_tensor(cells, device=device)
+    if t.is_complex() or t.dtype == torch.bool:
+        raise ValueError("cells must be an integer >= 1 (integer tensor)")
+    if t.is_floating_point():
+        with torch.no_grad():
+            if bool((t != torch.round(t)).any()) or bool(torch.isnan(t).any()):
+                raise ValueError("cells must be integers; got a non-integer value")
+        t = t.to(torch.int64)
+    if bool((t < 1).any()):
+        raise ValueError(f"cells must be >= 1; got min {int(t.min())}")
+    return t.to(torch.int64)
+
+
+def check_polarization(polarization: str) -> None:
+    if polarization not in POLARIZATIONS:
+        raise ValueError(
+            f"polarization must be one of {', '.join(repr(p) for p in POLARIZATIONS)}; got {polarization!r}"
+        )
+
+
+def check_last_dim(t: torch.Tensor, name: str, size: int | None = None, at_least: int | None = None) -> None:
+    if t.ndim == 0:
+        raise ValueError(f"{name} must have a last axis (layers), got a scalar")
+    if size is not None and t.shape[-1] != size:
+        raise ValueError(f"{name} must have {size} entries on its last axis; got {t.shape[-1]}")
+    if at_least is not None and t.shape[-1] < at_least:
+        raise ValueError(f"{name} must have at least {at_least} entries on its last axis; got {t.shape[-1]}")
+
+
+def names(seq: Sequence[str]) -> str:
+    return ", ".join(repr(s) for s in seq)

@@ -1,0 +1,482 @@
+r"""Bragg mirrors (1-D photonic crystals): Yeh's closed form (Fourneau et al. 2024, §3.1, app. D).
+
+The mirror is exactly the stack
+
+    ``n_host | (n2, d2), (n1, d1)`` repeated ``N = cells`` times ``| n1`` (semi-infinite),
+
+lit from the host medium at incidence cosine ``cos_theta``; ``n_host = None`` means
+``n_host = n1`` (eq. 2–10), otherwise appendix D's infinitesimal host layer is added:
+:math:`r_{hN} = (r_N + r_{h1})/(1 + r_{h1} r_N)`.
+
+With :math:`a = k_{1z} d_1`, :math:`b = k_{2z} d_2` and the admittances η (η = q for s,
+η = q/n² for p, q = n cos θ) the unit cell's transfer matrix gives the dispersion relation
+
+.. math::  \cos KΛ = \cos a \cos b - \tfrac12 Ω \sin a \sin b, \qquad Ω = η_1/η_2 + η_2/η_1 \quad (8)
+
+and :math:`|C|^2 = \tfrac14 Δ^2 \sin^2 b`, :math:`Δ = η_1/η_2 - η_2/η_1`, so that Yeh's
+reflectance (eq. 2 and 9) is
+
+.. math::  R = \frac{|C|^2 U_{N-1}^2}{1 + |C|^2 U_{N-1}^2}, \qquad U_{N-1}(\cos KΛ) = \frac{\sin NKΛ}{\sin KΛ},
+
+with :math:`U_{N-1}` the Chebyshev polynomial of the second kind (``sinh`` form in band gaps).
+
+Numerics (the hard cases are the product):
+
+* ``1 ∓ cos KΛ`` are evaluated from product forms
+  :math:`1 - \cos KΛ = 2\sin^2\frac{a+b}{2} + \tfrac12(η_1-η_2)^2 m_1 m_2 k_0^2 d_1 d_2\,\mathrm{sinc}\,a\,\mathrm{sinc}\,b`
+  (``m = q/η``), free of the cancellation of ``1 − cos KΛ`` near band edges;
+* at band edges ``|cos KΛ| = 1`` the 0/0 of ``sin NKΛ / sin KΛ`` is replaced by its Taylor
+  series in ``ε = 1 − |cos KΛ|`` (both sides), so values *and gradients* are finite there;
+* in band gaps ``1/U`` is formed as ``2 sinh(t) e^{-Nt} / (1 − e^{-2Nt})``: no overflow for
+  N = 10⁶;
+* grazing incidence (``η₁ = 0``) is handled by scaling numerator and denominator by ``2η₁``
+  and writing ``sin a / a`` as sinc, so R → 1 without 0·∞;
+* all of the above is real arithmetic (the common lossless, propagating case, ~4× cheaper
+  than complex arithmetic).  Light evanescent in n1 or n2 (total internal reflection) and
+  absorbing layers go through an exact scattering-matrix evaluation: the cell's
+  (r, r', t) are combined by Redheffer star products with binary exponentiation in
+  ``⌈log₂ N⌉`` steps, which forms only decaying exponentials.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from .fresnel import interface, normal_wavenumber
+
+__all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
+
+# N²|ε| below which U_{N-1}, T_N are taken from their Taylor series at the band edge:
+# the neglected term is ~(2N²ε)³/5040 < 1e-17 relative.
+_EDGE_SERIES = 5e-5
+
+
+# ----------------------------------------------------------------------------------------
+# argument handling
+# ----------------------------------------------------------------------------------------
+def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=None):
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    n1 = _checks.as_index(n1, "n1", dtype, device)
+    n2 = _checks.as_index(n2, "n2", dtype, device)
+    d1 = _checks.as_real(d1, "d1", dtype, device)
+    d2 = _checks.as_real(d2, "d2", dtype, device)
+    nh = None if n_host is None else _checks.as_index(n_host, "n_host", dtype, device)
+    N = None if cells is None else _checks.as_cells(cells, device)
+    _checks.check_positive(lam, "wavelength")
+    _checks.check_cosine(c)
+    _checks.check_nonnegative(d1, "d1")
+    _checks.check_nonnegative(d2, "d2")
+    _checks.check_index(n1, "n1")
+    _checks.check_index(n2, "n2")
+    if nh is not None:
+        _checks.check_real_index(nh, "n_host")
+        nh = nh.real if nh.is_complex() else nh
+    elif n1.is_complex() and bool((n1.imag != 0).any()):
+        raise ValueError("n1 must be real when n_host is None (n1 is then the incident medium)")
+    return dtype, lam, c, n1, n2, d1, d2, nh, N
+
+
+def _pols(polarization: str) -> tuple[str, ...]:
+    return ("s", "p") if polarization == "unpolarized" else (polarization,)
+
+
+# ----------------------------------------------------------------------------------------
+# Chebyshev factors U_{N-1}(y), T_N(y) of y = |cos KΛ| = 1 - ε, stable for every ε and N
+# ----------------------------------------------------------------------------------------
+def _edge_series(N, e):
+    """U_{N-1}(1+e) and T_N(1+e) by their Taylor series at the band edge y = 1."""
+    N2 = N * N
+    U = N * (1 + (N2 - 1) * e / 3 + (N2 - 1) * (N2 - 4) * e * e / 30)
+    T = 1 + N2 * e + N2 * (N2 - 1) * e * e / 6
+    return U, T
+
+
+def _chebyshev(eps, N, need_T):
+    """Scaled Chebyshev pair for y = 1 - eps ≥ 0.
+
+    Returns ``(u, t, gap)``: in the pass band (``eps > 0``) ``u = U_{N-1}(y)`` and
+    ``t = T_N(y)``; in a band gap (``gap``) ``u = 1/U_{N-1}(y)`` and ``t = T_N(y)/U_{N-1}(y)``
+    (everything divided by the overflowing U).  Near the edges both come from the series.
+    """
+    one = torch.ones_like(eps)
+    near = (N * N) * eps.abs() < _EDGE_SERIES
+    gap = eps < 0
+    pas = ~gap & ~near
+    gp = gap & ~near
+    # guard: every branch gets inputs that are valid for it, so backward never sees NaN
+    e_near = torch.where(near, -eps, torch.zeros_like(eps))
+    Us, Ts = _edge_series(N, e_near)
+
+    ep = torch.where(pas, eps, one)  # pass band: y = cos θ, θ ∈ (0, π/2]
+    theta = 2 * torch.asin(torch.sqrt(0.5 * ep))
+    sin_t = torch.sqrt(ep * (2 - ep))
+    Up = torch.sin(N * theta) / sin_t
+
+    eg = torch.where(gp, -eps, one)  # band gap: y = cosh t, t > 0
+    sinh_t = torch.sqrt(eg * (2 + eg))
+    t = torch.log1p(eg + sinh_t)
+    ex = torch.exp(-N * t)
+    den = -torch.expm1(-2 * N * t)  # 1 - e^{-2Nt}, accurate for small Nt
+    inv_U = 2 * sinh_t * ex / den
+
+    u = torch.where(near, torch.where(gap, 1 / Us, Us), torch.where(gap, inv_U, Up))
+    if not need_T:
+        return u, None, gap
+    Tp = torch.cos(N * theta)
+    tau = sinh_t * (1 + ex * ex) / den  # T/U = sinh t · coth(Nt)
+    t_ = torch.where(near, torch.where(gap, Ts / Us, Ts), torch.where(gap, tau, Tp))
+    return u, t_, gap
+
+
+# ----------------------------------------------------------------------------------------
+# the real-arithmetic closed form (lossless, propagating in n1 and n2)
+# ----------------------------------------------------------------------------------------
+def _sin_over(z, k, zero_possible):
+    """sin(z) and sin(z)/(z/k) = k·sinc(z), with sinc(0) = 1 and finite gradients at z = 0."""
+    s = torch.sin(z)
+    if not zero_possible:
+        return s, s * (k / z) if torch.is_tensor(k) else s * k / z
+    zero = z == 0
+    # guard: z = 0 at grazing or zero thickness; the unused branch gets a safe divisor
+    zs = torch.where(zero, torch.ones_like(z), z)
+    return s, torch.where(zero, k * torch.ones_like(z), s * k / zs)
+
+
+class _RealCell:
+    """Polarization-independent per-point quantities of the real closed form.
+
+    ``a = k0 q1 d1``, ``b = k0 q2 d2``; ``sa_q1 = sin(a)/q1 = k0 d1 sinc a`` and
+    ``sb_q2 = sin(b)/q2`` stay finite at grazing (q1 = 0) and for zero thickness;
+    ``sh, ch = sin, cos((a+b)/2)`` feed the cancellation-free forms of 1 ∓ cos KΛ.
+    """
+
+    def __init__(self, lam, q1, q2, d1, d2, need_cos):
+        k0 = (2 * math.pi) / lam
+        ph1 = q1 * d1  # small (angle-only) tensors first, then one product on the grid
+        ph2 = q2 * d2
+        self.a = k0 * ph1
+        self.b = k0 * ph2
+        zero1 = bool((ph1 == 0).any())
+        zero2 = bool((ph2 == 0).any())
+        self.sin_a, self.sa_q1 = _sin_over(self.a, k0 * d1, zero1)
+        self.sin_b, self.sb_q2 = _sin_over(self.b, k0 * d2, zero2)
+        half = 0.5 * (self.a + self.b)
+        self.sh = torch.sin(half)
+        self.ch = torch.cos(half)
+        self.G = self.sa_q1 * self.sb_q2  # sin a sin b / (q1 q2)
+        if need_cos:
+            self.cos_a = torch.cos(self.a)
+            self.cos_b = torch.cos(self.b)
+
+
+def _admittance_factors(pol, q1, q2, n1, n2):
+    """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p)."""
+    if pol == "s":
+        one = torch.ones_like(q1)
+        return q1, q2, one, one
+    m1, m2 = n1 * n1, n2 * n2
+    return q1 / m1, q2 / m2, m1, m2
+
+
+def _one_minus_x(cell, eta1, eta2, m1, m2):
+    """(1 - cos KΛ, 1 + cos KΛ) from the cancellation-free product forms."""
+    D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2)) * cell.G
+    return 2 * cell.sh * cell.sh + D, 2 * cell.ch * cell.ch - D
+
+
+def _yeh(P2, Q2, eps, N, safe):
+    r"""Yeh's R = P²U²/(P²U² + Q²), U = U_{N-1}(1 − ε), for pass bands and gaps alike.
+
+    Pass band (ε > 0, y = cos θ): R = P² sin²Nθ / (P² sin²Nθ + Q² sin²θ), sin²θ = ε(2 − ε).
+    Band gap (ε < 0, y = cosh t): with m = expm1(−2Nt),
+    R = P² m² / (P² m² + 4 Q² sinh²t (1 + m)); no overflow for any N.
+    Near the edge (N²|ε| small) U comes from its Taylor series.
+    """
+    gap = eps < 0
+    if safe:
+        # guard: feed each branch inputs valid for it so backward through where() stays finite
+        ep = torch.where(gap | (eps == 0), torch.ones_like(eps), eps)
+        eg = torch.where(gap, -eps, torch.ones_like(eps))
+    else:
+        ep, eg = eps, -eps
+    s = torch.sin((2 * N) * torch.asin(torch.sqrt(0.5 * ep)))  # sin Nθ, θ = 2 asin √(ε/2)
+    sinh_t = torch.sqrt(eg * (2 + eg))
+    m = torch.expm1((-2 * N) * torch.log1p(eg + sinh_t))  # e^{-2Nt} - 1
+    F = torch.where(gap, m * m, s * s)
+    Yf = torch.where(gap, -4 * (1 + m), torch.ones_like(m))
+    num = P2 * F
+    den = num + Q2 * (eps * (2 - eps)) * Yf
+    near = (N * N) * eps.abs() < _EDGE_SERIES
+    if bool(near.any()):
+        e_near = torch.where(near, -eps, torch.zeros_like(eps))
+        Us, _ = _edge_series(N, e_near)
+        num_n = P2 * Us * Us
+        num = torch.where(near, num_n, num)
+        den = torch.where(near, num_n + Q2, den)
+    ok = den > 0
+    # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator; grazing → R = 1
+    return torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den))
+
+
+def _needs_grad(*ts):
+    return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
+
+
+def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
+    """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
+    if nh is None:
+        s2 = n1 * n1 * (1 - c * c)
+        q1 = n1 * c  # exact in the incident medium: R → 1 at grazing without a sqrt
+    else:
+        s2 = nh * nh * (1 - c * c)
+        q1 = torch.sqrt(torch.clamp(n1 * n1 - s2, min=0))
+    q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0))
+    cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None)
+    Nf = N.to(lam.dtype)
+    safe = _needs_grad(lam, c, n1, n2, d1, d2, nh)
+    out = []
+    for pol in _pols(polarization):
+        eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
+        omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
+        eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
+        # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
+        P = ((eta1 * eta1 - eta2 * eta2) * m2) * cell.sb_q2
+        Q = 2 * eta1
+        if nh is None:
+            out.append(_yeh(P * P, Q * Q, eps, Nf, safe))
+            continue
+        u, t, gap = _chebyshev(eps, Nf, need_T=True)
+        sgn = torch.where(omx <= opx, 1.0, -1.0).to(eps.dtype)  # sign of cos KΛ
+        T = sgn * t
+        U = torch.where(gap, torch.ones_like(u), u)
+        # Q·W with W = sin a cos b + Ω/2 cos a sin b  (½(A − D) = −iW)
+        Wq = (2 * eta1 * eta1 * m1) * cell.sa_q1 * cell.cos_b + ((eta1 * eta1 + eta2 * eta2) * m2) * cell.sb_q2 * cell.cos_a
+        qh = nh * c
+        if pol == "s":
+            eh, e1h = qh, q1
+        else:
+            eh, e1h = qh / (nh * nh), q1 / (n1 * n1)
+        rh1 = interface(eh, e1h)
+        PU = P * U
+        # r_hN = (r_h1 den_N + num_N)/(den_N + r_h1 num_N), num_N = PU(-sin a - i cos a), den_N = QT - i Wq U
+        X1 = rh1 * Q * T - PU * cell.sin_a
+        Y1 = -rh1 * Wq * U - PU * cell.cos_a
+        X2 = Q * T - rh1 * PU * cell.sin_a
+        Y2 = -Wq * U - rh1 * PU * cell.cos_a
+        num = X1 * X1 + Y1 * Y1
+        den = X2 * X2 + Y2 * Y2
+        ok = den > 0
+        # guard: den = 0 only exactly at grazing with a vanishing numerator; grazing → R = 1
+        out.append(torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den)))
+    R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
+    return R.clamp(0, 1)  # float32 rounding can leave R an ulp outside [0, 1]
+
+
+# ----------------------------------------------------------------------------------------
+# the general path: scattering matrices, binary exponentiation (absorbing / evanescent)
+# ----------------------------------------------------------------------------------------
+def _star(A, B):
+    """Redheffer star product of two reciprocal stacks given as (r, r', t), A on top."""
+    rA, rpA, tA = A
+    rB, rpB, tB = B
+    den = 1 - rpA * rB
+    tt = tA * tB / den
+    return rA + tA * tA * rB / den, rpB + tB * tB * rpA / den, tt
+
+
+def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
+    cdt = _checks.complex_dtype(lam.dtype)
+    n1c, n2c = n1.to(cdt), n2.to(cdt)
+    host = n1.real if nh is None else nh
+    s2 = host * host * (1 - c * c)
+    q1 = (n1.real * c).to(cdt) if nh is None else normal_wavenumber(n1c, s2)
+    q2 = normal_wavenumber(n2c, s2)
+    k0 = (2 * math.pi) / lam
+    e1a = torch.exp(1j * (k0 * d1 * q1))  # |·| ≤ 1: only decaying exponentials
+    e1b = torch.exp(1j * (k0 * d2 * q2))
+    e2a, e2b = e1a * e1a, e1b * e1b
+    bits = []
+    Nmax = int(N.max())
+    n = N.clone()
+    for _ in range(max(1, Nmax.bit_length())):
+        bits.append((n & 1).bool())
+        n = n >> 1
+    out = []
+    for pol in _pols(polarization):
+        if pol == "s":
+            eta1, eta2 = q1, q2
+        else:
+            eta1, eta2 = q1 / (n1c * n1c), q2 / (n2c * n2c)
+        r12 = interface(eta1, eta2)
+        den = 1 - r12 * r12 * e2b
+        r_slab = r12 * (1 - e2b) / den
+        t_slab = (1 - r12 * r12) * e1b / den
+        base = (r_slab, r_slab * e2a, t_slab * e1a)  # cell: n2 slab then the n1 layer
+        zero = torch.zeros_like(base[0])
+        acc = (zero, zero, torch.ones_like(base[0]))
+        for k, bit in enumerate(bits):
+            prod = _star(acc, base)
+            acc = tuple(torch.where(bit, p, a) for p, a in zip(prod, acc))
+            if k + 1 < len(bits):
+                base = _star(base, base)
+        rN = acc[0]
+        if nh is not None:
+            qh = (nh * c).to(cdt)
+            eh = qh if pol == "s" else qh / (nh * nh).to(cdt)
+            rh1 = interface(eh, eta1)
+            rN = (rh1 + rN) / (1 + rh1 * rN)
+        out.append(rN.real ** 2 + rN.imag ** 2)
+    R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
+    return R.clamp(0, 1)
+
+
+# ----------------------------------------------------------------------------------------
+# public API
+# ----------------------------------------------------------------------------------------
+def _needs_general(c, n1, n2, nh):
+    """Mask of points where the real closed form does not apply (absorption or evanescence)."""
+    if n1.is_complex() or n2.is_complex():
+        return None  # everything complex: use the general path throughout
+    host = n1 if nh is None else nh
+    s2 = host * host * (1 - c * c)
+    evanescent = (n2 * n2 - s2) < 0
+    if nh is not None:
+        evanescent = evanescent | ((n1 * n1 - s2) < 0)
+    return evanescent
+
+
+def bragg_reflectance(
+    wavelength, cos_theta, n1, n2, d1, d2, cells, *, n_host=None, polarization: str = "unpolarized"
+) -> torch.Tensor:
+    r"""Reflectance of a Bragg mirror of ``cells`` periods (Yeh; Fourneau et al. 2024 eq. 2–10, app. D).
+
+    The mirror is the stack ``n_host | (n2, d2), (n1, d1) × cells | n1``; the cost does not
+    depend on ``cells`` for lossless propagating light (the closed form), and grows as
+    ``log₂ cells`` for absorbing layers or total internal reflection.
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0). Shape ``(*)``.
+        cos_theta: cosine of the incidence angle in the host (incident) medium, in [0, 1].
+        n1, n2: indices ``n + iκ`` (κ ≥ 0) of the two layers; n1 is also the semi-infinite
+            medium below the mirror (and the incident medium when ``n_host`` is None).
+        d1, d2: layer thicknesses in nm (≥ 0); the period is Λ = d1 + d2.
+        cells: number N ≥ 1 of (n2, n1) periods: an int or an integer tensor that broadcasts.
+        n_host: real index of the incident medium, or None for n1 (appendix D when ≠ n1).
+        polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
+
+    Returns:
+        R in [0, 1], broadcast shape, real dtype of the inputs.
+
+    Example (Fourneau Fig. 1: n2 = 1.5, d1 = 125, d2 = 375, N = 20, normal incidence):
+        >>> import torch, torchirid
+        >>> R = torchirid.bragg_reflectance(torch.tensor([500.0, 600.0], dtype=torch.float64), 1.0,
+        ...                                 1.0, 1.5, 125.0, 375.0, 20)
+        >>> [round(v, 6) for v in R.tolist()]
+        [0.999997, 0.015456]
+    """
+    _checks.check_polarization(polarization)
+    dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells)
+    batch = torch.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
+                                   () if nh is None else nh.shape)
+    general = _needs_general(c, n1, n2, nh)
+    if general is None:
+        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
+    else:
+        R = _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
+        if bool(general.any()):
+            Rg = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
+            R = torch.where(general, Rg, R)
+    return R.expand(batch)
+
+
+def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polarization: str = "s") -> torch.Tensor:
+    r"""Dispersion relation :math:`\cos KΛ = \cos a\cos b - \tfrac12 Ω \sin a \sin b` (Fourneau eq. 8).
+
+    ``|cos KΛ| > 1`` marks a photonic band gap; band edges are where it equals ±1.
+
+    Args:
+        wavelength, cos_theta, n1, n2, d1, d2, n_host: as in :func:`bragg_reflectance`.
+        polarization: ``"s"`` or ``"p"`` (Ω depends on it, eq. 6–7).
+
+    Returns:
+        cos KΛ, real for lossless layers (also with evanescent ones), complex if an index is.
+
+    Example (quarter-wave stack at its design wavelength: cos KΛ = −Ω/2):
+        >>> import torch, torchirid
+        >>> x = torchirid.bragg_dispersion(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
+        >>> round(float(x), 6)
+        -1.083333
+    """
+    if polarization not in ("s", "p"):
+        raise ValueError(f"polarization must be 's' or 'p' for the dispersion relation; got {polarization!r}")
+    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    cdt = _checks.complex_dtype(dtype)
+    complex_in = n1.is_complex() or n2.is_complex()
+    general = _needs_general(c, n1, n2, nh)
+    if not complex_in and not bool(general.any()):
+        q1 = n1 * c if nh is None else torch.sqrt(torch.clamp(n1 * n1 - nh * nh * (1 - c * c), min=0))
+        q2 = torch.sqrt(torch.clamp(n2 * n2 - (n1 if nh is None else nh) ** 2 * (1 - c * c), min=0))
+        cell = _RealCell(lam, q1, q2, d1, d2, need_cos=False)
+        omx, opx = _one_minus_x(cell, *_admittance_factors(polarization, q1, q2, n1, n2))
+        # the more accurate of the two product forms
+        return torch.where(omx <= opx, 1 - omx, opx - 1)
+    n1c, n2c = n1.to(cdt), n2.to(cdt)
+    host = n1.real if nh is None else nh
+    s2 = host * host * (1 - c * c)
+    q1 = (n1.real * c).to(cdt) if nh is None else normal_wavenumber(n1c, s2)
+    q2 = normal_wavenumber(n2c, s2)
+    k0 = (2 * math.pi) / lam
+    a, b = k0 * q1 * d1, k0 * q2 * d2
+    eta1, eta2, m1, m2 = _admittance_factors(polarization, q1, q2, n1c, n2c)
+    _, sa_q1 = _sin_over(a, k0 * d1, True)
+    _, sb_q2 = _sin_over(b, k0 * d2, True)
+    x = torch.cos(a) * torch.cos(b) - 0.5 * (eta1 * eta1 + eta2 * eta2) * m1 * m2 * sa_q1 * sb_q2
+    return x if complex_in else x.real
+
+
+def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polarization: str = "unpolarized") -> torch.Tensor:
+    r"""Reflectance envelope :math:`R^e = |C|^2 / (|C|^2 + \sin^2 KΛ)` (Fourneau eq. 11), 1 in band gaps.
+
+    The large-N envelope of the oscillating Yeh spectrum, for a mirror embedded in n1
+    (``n_host`` only sets the angle: ``cos_theta`` is measured in the host medium).
+
+    Args: as :func:`bragg_reflectance` without ``cells``.
+
+    Returns:
+        R^e in [0, 1]; for ``"unpolarized"`` the mean of the s and p envelopes.
+
+    Example (at the Airy point cos KΛ = 0 the envelope equals the slab reflectance |r_1|²):
+        >>> import torch, torchirid
+        >>> R = torchirid.bragg_envelope(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
+        >>> float(R)
+        1.0
+    """
+    _checks.check_polarization(polarization)
+    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    if n1.is_complex() or n2.is_complex():
+        raise ValueError("bragg_envelope needs real n1 and n2 (the envelope is defined for lossless layers)")
+    if bool(_needs_general(c, n1, n2, nh).any()):
+        raise ValueError("bragg_envelope needs light propagating in n1 and n2 (no total internal reflection)")
+    host = n1 if nh is None else nh
+    s2 = host * host * (1 - c * c)
+    q1 = n1 * c if nh is None else torch.sqrt(torch.clamp(n1 * n1 - s2, min=0))
+    q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0))
+    cell = _RealCell(lam, q1, q2, d1, d2, need_cos=False)
+    out = []
+    for pol in _pols(polarization):
+        eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
+        omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
+        sin2 = omx * opx  # sin² KΛ = (1 - x)(1 + x), negative in a band gap
+        P = (eta1 * eta1 - eta2 * eta2) * m2 * cell.sb_q2
+        Q2 = 4 * eta1 * eta1
+        num = P * P
+        den = num + Q2 * sin2
+        gap = sin2 <= 0
+        safe = torch.where(gap | (den <= 0), torch.ones_like(den), den)
+        out.append(torch.where(gap | (den <= 0), torch.ones_like(den), num / safe))
+    return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])

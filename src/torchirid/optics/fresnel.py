@@ -1,0 +1,102 @@
+r"""Complex Snell cosines and Fresnel amplitudes.
+
+Everything here works with the *normal wavenumber factor* ``q = n cos θ`` of a medium, so
+that ``k_z = 2π q / λ``.  With the invariant ``s² = n₀² sin² θ₀`` of the (real) incident
+medium, Snell's law reads :math:`q_j = \sqrt{n_j^2 - s^2}`; the branch with
+``Im q_j ≥ 0`` (a wave decaying away from the interface) is chosen deterministically, also
+when ``n_j² − s²`` is a negative real with a signed zero imaginary part.
+
+Interfaces are written with *admittances* :math:`\eta`:
+``η = q`` (s polarization) and ``η = q / n²`` (p polarization), so that both read
+
+.. math:: r_{ij} = \frac{\eta_i - \eta_j}{\eta_i + \eta_j}, \qquad t_{ij} = 1 + r_{ij}
+
+(:math:`t^{(p)}_{ij}` is scaled by :math:`n_i / n_j` relative to the tmm/Born–Wolf
+convention; the factors telescope and cancel in power transmittance).  The p sign
+convention equals the ``tmm`` package's: :math:`r_p = (n_j\cos θ_i − n_i\cos θ_j)/(n_j\cos θ_i + n_i\cos θ_j)`.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from .. import _checks
+
+__all__ = ["fresnel_reflectance", "normal_wavenumber", "admittance", "interface"]
+
+
+def _sqrt_upper(z: torch.Tensor) -> torch.Tensor:
+    """Complex square root on the branch Im ≥ 0 (decaying / outgoing wave).
+
+    Gradient-safe at z = 0 (critical angle, grazing in the same medium): the derivative
+    there is reported as 0 instead of inf·0 = NaN.
+    """
+    zero = z == 0
+    # guard: sqrt'(0) is infinite; feed the unused branch a safe value so backward stays finite
+    root = torch.sqrt(torch.where(zero, torch.ones_like(z), z))
+    root = torch.where(root.imag < 0, -root, root)  # deterministic branch: Im q >= 0
+    return torch.where(zero, torch.zeros_like(root), root)
+
+
+def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor) -> torch.Tensor:
+    r"""``q = n cos θ = sqrt(n² − s²)`` (complex, ``Im q ≥ 0``) for the invariant ``s² = (n₀ sin θ₀)²``."""
+    cdt = _checks.complex_dtype(s2.dtype)
+    n = n.to(cdt)
+    return _sqrt_upper(n * n - s2.to(cdt))
+
+
+def admittance(q: torch.Tensor, n: torch.Tensor, polarization: str) -> torch.Tensor:
+    """η = q (s) or q / n² (p) for a medium of index ``n`` and ``q = n cos θ``."""
+    if polarization == "s":
+        return q
+    return q / (n * n)
+
+
+def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
+    r"""Fresnel amplitude :math:`r_{ij} = (η_i − η_j)/(η_i + η_j)`.
+
+    Two identical media seen exactly at grazing incidence (η_i = η_j = 0) have no
+    interface: r = 0 there instead of 0/0.
+    """
+    den = eta_i + eta_j
+    degenerate = den == 0
+    # guard: 0/0 only when both admittances vanish (same medium at grazing) -> no interface
+    den = torch.where(degenerate, torch.ones_like(den), den)
+    return torch.where(degenerate, torch.zeros_like(den), (eta_i - eta_j) / den)
+
+
+def fresnel_reflectance(cos_theta, n_outer, n_inner, *, polarization: str = "unpolarized") -> torch.Tensor:
+    r"""Reflectance of a single smooth interface, :math:`R = |r|^2`.
+
+    Args:
+        cos_theta: cosine of the incidence angle in the outer medium, in [0, 1]. Shape ``(*)``.
+        n_outer: real refractive index of the incident medium (> 0).
+        n_inner: refractive index ``n + iκ`` (κ ≥ 0) of the second medium.
+        polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p reflectances).
+
+    Returns:
+        R in [0, 1], broadcast shape of the inputs, real dtype of the inputs.
+
+    Example:
+        >>> import torch, torchirid
+        >>> round(float(torchirid.fresnel_reflectance(torch.tensor(1.0, dtype=torch.float64), 1.0, 1.5)), 6)
+        0.04
+    """
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n_outer, n_inner)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    n0 = _checks.as_index(n_outer, "n_outer", dtype, device)
+    n1 = _checks.as_index(n_inner, "n_inner", dtype, device)
+    _checks.check_cosine(c)
+    _checks.check_real_index(n0, "n_outer")
+    _checks.check_index(n1, "n_inner")
+    n0 = n0.real if n0.is_complex() else n0
+    s2 = n0 * n0 * (1 - c * c)
+    cdt = _checks.complex_dtype(dtype)
+    q0 = (n0 * c).to(cdt)
+    q1 = normal_wavenumber(n1, s2)
+    out = []
+    for pol in ("s", "p") if polarization == "unpolarized" else (polarization,):
+        r = interface(admittance(q0, n0.to(cdt), pol), admittance(q1, n1.to(cdt), pol))
+        out.append(r.real * r.real + r.imag * r.imag)
+    return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])

@@ -1,0 +1,148 @@
+r"""Composite reflectance and transmittance of a smooth multilayer (Hirayama et al. 2000, §3.2).
+
+The stack is ``indices[..., 0] | layer 1 | … | layer L | indices[..., L+1]``: a real
+incident medium (medium A), ``L`` films of thickness ``thicknesses[..., j-1]`` and an exit
+medium (medium B), any of the films or the exit medium possibly absorbing (``n + iκ``).
+
+Hirayama's recursion (eq. 1–4, appendix A) runs from the last interface to the first:
+
+.. math::
+
+    γ_0 = r_{L+1},\quad τ_0 = t_{L+1}, \qquad
+    γ_{L-j+1} = \frac{r_j + γ_{L-j}\, e^{2iφ_j}}{1 + r_j γ_{L-j}\, e^{2iφ_j}}, \qquad
+    τ_{L-j+1} = \frac{t_j τ_{L-j}\, e^{iφ_j}}{1 + r_j γ_{L-j}\, e^{2iφ_j}},
+
+with :math:`φ_j = 2π q_j d_j / λ` and ``q = n cos θ`` on the branch ``Im q ≥ 0``.  Only the
+decaying factors :math:`|e^{iφ}| = e^{-\mathrm{Im}\,φ} ≤ 1` are ever formed, never
+:math:`e^{+\mathrm{Im}\,φ}`: a micrometre of metal underflows to exactly zero transmission
+and the reflectance of the bulk metal, with no clamping of the phase.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from .fresnel import admittance, interface, normal_wavenumber
+
+__all__ = ["multilayer"]
+
+
+def _polarizations(polarization: str) -> tuple[str, ...]:
+    return ("s", "p") if polarization == "unpolarized" else (polarization,)
+
+
+def stack_admittances(q: torch.Tensor, n: torch.Tensor, polarization: str) -> torch.Tensor:
+    """Admittances η of every medium, stacked on a new leading polarization axis."""
+    return torch.stack([admittance(q, n, pol) for pol in _polarizations(polarization)])
+
+
+def align_polarization_axis(eta: torch.Tensor, other_batch) -> torch.Tensor:
+    """Insert singleton axes after the leading polarization axis of ``eta[P, *B, M]`` so that
+    its batch broadcasts against ``other_batch`` without meeting the polarization axis."""
+    batch = torch.broadcast_shapes(eta.shape[1:-1], other_batch)
+    pad = len(batch) - (eta.ndim - 2)
+    return eta.reshape(eta.shape[0], *([1] * pad), *eta.shape[1:])
+
+
+def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transmission: bool = True):
+    r"""Hirayama's recursion (eq. 1–4) on admittances ``eta[..., L+2]``.
+
+    ``e1 = exp(iφ_j)`` and ``e2 = exp(2iφ_j)`` for the ``L`` inner layers (``[..., L]``).
+    Returns the composite amplitudes (γ, τ); τ is built from ``t_ij = 1 + r_ij``
+    (admittance-normalised, see :mod:`torchirid.optics.fresnel`) and is ``None`` when
+    ``with_transmission`` is False.
+    """
+    eta = align_polarization_axis(eta, e2.shape[:-1])
+    e1, e2 = e1[None], e2[None]
+    r = interface(eta[..., :-1], eta[..., 1:])  # r_j between media j-1 and j, [..., L+1]
+    L = e2.shape[-1]
+    gamma = r[..., L]
+    tau = 1 + gamma if with_transmission else None
+    for j in range(L - 1, -1, -1):
+        rj = r[..., j]
+        ge2 = gamma * e2[..., j]
+        den = 1 + rj * ge2
+        gamma = (rj + ge2) / den
+        if with_transmission:
+            tau = (1 + rj) * tau * e1[..., j] / den
+    return gamma, tau
+
+
+def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str = "unpolarized"):
+    r"""Reflectance and transmittance of a smooth multilayer film (Hirayama 2000, eq. 1–6).
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0). Shape ``(*)``.
+        cos_theta: cosine of the incidence angle in the incident medium, in [0, 1]. Shape ``(*)``.
+        indices: refractive indices ``n + iκ`` (κ ≥ 0) of all media, ``(*, L+2)``: the
+            incident medium first (must be real), then the L films, then the exit medium.
+        thicknesses: film thicknesses in nm (≥ 0), ``(*, L)``.
+        polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
+
+    Returns:
+        ``(R, T)``: reflectance and the power transmitted into the exit medium (eq. 5–6),
+        broadcast batch shape, real dtype of the inputs.  ``T = 0`` when the exit medium
+        is absorbing (κ > 0) or the transmitted wave is evanescent; ``R + T = 1`` for a
+        lossless stack.
+
+    Example (quarter-wave layer of index 1.5 on glass 2.25: R = 0 at 600 nm):
+        >>> import torch, torchirid
+        >>> R, T = torchirid.multilayer(torch.tensor(600.0, dtype=torch.float64), 1.0,
+        ...                             torch.tensor([1.0, 1.5, 2.25]), torch.tensor([100.0]))
+        >>> round(float(R), 12), round(float(T), 12)
+        (0.0, 1.0)
+    """
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, indices, thicknesses)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    n = _checks.as_index(indices, "indices", dtype, device)
+    d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
+    _checks.check_last_dim(n, "indices", at_least=2)
+    _checks.check_last_dim(d, "thicknesses")
+    if n.shape[-1] != d.shape[-1] + 2:
+        raise ValueError(
+            f"indices must have len(thicknesses) + 2 entries on the last axis (incident medium, "
+            f"{d.shape[-1]} films, exit medium); got {n.shape[-1]}"
+        )
+    _checks.check_positive(lam, "wavelength")
+    _checks.check_cosine(c)
+    _checks.check_nonnegative(d, "thicknesses")
+    _checks.check_index(n, "indices")
+    _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
+
+    cdt = _checks.complex_dtype(dtype)
+    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
+    s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
+    nc = n.to(cdt)
+    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None])
+    q0 = (n0 * c).to(cdt)  # incident medium: exact, no sqrt (gradient-safe at grazing)
+    q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
+    q = torch.cat([q0[..., :1], q_inner], dim=-1)
+
+    # phase φ_j = 2π q_j d_j / λ of the films; only decaying exponentials are formed
+    phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
+    e1 = torch.exp(1j * phi)
+    e2 = e1 * e1
+
+    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    eta = align_polarization_axis(stack_admittances(q, nc_b, polarization), e2.shape[:-1])
+    gamma, tau = recursion(eta, e1, e2)
+    R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp
+
+    # eq. 6: T = Re(η_B)/η_A |τ|^2 into a real exit medium, 0 for an absorbing one
+    eta0 = eta[..., 0].real
+    ok = eta0 > 0
+    safe0 = torch.where(ok, eta0, torch.ones_like(eta0))
+    T = (tau.real ** 2 + tau.imag ** 2) * eta[..., -1].real / safe0
+    T = torch.where(ok, T, torch.zeros_like(T))  # grazing incidence carries no power in
+    if n.is_complex():
+        absorbing_exit = n[..., -1].imag > 0
+        T = torch.where(absorbing_exit, torch.zeros_like(T), T)
+    T = T.mean(0).clamp(0, 1)
+    R, T = torch.broadcast_tensors(R, T)
+    batch = torch.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    return R.expand(batch), T.expand(batch)

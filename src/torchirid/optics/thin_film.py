@@ -1,0 +1,90 @@
+r"""Reflectance of a single thin film by Airy summation.
+
+A film of index :math:`n_f` and thickness :math:`d` lies between a real outer medium
+:math:`n_0` and a possibly absorbing substrate :math:`n_s`.  Summing the multiple
+reflections inside the film (Kobayashi et al., eq. 4–7; Fourneau et al. 2024, eq. 10):
+
+.. math::
+
+    r = \frac{r_{01} + r_{12}\, e^{2iφ}}{1 + r_{01} r_{12}\, e^{2iφ}}, \qquad
+    φ = \frac{2π}{λ} n_f d \cos θ_f, \qquad R = |r|^2,
+
+with Fresnel amplitudes :math:`r_{01}` (outer → film) and :math:`r_{12}` (film → substrate).
+At :math:`d = 0` the formula is exactly the bare outer/substrate Fresnel reflectance, since
+:math:`(r_{01} + r_{12})/(1 + r_{01} r_{12}) = r_{02}`; the dependence on d is smooth.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from .fresnel import normal_wavenumber
+from .multilayer import recursion, stack_admittances
+
+__all__ = ["thin_film_reflectance"]
+
+
+def thin_film_reflectance(
+    wavelength,
+    cos_theta,
+    n_film,
+    thickness,
+    n_substrate,
+    *,
+    n_outer=1.0,
+    polarization: str = "unpolarized",
+) -> torch.Tensor:
+    r"""Reflectance R of a thin film on a substrate (Airy summation).
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0). Shape ``(*)``.
+        cos_theta: cosine of the incidence angle in the outer medium, in [0, 1].
+        n_film: film index ``n + iκ`` (κ ≥ 0).
+        thickness: film thickness d in nm (≥ 0).
+        n_substrate: substrate index ``n + iκ`` (κ ≥ 0, metals allowed).
+        n_outer: real index of the outer (incident) medium, default 1 (air).
+        polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
+
+    Returns:
+        R in [0, 1] with the broadcast shape of all arguments and their real dtype.
+
+    Example (soap film, n = 1.33, 300 nm, in air at normal incidence, λ = 550 nm):
+        >>> import torch, torchirid
+        >>> R = torchirid.thin_film_reflectance(torch.tensor(550.0, dtype=torch.float64), 1.0, 1.33, 300.0, 1.0)
+        >>> round(float(R), 6)
+        0.075426
+    """
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, thickness, n_substrate, n_outer)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    nf = _checks.as_index(n_film, "n_film", dtype, device)
+    d = _checks.as_real(thickness, "thickness", dtype, device)
+    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
+    n0 = _checks.as_index(n_outer, "n_outer", dtype, device)
+    _checks.check_positive(lam, "wavelength")
+    _checks.check_cosine(c)
+    _checks.check_nonnegative(d, "thickness")
+    _checks.check_index(nf, "n_film")
+    _checks.check_index(ns, "n_substrate")
+    _checks.check_real_index(n0, "n_outer")
+
+    cdt = _checks.complex_dtype(dtype)
+    n0 = n0.real if n0.is_complex() else n0
+    s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
+    nf, ns = nf.to(cdt), ns.to(cdt)
+    q0 = (n0 * c).to(cdt)  # exact in the incident medium (no sqrt at grazing)
+    qf = normal_wavenumber(nf, s2)
+    qs = normal_wavenumber(ns, s2)
+    q = torch.stack(torch.broadcast_tensors(q0, qf, qs), dim=-1)
+    n = torch.stack(torch.broadcast_tensors(n0.to(cdt), nf, ns), dim=-1).expand(q.shape)
+
+    phi = (2 * math.pi) * qf * d / lam  # film phase; only exp(2iφ) with |·| ≤ 1 is formed
+    e2 = torch.exp(2j * phi)[..., None]
+    gamma, _ = recursion(stack_admittances(q, n, polarization), e2, e2, with_transmission=False)
+    R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |r|² ≤ 1 up to an ulp
+    batch = torch.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
+    return R.expand(batch)
