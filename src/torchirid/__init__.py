@@ -7,6 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
+from ._compile import compile_enabled, set_compile
 from .optics import (
     bragg_dispersion,
     bragg_envelope,
@@ -21,6 +22,8 @@ __version__ = "0.1.0"
 __all__ = [
     "__version__",
     "bragg_dispersion",
+    "compile_enabled",
+    "set_compile",
     "bragg_envelope",
     "bragg_reflectance",
     "fresnel_reflectance",

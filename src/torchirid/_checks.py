@@ -89,19 +89,41 @@ def as_index(x, name: str, dtype, device) -> torch.Tensor:
     return t.to(dtype)
 
 
+def _scalar(t: torch.Tensor):
+    """The Python value of a one-element real tensor (cheap checks for scalar arguments), else None."""
+    if t.numel() == 1 and not t.is_complex():
+        return t.item()
+    return None
+
+
 def check_positive(t: torch.Tensor, name: str, unit: str = "nm") -> None:
+    v = _scalar(t)
+    if v is not None:
+        if v <= 0:
+            raise ValueError(f"{name} must be > 0 {unit}; got {v:g}")
+        return
     with torch.no_grad():
         if bool((t <= 0).any()):
             raise ValueError(f"{name} must be > 0 {unit}; got min {t.min().item():g}")
 
 
 def check_nonnegative(t: torch.Tensor, name: str, unit: str = "nm") -> None:
+    v = _scalar(t)
+    if v is not None:
+        if v < 0:
+            raise ValueError(f"{name} must be >= 0 {unit}; got {v:g}")
+        return
     with torch.no_grad():
         if bool((t < 0).any()):
             raise ValueError(f"{name} must be >= 0 {unit}; got min {t.min().item():g}")
 
 
 def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
+    v = _scalar(t)
+    if v is not None:
+        if v < 0 or v > 1:
+            raise ValueError(f"{name} must lie in [0, 1] (cosine of the incidence angle); got {v:g}")
+        return
     with torch.no_grad():
         if bool(((t < 0) | (t > 1)).any()):
             bad = t[(t < 0) | (t > 1)]
@@ -112,6 +134,11 @@ def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
 
 def check_index(t: torch.Tensor, name: str) -> None:
     """Real part > 0 and extinction κ = Im ≥ 0 (κ > 0 means absorption)."""
+    v = _scalar(t)
+    if v is not None:
+        if v <= 0:
+            raise ValueError(f"{name} must have a real part > 0; got {v:g}")
+        return
     with torch.no_grad():
         re = t.real if t.is_complex() else t
         if bool((re <= 0).any()):
@@ -125,6 +152,9 @@ def check_index(t: torch.Tensor, name: str) -> None:
 
 def check_real_index(t: torch.Tensor, name: str) -> None:
     """An incident medium: real (lossless) with n > 0."""
+    if not t.is_complex():
+        check_index(t, name)
+        return
     with torch.no_grad():
         if t.is_complex():
             if bool((t.imag != 0).any()):

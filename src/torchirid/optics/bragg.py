@@ -44,7 +44,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _compile
 from .fresnel import interface, normal_wavenumber
 
 __all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
@@ -136,36 +136,40 @@ def _chebyshev(eps, N, need_T):
 # ----------------------------------------------------------------------------------------
 # the real-arithmetic closed form (lossless, propagating in n1 and n2)
 # ----------------------------------------------------------------------------------------
-def _sin_over(z, k, zero_possible):
-    """sin(z) and sin(z)/(z/k) = k·sinc(z), with sinc(0) = 1 and finite gradients at z = 0."""
-    s = torch.sin(z)
+def _sin_over_q(phase, q, k0d, zero_possible):
+    """sin(phase) and sin(phase)/q = k0 d sinc(phase) for phase = k0 q d.
+
+    Where q = 0 (grazing in that medium) the quotient is k0 d; the guarded form (taken when
+    such points exist) keeps values and gradients finite there.
+    """
+    s = torch.sin(phase)
     if not zero_possible:
-        return s, s * (k / z) if torch.is_tensor(k) else s * k / z
-    zero = z == 0
-    # guard: z = 0 at grazing or zero thickness; the unused branch gets a safe divisor
-    zs = torch.where(zero, torch.ones_like(z), z)
-    return s, torch.where(zero, k * torch.ones_like(z), s * k / zs)
+        return s, s * (1 / q)  # 1/q is small (angle-only), one product on the grid
+    zero = phase == 0
+    # guard: phase = 0 at grazing or zero thickness; the unused branch gets a safe divisor
+    safe = torch.where(zero, torch.ones_like(phase), phase)
+    return s, torch.where(zero, k0d.expand_as(phase) if k0d.shape != phase.shape else k0d, s * k0d / safe)
 
 
 class _RealCell:
     """Polarization-independent per-point quantities of the real closed form.
 
     ``a = k0 q1 d1``, ``b = k0 q2 d2``; ``sa_q1 = sin(a)/q1 = k0 d1 sinc a`` and
-    ``sb_q2 = sin(b)/q2`` stay finite at grazing (q1 = 0) and for zero thickness;
+    ``sb_q2 = sin(b)/q2`` stay finite at grazing (q = 0) and for zero thickness;
     ``sh, ch = sin, cos((a+b)/2)`` feed the cancellation-free forms of 1 ∓ cos KΛ.
     """
 
-    def __init__(self, lam, q1, q2, d1, d2, need_cos):
+    def __init__(self, lam, q1, q2, d1, d2, need_cos, static=False):
         k0 = (2 * math.pi) / lam
-        ph1 = q1 * d1  # small (angle-only) tensors first, then one product on the grid
-        ph2 = q2 * d2
-        self.a = k0 * ph1
-        self.b = k0 * ph2
-        zero1 = bool((ph1 == 0).any())
-        zero2 = bool((ph2 == 0).any())
-        self.sin_a, self.sa_q1 = _sin_over(self.a, k0 * d1, zero1)
-        self.sin_b, self.sb_q2 = _sin_over(self.b, k0 * d2, zero2)
-        half = 0.5 * (self.a + self.b)
+        # small (angle-only) tensors first, then one product on the grid
+        self.a = k0 * (q1 * d1)
+        self.b = k0 * (q2 * d2)
+        # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
+        zero1 = static or bool((q1 == 0).any())
+        zero2 = static or bool((q2 == 0).any())
+        self.sin_a, self.sa_q1 = _sin_over_q(self.a, q1, k0 * d1, zero1)
+        self.sin_b, self.sb_q2 = _sin_over_q(self.b, q2, k0 * d2, zero2)
+        half = k0 * (0.5 * (q1 * d1 + q2 * d2))
         self.sh = torch.sin(half)
         self.ch = torch.cos(half)
         self.G = self.sa_q1 * self.sb_q2  # sin a sin b / (q1 q2)
@@ -186,48 +190,57 @@ def _admittance_factors(pol, q1, q2, n1, n2):
 def _one_minus_x(cell, eta1, eta2, m1, m2):
     """(1 - cos KΛ, 1 + cos KΛ) from the cancellation-free product forms."""
     D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2)) * cell.G
-    return 2 * cell.sh * cell.sh + D, 2 * cell.ch * cell.ch - D
+    return torch.addcmul(D, cell.sh, cell.sh, value=2), torch.addcmul(-D, cell.ch, cell.ch, value=2)
 
 
-def _yeh(P2, Q2, eps, N, safe):
+def _yeh(P2, Q2, eps, N, safe, static=False):
     r"""Yeh's R = P²U²/(P²U² + Q²), U = U_{N-1}(1 − ε), for pass bands and gaps alike.
 
-    Pass band (ε > 0, y = cos θ): R = P² sin²Nθ / (P² sin²Nθ + Q² sin²θ), sin²θ = ε(2 − ε).
-    Band gap (ε < 0, y = cosh t): with m = expm1(−2Nt),
-    R = P² m² / (P² m² + 4 Q² sinh²t (1 + m)); no overflow for any N.
-    Near the edge (N²|ε| small) U comes from its Taylor series.
+    With W = ε(2 − ε) (= sin²θ in a pass band, −sinh²t in a gap) and r = √|W|:
+
+    * pass band (ε > 0, |cos KΛ| = cos θ): θ = atan2(r, 1 − ε) and
+      R = P² sin²Nθ / (P² sin²Nθ + Q² W);
+    * band gap (ε < 0, |cos KΛ| = cosh t): t = log1p(r − ε), m = expm1(−2Nt) and
+      R = P² m² / (P² m² − 4 Q² W (1 + m)); nothing overflows for any N;
+    * near the edge (N²|ε| small) U comes from its Taylor series, so values and gradients
+      stay finite at |cos KΛ| = 1.
+
+    Both branches are evaluated on valid inputs (also faster: NaN-producing inputs take
+    slow paths in the vector math library).
     """
     gap = eps < 0
-    if safe:
-        # guard: feed each branch inputs valid for it so backward through where() stays finite
-        ep = torch.where(gap | (eps == 0), torch.ones_like(eps), eps)
-        eg = torch.where(gap, -eps, torch.ones_like(eps))
-    else:
-        ep, eg = eps, -eps
-    s = torch.sin((2 * N) * torch.asin(torch.sqrt(0.5 * ep)))  # sin Nθ, θ = 2 asin √(ε/2)
-    sinh_t = torch.sqrt(eg * (2 + eg))
-    m = torch.expm1((-2 * N) * torch.log1p(eg + sinh_t))  # e^{-2Nt} - 1
-    F = torch.where(gap, m * m, s * s)
-    Yf = torch.where(gap, -4 * (1 + m), torch.ones_like(m))
-    num = P2 * F
-    den = num + Q2 * (eps * (2 - eps)) * Yf
-    near = (N * N) * eps.abs() < _EDGE_SERIES
-    if bool(near.any()):
+    abs_eps = eps.abs()
+    absW = abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
+    near = abs_eps < _EDGE_SERIES / (N * N)
+    has_near = static or bool(near.any())
+    if safe and has_near:
+        # guard: sqrt'(0) = inf at the edge itself, where the series is used instead
+        absW = torch.where(near, torch.ones_like(absW), absW)
+    r = torch.sqrt(absW)
+    s = torch.sin(N * torch.atan2(r, 1 - eps))  # pass band: sin Nθ
+    m = torch.expm1((-2 * N) * torch.log1p(r - eps))  # band gap: e^{-2Nt} - 1
+    F = torch.where(gap, m, s)
+    Yw = torch.where(gap, 4 * absW * (1 + m), absW)
+    num = P2 * (F * F)
+    den = torch.addcmul(num, Q2, Yw)
+    if has_near:
         e_near = torch.where(near, -eps, torch.zeros_like(eps))
         Us, _ = _edge_series(N, e_near)
         num_n = P2 * Us * Us
         num = torch.where(near, num_n, num)
         den = torch.where(near, num_n + Q2, den)
-    ok = den > 0
-    # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator; grazing → R = 1
-    return torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den))
+    if static or bool((Q2 == 0).any()):
+        ok = den > 0
+        # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator; grazing → R = 1
+        return torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den))
+    return num / den
 
 
 def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
-def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
+def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
     """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
     if nh is None:
         s2 = n1 * n1 * (1 - c * c)
@@ -236,9 +249,19 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
         s2 = nh * nh * (1 - c * c)
         q1 = torch.sqrt(torch.clamp(n1 * n1 - s2, min=0))
     q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0))
-    cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None)
+    cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = N.to(lam.dtype)
-    safe = _needs_grad(lam, c, n1, n2, d1, d2, nh)
+    safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
+    if nh is None:
+        out = []
+        for pol in _pols(polarization):
+            eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
+            omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
+            eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
+            # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
+            P = ((eta1 * eta1 - eta2 * eta2) * m2) * cell.sb_q2
+            out.append(_yeh(P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
+        return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
     out = []
     for pol in _pols(polarization):
         eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
@@ -247,9 +270,6 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
         # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
         P = ((eta1 * eta1 - eta2 * eta2) * m2) * cell.sb_q2
         Q = 2 * eta1
-        if nh is None:
-            out.append(_yeh(P * P, Q * Q, eps, Nf, safe))
-            continue
         u, t, gap = _chebyshev(eps, Nf, need_T=True)
         sgn = torch.where(omx <= opx, 1.0, -1.0).to(eps.dtype)  # sign of cos KΛ
         T = sgn * t
@@ -275,6 +295,11 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
         out.append(torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den)))
     R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
     return R.clamp(0, 1)  # float32 rounding can leave R an ulp outside [0, 1]
+
+
+def _real_reflectance_static(lam, c, n1, n2, d1, d2, nh, N, polarization):
+    """The real closed form without data-dependent branches (for ``torch.compile``)."""
+    return _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=True)
 
 
 # ----------------------------------------------------------------------------------------
@@ -387,7 +412,8 @@ def bragg_reflectance(
     if general is None:
         R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
     else:
-        R = _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
+        real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
+        R = real(lam, c, n1, n2, d1, d2, nh, N, polarization)
         if bool(general.any()):
             Rg = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
             R = torch.where(general, Rg, R)
@@ -433,8 +459,8 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, pola
     k0 = (2 * math.pi) / lam
     a, b = k0 * q1 * d1, k0 * q2 * d2
     eta1, eta2, m1, m2 = _admittance_factors(polarization, q1, q2, n1c, n2c)
-    _, sa_q1 = _sin_over(a, k0 * d1, True)
-    _, sb_q2 = _sin_over(b, k0 * d2, True)
+    _, sa_q1 = _sin_over_q(a, q1, k0 * d1, True)
+    _, sb_q2 = _sin_over_q(b, q2, k0 * d2, True)
     x = torch.cos(a) * torch.cos(b) - 0.5 * (eta1 * eta1 + eta2 * eta2) * m1 * m2 * sa_q1 * sb_q2
     return x if complex_in else x.real
 

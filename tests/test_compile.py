@@ -1,0 +1,50 @@
+"""The optional torch.compile kernels agree with the eager ones (values and gradients)."""
+
+import math
+import shutil
+
+import pytest
+import torch
+
+import torchirid as ti
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+def test_compiled_bragg_matches_eager():
+    lam = torch.linspace(380, 780, 101, dtype=torch.float64, requires_grad=True)
+    c = torch.cos(torch.linspace(0, math.pi / 2, 50, dtype=torch.float64))[:, None].clamp(0, 1)
+    R0 = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20, polarization="s")
+    (g0,) = torch.autograd.grad(R0.sum(), lam)
+    assert not ti.compile_enabled()
+    ti.set_compile(True)
+    try:
+        with _no_warning():
+            R1 = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20, polarization="s")
+            (g1,) = torch.autograd.grad(R1.sum(), lam)
+    finally:
+        ti.set_compile(False)
+    assert (R1 - R0).abs().max() <= 1e-11
+    assert (g1 - g0).abs().max() <= 1e-8 * g0.abs().max()
+
+
+class _no_warning:
+    """Fail if the compiled path fell back to eager (it warns then)."""
+
+    def __enter__(self):
+        import warnings
+
+        self._cm = warnings.catch_warnings(record=True)
+        self._log = self._cm.__enter__()
+        warnings.simplefilter("always")
+        return self
+
+    def __exit__(self, *exc):
+        self._cm.__exit__(*exc)
+        fallbacks = [w for w in self._log if "torchirid: torch.compile" in str(w.message)]
+        assert not fallbacks, fallbacks[0].message
+        return False
+
+
+def test_set_compile_validates():
+    with pytest.raises(ValueError, match="enabled"):
+        ti.set_compile("yes")
