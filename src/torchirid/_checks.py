@@ -7,6 +7,7 @@ it passes the checks and propagates through the physics.
 
 from __future__ import annotations
 
+import math
 import numbers
 from typing import Sequence
 
@@ -96,6 +97,17 @@ def _scalar(t: torch.Tensor):
     return None
 
 
+def flush_grazing(c: torch.Tensor) -> torch.Tensor:
+    """Cosines below √(smallest normal) (≈1.5e-154 in float64, 1.1e-19 in float32) become 0.
+
+    Such angles are grazing to every digit of R (which is smooth in cos θ), while their
+    squares and admittances underflow to subnormals that complex division cannot scale
+    (0/0 → NaN). NaN passes through unchanged.
+    """
+    tiny = torch.finfo(c.dtype).tiny ** 0.5
+    return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
+
+
 def check_positive(t: torch.Tensor, name: str, unit: str = "nm") -> None:
     v = _scalar(t)
     if v is not None:
@@ -163,7 +175,8 @@ def check_real_index(t: torch.Tensor, name: str) -> None:
 
 
 def as_cells(cells, device) -> torch.Tensor:
-    """Number of Bragg cells as an int64 tensor; ValueError if not an integer >= 1."""
+    """Number of Bragg cells as an int64 tensor; ValueError naming ``cells`` unless every
+    value is a finite integer ≥ 1 (Python int, integer tensor/array, or integral floats)."""
     if isinstance(cells, bool):
         raise ValueError("cells must be an integer >= 1, got a bool")
     if isinstance(cells, numbers.Integral):
@@ -171,16 +184,27 @@ def as_cells(cells, device) -> torch.Tensor:
             raise ValueError(f"cells must be an integer >= 1; got {cells}")
         return torch.as_tensor(int(cells), dtype=torch.int64, device=device)
     if isinstance(cells, numbers.Real) and not _is_tensorlike(cells):
-        if cells != int(cells) or cells < 1:
-            raise ValueError(f"cells must be an integer >= 1; got {cells}")
+        if not math.isfinite(cells) or cells != int(cells) or cells < 1:
+            raise ValueError(f"cells must be an integer >= 1; got {cells!r}")
         return torch.as_tensor(int(cells), dtype=torch.int64, device=device)
-    t = torch.as_tensor(cells, device=device)
+    if not (isinstance(cells, torch.Tensor) or hasattr(cells, "__array__")):
+        raise ValueError(f"cells must be an integer >= 1 or an integer tensor; got {type(cells).__name__}")
+    try:
+        t = torch.as_tensor(cells, device=device)
+    except (TypeError, ValueError, RuntimeError) as exc:
+        raise ValueError(f"cells must be an integer >= 1 or an integer tensor; got {cells!r}") from exc
     if t.is_complex() or t.dtype == torch.bool:
         raise ValueError("cells must be an integer >= 1 (integer tensor)")
     if t.is_floating_point():
         with torch.no_grad():
-            if bool((t != torch.round(t)).any()) or bool(torch.isnan(t).any()):
+            if not bool(torch.isfinite(t).all()):
+                raise ValueError("cells must be finite integers >= 1; got inf or NaN")
+            if bool((t != torch.round(t)).any()):
                 raise ValueError("cells must be integers; got a non-integer value")
+            if bool((t < 1).any()):
+                raise ValueError(f"cells must be >= 1; got min {t.min().item():g}")
+            if bool((t > 2**62).any()):
+                raise ValueError(f"cells must be <= 2**62; got max {t.max().item():g}")
         t = t.to(torch.int64)
     if bool((t < 1).any()):
         raise ValueError(f"cells must be >= 1; got min {int(t.min())}")

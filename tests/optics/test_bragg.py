@@ -10,6 +10,9 @@ import pytest
 import torch
 
 import torchirid as ti
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
 from oracles import bragg_stack, mpmath_bragg_R, quarter_wave_R, tmm_RT
 
 F64 = torch.float64
@@ -322,6 +325,19 @@ def test_float32_accuracy_and_range():
     assert worst <= 1e-3
 
 
+def test_float32_at_band_edges_finite_and_accurate():
+    c, n1, n2, d1, d2 = 0.8, 1.0, 1.5, 125.0, 375.0
+    for pol in ("s", "p"):
+        lam = torch.tensor(_band_edges(c, n1, n2, d1, d2, pol, count=2), dtype=F64)
+        lam = torch.cat([lam, lam - 1e-7, lam + 1e-7])
+        for N in (20, 100, 10**6):
+            R32 = ti.bragg_reflectance(lam.float(), torch.tensor(c), n1, n2, d1, d2, N, polarization=pol)
+            assert torch.isfinite(R32).all() and (R32 >= 0).all() and (R32 <= 1).all()
+            if N <= 100:
+                R64 = ti.bragg_reflectance(lam.float().double(), t64(c), n1, n2, d1, d2, N, polarization=pol)
+                assert (R32.double() - R64).abs().max() <= 1e-3
+
+
 def test_float32_hard_cases_finite_and_in_range():
     f32 = torch.float32
     lam = torch.linspace(380, 780, 401, dtype=f32)
@@ -367,6 +383,7 @@ def _hard_cases():
         dict(lam=500.0, c=0.7, d1=0.0),  # zero thickness
         dict(lam=500.0, c=0.3, n_host=2.4),  # every layer evanescent
         dict(lam=500.0, c=0.6, n1=1.6, n2=1.2),  # evanescent in n2
+        dict(lam=600.0, c=1.0, d1=150.0, d2=100.0, N=10**6),  # quarter-wave stack, deep in the gap
     ]
     for e in edges:
         for dl in (0.0, -1e-7, 1e-7):
@@ -389,3 +406,34 @@ def test_gradients_finite_at_hard_cases(pol):
         R.backward()
         for k, v in leaves.items():
             assert v.grad is not None and torch.isfinite(v.grad).all(), (p, k, v.grad)
+
+
+# ---------------------------------------------------------------------------------------
+# property test over the whole parameter domain
+# ---------------------------------------------------------------------------------------
+# Thicknesses are 0 or ≥ 1e-6 nm and cosines 0 or ≥ 1e-6. Exactly at grazing, a film thinner
+# than that rounds to e^{2iφ} = 1 in the recursion, where the answer is a 0/0 limit (R → 1 for
+# any d > 0, R = 0 for d = 0). Within ~1e-7 of grazing, the *recursion* (multilayer, like tmm)
+# works with Fresnel amplitudes within ~cos θ of ±1 and loses ~ε / cos θ (1.5e-9 at
+# cos θ = 1e-9 with a 1e-6 nm film), while the closed form stays exact (checked vs mpmath).
+_thickness = st.one_of(st.just(0.0), st.floats(1e-6, 800))
+_cosine = st.one_of(st.just(0.0), st.floats(1e-6, 1))
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(
+    lam=st.floats(300, 1000), c=_cosine, n1=st.floats(1.0, 2.5), n2=st.floats(1.0, 2.5),
+    d1=_thickness, d2=_thickness, N=st.integers(1, 25),
+    host=st.one_of(st.none(), st.floats(1.0, 2.5)), pol=st.sampled_from(["s", "p", "unpolarized"]),
+)
+def test_property_closed_form_equals_recursion(lam, c, n1, n2, d1, d2, N, host, pol):
+    # Indices equal or ≥ 1e-6 apart: a medium within ~1e-16 of the host index is at its
+    # critical angle to within rounding (q = √(n² − s²) ~ 1e-8), where the recursion — not the
+    # closed form — loses ~√ε (the documented near-critical limitation of multilayer).
+    h = n1 if host is None else host
+    assume(all(a == b or abs(a - b) > 1e-6 for a, b in ((h, n1), (h, n2), (n1, n2))))
+    R = ti.bragg_reflectance(t64(lam), t64(c), n1, n2, d1, d2, N, n_host=host, polarization=pol)
+    idx, d = bragg_stack(n1, n2, d1, d2, N, n_host=host)
+    Rm, _ = ti.multilayer(t64(lam), t64(c), t64(idx), t64(d), polarization=pol)
+    assert 0 <= float(R) <= 1
+    assert abs(float(R) - float(Rm)) <= 1e-9

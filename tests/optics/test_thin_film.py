@@ -146,8 +146,6 @@ def test_zero_thickness_is_bare_interface(n0, nf, ns, polarization):
     assert (Rd - R0).abs().max().item() < 1e-6
 
 
-@pytest.mark.xfail(strict=True, reason="src bug: 0/0 in the Rouard recursion at grazing when "
-                   "n_outer == n_substrate and d = 0 (r01 = -1, r12 = +1, e^{2iφ} = 1) -> NaN")
 def test_zero_thickness_grazing_same_outer_and_substrate():
     # d = 0 means 'no film': the bare n_outer | n_outer interface, R = 0 (fresnel convention)
     R = torchirid.thin_film_reflectance(t64(500.0), 0.0, 1.4, 0.0, 1.0)
@@ -155,8 +153,6 @@ def test_zero_thickness_grazing_same_outer_and_substrate():
     assert torch.isfinite(R) and abs(R.item() - Rf.item()) <= 1e-14
 
 
-@pytest.mark.xfail(strict=True, reason="src bug: exactly at the film's critical angle "
-                   "(n_outer sin θ = n_film, q_film = 0) the recursion is 0/0 -> NaN")
 def test_exact_critical_angle_of_the_film():
     # n_outer = 1.25, n_film = 1.0, cos θ = 0.6: s² = 1.25² · 0.64 = 1 = n_film² exactly
     for pol in ("s", "p"):

@@ -57,7 +57,10 @@ _EDGE_SERIES = 5e-5
 # ----------------------------------------------------------------------------------------
 # argument handling
 # ----------------------------------------------------------------------------------------
-def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=None):
+_NO_CELLS = object()
+
+
+def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=_NO_CELLS):
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2, n_host)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
@@ -66,7 +69,7 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=None):
     d1 = _checks.as_real(d1, "d1", dtype, device)
     d2 = _checks.as_real(d2, "d2", dtype, device)
     nh = None if n_host is None else _checks.as_index(n_host, "n_host", dtype, device)
-    N = None if cells is None else _checks.as_cells(cells, device)
+    N = None if cells is _NO_CELLS else _checks.as_cells(cells, device)
     _checks.check_positive(lam, "wavelength")
     _checks.check_cosine(c)
     _checks.check_nonnegative(d1, "d1")
@@ -96,7 +99,7 @@ def _edge_series(N, e):
     return U, T
 
 
-def _chebyshev(eps, N, need_T):
+def _chebyshev(eps, N):
     """Scaled Chebyshev pair for y = 1 - eps ≥ 0.
 
     Returns ``(u, t, gap)``: in the pass band (``eps > 0``) ``u = U_{N-1}(y)`` and
@@ -125,8 +128,6 @@ def _chebyshev(eps, N, need_T):
     inv_U = 2 * sinh_t * ex / den
 
     u = torch.where(near, torch.where(gap, 1 / Us, Us), torch.where(gap, inv_U, Up))
-    if not need_T:
-        return u, None, gap
     Tp = torch.cos(N * theta)
     tau = sinh_t * (1 + ex * ex) / den  # T/U = sinh t · coth(Nt)
     t_ = torch.where(near, torch.where(gap, Ts / Us, Ts), torch.where(gap, tau, Tp))
@@ -165,8 +166,10 @@ class _RealCell:
         self.a = k0 * (q1 * d1)
         self.b = k0 * (q2 * d2)
         # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
-        zero1 = static or bool((q1 == 0).any())
-        zero2 = static or bool((q2 == 0).any())
+        # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal))
+        tiny = torch.finfo(lam.dtype).tiny ** 0.5
+        zero1 = static or bool((q1.abs() < tiny).any())
+        zero2 = static or bool((q2.abs() < tiny).any())
         self.sin_a, self.sa_q1 = _sin_over_q(self.a, q1, k0 * d1, zero1)
         self.sin_b, self.sb_q2 = _sin_over_q(self.b, q2, k0 * d2, zero2)
         half = k0 * (0.5 * (q1 * d1 + q2 * d2))
@@ -230,9 +233,11 @@ def _yeh(P2, Q2, eps, N, safe, static=False):
         num = torch.where(near, num_n, num)
         den = torch.where(near, num_n + Q2, den)
     if static or bool((Q2 == 0).any()):
-        ok = den > 0
-        # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator; grazing → R = 1
-        return torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den))
+        # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator: R = 1 (grazing)
+        # unless the cell is invisible (P = 0: no index contrast, or a zero/half-wave n2 layer)
+        limit = (P2 > 0).to(den.dtype).expand_as(den)
+        degenerate = den == 0  # (NaN is not degenerate: it propagates)
+        return torch.where(degenerate, limit, num / torch.where(degenerate, torch.ones_like(den), den))
     return num / den
 
 
@@ -242,13 +247,12 @@ def _needs_grad(*ts):
 
 def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
     """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
-    if nh is None:
-        s2 = n1 * n1 * (1 - c * c)
-        q1 = n1 * c  # exact in the incident medium: R → 1 at grazing without a sqrt
-    else:
-        s2 = nh * nh * (1 - c * c)
-        q1 = torch.sqrt(torch.clamp(n1 * n1 - s2, min=0))
-    q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0))
+    host = n1 if nh is None else nh
+    s2 = host * host * (1 - c * c)
+    qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
+    # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
+    q1 = qh if nh is None else torch.where(n1 == nh, qh, torch.sqrt(torch.clamp(n1 * n1 - s2, min=0)))
+    q2 = torch.where(n2 == host, qh, torch.sqrt(torch.clamp(n2 * n2 - s2, min=0)))
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = N.to(lam.dtype)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
@@ -270,7 +274,7 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
         # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
         P = ((eta1 * eta1 - eta2 * eta2) * m2) * cell.sb_q2
         Q = 2 * eta1
-        u, t, gap = _chebyshev(eps, Nf, need_T=True)
+        u, t, gap = _chebyshev(eps, Nf)
         sgn = torch.where(omx <= opx, 1.0, -1.0).to(eps.dtype)  # sign of cos KΛ
         T = sgn * t
         U = torch.where(gap, torch.ones_like(u), u)
@@ -290,9 +294,11 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
         Y2 = -Wq * U - rh1 * PU * cell.cos_a
         num = X1 * X1 + Y1 * Y1
         den = X2 * X2 + Y2 * Y2
-        ok = den > 0
-        # guard: den = 0 only exactly at grazing with a vanishing numerator; grazing → R = 1
-        out.append(torch.where(ok, num / torch.where(ok, den, torch.ones_like(den)), torch.ones_like(den)))
+        degenerate = den == 0  # (NaN is not degenerate: it propagates)
+        # guard: den = 0 only exactly at grazing in n1 with a vanishing numerator: R = 1, unless
+        # the cells are invisible (P = 0) and only the host/n1 interface remains: R = r_h1²
+        limit = torch.where(P * P > 0, torch.ones_like(rh1), rh1 * rh1).expand_as(den)
+        out.append(torch.where(degenerate, limit, num / torch.where(degenerate, torch.ones_like(den), den)))
     R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
     return R.clamp(0, 1)  # float32 rounding can leave R an ulp outside [0, 1]
 
@@ -310,6 +316,15 @@ def _star(A, B):
     rA, rpA, tA = A
     rB, rpB, tB = B
     den = 1 - rpA * rB
+    if bool((den == 0).any()):
+        # guard: den = 0 needs |r'_A| = |r_B| = 1, hence t_A = t_B = 0 (lossless total
+        # reflection, e.g. grazing): the two stacks do not see each other
+        degenerate = den == 0
+        den = torch.where(degenerate, torch.ones_like(den), den)
+        zero = torch.zeros_like(den)
+        return (torch.where(degenerate, rA.expand_as(den), rA + tA * tA * rB / den),
+                torch.where(degenerate, rpB.expand_as(den), rpB + tB * tB * rpA / den),
+                torch.where(degenerate, zero, tA * tB / den))
     tt = tA * tB / den
     return rA + tA * tA * rB / den, rpB + tB * tB * rpA / den, tt
 
@@ -319,8 +334,9 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
     n1c, n2c = n1.to(cdt), n2.to(cdt)
     host = n1.real if nh is None else nh
     s2 = host * host * (1 - c * c)
-    q1 = (n1.real * c).to(cdt) if nh is None else normal_wavenumber(n1c, s2)
-    q2 = normal_wavenumber(n2c, s2)
+    qh = host * c
+    q1 = qh.to(cdt) if nh is None else normal_wavenumber(n1c, s2, host, qh)
+    q2 = normal_wavenumber(n2c, s2, host, qh)
     k0 = (2 * math.pi) / lam
     e1a = torch.exp(1j * (k0 * d1 * q1))  # |·| ≤ 1: only decaying exponentials
     e1b = torch.exp(1j * (k0 * d2 * q2))
@@ -339,8 +355,20 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
             eta1, eta2 = q1 / (n1c * n1c), q2 / (n2c * n2c)
         r12 = interface(eta1, eta2)
         den = 1 - r12 * r12 * e2b
-        r_slab = r12 * (1 - e2b) / den
-        t_slab = (1 - r12 * r12) * e1b / den
+        degenerate = den == 0  # |r12| = 1 with e^{2ib} = 1: η1 = 0 (grazing in n1) or η2 = 0 (q2 = 0)
+        if bool(degenerate.any()):
+            # guard: the slab's exact limit from its characteristic matrix [[1, iβ], [0, 1]],
+            # β = k0 d2 m2 (sin b / η2 as b, η2 → 0): r = iη1β/(2 + iη1β), t = 2 e^{ib}/(2 + iη1β);
+            # it is r = 0, t = e^{ib} (an invisible zero- or half-wave slab) when η1 = 0
+            m2 = 1 if pol == "s" else n2c * n2c
+            ib = 1j * (k0 * d2 * m2) * eta1
+            lim_den = 2 + ib
+            den = torch.where(degenerate, torch.ones_like(den), den)
+            r_slab = torch.where(degenerate, ib / lim_den, r12 * (1 - e2b) / den)
+            t_slab = torch.where(degenerate, 2 * e1b / lim_den, (1 - r12 * r12) * e1b / den)
+        else:
+            r_slab = r12 * (1 - e2b) / den
+            t_slab = (1 - r12 * r12) * e1b / den
         base = (r_slab, r_slab * e2a, t_slab * e1a)  # cell: n2 slab then the n1 layer
         zero = torch.zeros_like(base[0])
         acc = (zero, zero, torch.ones_like(base[0]))
@@ -408,6 +436,7 @@ def bragg_reflectance(
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells)
     batch = torch.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
                                    () if nh is None else nh.shape)
+    c = _checks.flush_grazing(c)
     general = _needs_general(c, n1, n2, nh)
     if general is None:
         R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
@@ -441,6 +470,7 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, pola
     if polarization not in ("s", "p"):
         raise ValueError(f"polarization must be 's' or 'p' for the dispersion relation; got {polarization!r}")
     dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(dtype)
     complex_in = n1.is_complex() or n2.is_complex()
     general = _needs_general(c, n1, n2, nh)
@@ -454,8 +484,9 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, pola
     n1c, n2c = n1.to(cdt), n2.to(cdt)
     host = n1.real if nh is None else nh
     s2 = host * host * (1 - c * c)
-    q1 = (n1.real * c).to(cdt) if nh is None else normal_wavenumber(n1c, s2)
-    q2 = normal_wavenumber(n2c, s2)
+    qh = host * c
+    q1 = qh.to(cdt) if nh is None else normal_wavenumber(n1c, s2, host, qh)
+    q2 = normal_wavenumber(n2c, s2, host, qh)
     k0 = (2 * math.pi) / lam
     a, b = k0 * q1 * d1, k0 * q2 * d2
     eta1, eta2, m1, m2 = _admittance_factors(polarization, q1, q2, n1c, n2c)
@@ -488,6 +519,7 @@ def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polari
         raise ValueError("bragg_envelope needs real n1 and n2 (the envelope is defined for lossless layers)")
     if bool(_needs_general(c, n1, n2, nh).any()):
         raise ValueError("bragg_envelope needs light propagating in n1 and n2 (no total internal reflection)")
+    c = _checks.flush_grazing(c)
     host = n1 if nh is None else nh
     s2 = host * host * (1 - c * c)
     q1 = n1 * c if nh is None else torch.sqrt(torch.clamp(n1 * n1 - s2, min=0))

@@ -18,11 +18,13 @@ convention equals the ``tmm`` package's: :math:`r_p = (n_j\cos θ_i − n_i\cos 
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 from .. import _checks
 
-__all__ = ["fresnel_reflectance", "normal_wavenumber", "admittance", "interface"]
+__all__ = ["fresnel_reflectance", "normal_wavenumber", "nudge_critical", "admittance", "interface"]
 
 
 def _sqrt_upper(z: torch.Tensor) -> torch.Tensor:
@@ -38,11 +40,34 @@ def _sqrt_upper(z: torch.Tensor) -> torch.Tensor:
     return torch.where(zero, torch.zeros_like(root), root)
 
 
-def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor) -> torch.Tensor:
-    r"""``q = n cos θ = sqrt(n² − s²)`` (complex, ``Im q ≥ 0``) for the invariant ``s² = (n₀ sin θ₀)²``."""
+def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor, n0=None, q0=None) -> torch.Tensor:
+    r"""``q = n cos θ = sqrt(n² − s²)`` (complex, ``Im q ≥ 0``) for the invariant ``s² = (n₀ sin θ₀)²``.
+
+    With the incident medium's ``n0`` and ``q0 = n0 cos θ0``, a medium of exactly the
+    incident index gets ``q0`` itself (exact even where ``cos² θ0`` underflows), so that
+    repeated media never show a spurious interface.
+    """
     cdt = _checks.complex_dtype(s2.dtype)
     n = n.to(cdt)
-    return _sqrt_upper(n * n - s2.to(cdt))
+    q = _sqrt_upper(n * n - s2.to(cdt))
+    if n0 is not None:
+        q = torch.where(n == n0, q0.to(cdt), q)
+    return q
+
+
+def nudge_critical(q: torch.Tensor, n: torch.Tensor, where: torch.Tensor) -> torch.Tensor:
+    """Replace an exactly zero ``q`` (a film lit exactly at its critical angle) by ``√ε·|n|``.
+
+    At ``q = 0`` the film's two Fresnel amplitudes are ±1 and the Airy/Rouard step is 0/0.
+    ``√ε·|n|`` (ε the dtype's machine epsilon) is the ``q`` that one ulp of ``s² = n² − q²``
+    already produces, so the result is the exact reflectance at an input one ulp away:
+    R is continuous there but only √-conditioned, and no float evaluation does better.
+    Only applied where ``where`` is True (not at grazing incidence, where ``q = 0`` means
+    "the same medium as the incident one" and the interface must vanish).
+    """
+    zero = (q == 0) & where
+    tiny = math.sqrt(torch.finfo(q.real.dtype).eps) * n.abs()
+    return torch.where(zero, tiny.to(q.dtype).expand_as(q) if tiny.shape != q.shape else tiny.to(q.dtype), q)
 
 
 def admittance(q: torch.Tensor, n: torch.Tensor, polarization: str) -> torch.Tensor:
@@ -55,14 +80,13 @@ def admittance(q: torch.Tensor, n: torch.Tensor, polarization: str) -> torch.Ten
 def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     r"""Fresnel amplitude :math:`r_{ij} = (η_i − η_j)/(η_i + η_j)`.
 
-    Two identical media seen exactly at grazing incidence (η_i = η_j = 0) have no
-    interface: r = 0 there instead of 0/0.
+    Equal admittances (the same medium twice, also exactly at grazing incidence where
+    η_i = η_j = 0) give exactly r = 0: no 0/0, and no complex division of subnormals.
     """
+    same = eta_i == eta_j  # passive media: η_i + η_j = 0 only if both vanish
     den = eta_i + eta_j
-    degenerate = den == 0
-    # guard: 0/0 only when both admittances vanish (same medium at grazing) -> no interface
-    den = torch.where(degenerate, torch.ones_like(den), den)
-    return torch.where(degenerate, torch.zeros_like(den), (eta_i - eta_j) / den)
+    den = torch.where(same, torch.ones_like(den), den)  # guard: the unused branch divides safely
+    return torch.where(same, torch.zeros_like(den), (eta_i - eta_j) / den)
 
 
 def fresnel_reflectance(cos_theta, n_outer, n_inner, *, polarization: str = "unpolarized") -> torch.Tensor:
@@ -90,13 +114,15 @@ def fresnel_reflectance(cos_theta, n_outer, n_inner, *, polarization: str = "unp
     _checks.check_cosine(c)
     _checks.check_real_index(n0, "n_outer")
     _checks.check_index(n1, "n_inner")
+    c = _checks.flush_grazing(c)
     n0 = n0.real if n0.is_complex() else n0
     s2 = n0 * n0 * (1 - c * c)
     cdt = _checks.complex_dtype(dtype)
     q0 = (n0 * c).to(cdt)
-    q1 = normal_wavenumber(n1, s2)
+    q1 = normal_wavenumber(n1, s2, n0, n0 * c)
     out = []
     for pol in ("s", "p") if polarization == "unpolarized" else (polarization,):
         r = interface(admittance(q0, n0.to(cdt), pol), admittance(q1, n1.to(cdt), pol))
         out.append(r.real * r.real + r.imag * r.imag)
-    return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
+    R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])
+    return R.clamp(0, 1)  # |r|² = re² + im² can round an ulp above 1 under total internal reflection

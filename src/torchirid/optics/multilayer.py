@@ -25,7 +25,7 @@ import math
 import torch
 
 from .. import _checks
-from .fresnel import admittance, interface, normal_wavenumber
+from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
 
 __all__ = ["multilayer"]
 
@@ -65,6 +65,16 @@ def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transm
         rj = r[..., j]
         ge2 = gamma * e2[..., j]
         den = 1 + rj * ge2
+        if bool((den == 0).any()):
+            # guard: with critical films nudged, 0/0 remains only at grazing incidence, where a
+            # zero- or half-wave film sits between media that both look like the incident one
+            # (η = 0): the film is invisible and nothing is reflected (nor transmitted at grazing)
+            degenerate = den == 0
+            safe = torch.where(degenerate, torch.ones_like(den), den)
+            gamma = torch.where(degenerate, torch.zeros_like(den), (rj + ge2) / safe)
+            if with_transmission:
+                tau = torch.where(degenerate, torch.zeros_like(den), (1 + rj) * tau * e1[..., j] / safe)
+            continue
         gamma = (rj + ge2) / den
         if with_transmission:
             tau = (1 + rj) * tau * e1[..., j] / den
@@ -113,15 +123,17 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     _checks.check_nonnegative(d, "thicknesses")
     _checks.check_index(n, "indices")
     _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
+    c = _checks.flush_grazing(c)
 
     cdt = _checks.complex_dtype(dtype)
     n0 = n[..., 0].real if n.is_complex() else n[..., 0]
     s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
     nc = n.to(cdt)
-    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None])
     q0 = (n0 * c).to(cdt)  # incident medium: exact, no sqrt (gradient-safe at grazing)
+    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None], n0[..., None], q0[..., None])
     q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
-    q = torch.cat([q0[..., :1], q_inner], dim=-1)
+    films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
+    q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
 
     # phase φ_j = 2π q_j d_j / λ of the films; only decaying exponentials are formed
     phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
@@ -135,10 +147,10 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
 
     # eq. 6: T = Re(η_B)/η_A |τ|^2 into a real exit medium, 0 for an absorbing one
     eta0 = eta[..., 0].real
-    ok = eta0 > 0
-    safe0 = torch.where(ok, eta0, torch.ones_like(eta0))
+    grazing = eta0 == 0  # (a NaN input is not grazing: it propagates)
+    safe0 = torch.where(grazing, torch.ones_like(eta0), eta0)
     T = (tau.real ** 2 + tau.imag ** 2) * eta[..., -1].real / safe0
-    T = torch.where(ok, T, torch.zeros_like(T))  # grazing incidence carries no power in
+    T = torch.where(grazing, torch.zeros_like(T), T)  # grazing incidence carries no power in
     if n.is_complex():
         absorbing_exit = n[..., -1].imag > 0
         T = torch.where(absorbing_exit, torch.zeros_like(T), T)

@@ -21,7 +21,7 @@ import math
 import torch
 
 from .. import _checks
-from .fresnel import normal_wavenumber
+from .fresnel import normal_wavenumber, nudge_critical
 from .multilayer import recursion, stack_admittances
 
 __all__ = ["thin_film_reflectance"]
@@ -71,14 +71,15 @@ def thin_film_reflectance(
     _checks.check_index(nf, "n_film")
     _checks.check_index(ns, "n_substrate")
     _checks.check_real_index(n0, "n_outer")
+    c = _checks.flush_grazing(c)
 
     cdt = _checks.complex_dtype(dtype)
     n0 = n0.real if n0.is_complex() else n0
     s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
     nf, ns = nf.to(cdt), ns.to(cdt)
     q0 = (n0 * c).to(cdt)  # exact in the incident medium (no sqrt at grazing)
-    qf = normal_wavenumber(nf, s2)
-    qs = normal_wavenumber(ns, s2)
+    qf = nudge_critical(normal_wavenumber(nf, s2, n0, q0), nf, c > 0)  # film exactly at its critical angle
+    qs = normal_wavenumber(ns, s2, n0, q0)
     q = torch.stack(torch.broadcast_tensors(q0, qf, qs), dim=-1)
     n = torch.stack(torch.broadcast_tensors(n0.to(cdt), nf, ns), dim=-1).expand(q.shape)
 
