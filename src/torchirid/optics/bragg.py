@@ -155,9 +155,12 @@ def _sin_over_q(phase, q, k0d, zero_possible):
 class _RealCell:
     """Polarization-independent per-point quantities of the real closed form.
 
-    ``a = k0 q1 d1``, ``b = k0 q2 d2``; ``sa_q1 = sin(a)/q1 = k0 d1 sinc a`` and
-    ``sb_q2 = sin(b)/q2`` stay finite at grazing (q = 0) and for zero thickness;
-    ``sh, ch = sin, cos((a+b)/2)`` feed the cancellation-free forms of 1 ∓ cos KΛ.
+    ``a = k0 q1 d1``, ``b = k0 q2 d2``, ``sh, ch = sin, cos((a+b)/2)`` (for the
+    cancellation-free forms of 1 ∓ cos KΛ).  ``sin a / q1`` and ``sin b / q2`` must stay
+    finite at grazing (q = 0): where some q is (nearly) 0 they are formed as ``k0 d sinc``
+    on the grid; otherwise the 1/q factors stay on the small angle-only tensors and are
+    folded into the coefficients (``G = g_scale · G_raw = sin a sin b / (q1 q2)``,
+    ``sin b / q2 = b_scale · sb_raw``), which saves two passes over the grid.
     """
 
     def __init__(self, lam, q1, q2, d1, d2, need_cos, static=False):
@@ -168,17 +171,32 @@ class _RealCell:
         # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
         # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal))
         tiny = torch.finfo(lam.dtype).tiny ** 0.5
-        zero1 = static or bool((q1.abs() < tiny).any())
-        zero2 = static or bool((q2.abs() < tiny).any())
-        self.sin_a, self.sa_q1 = _sin_over_q(self.a, q1, k0 * d1, zero1)
-        self.sin_b, self.sb_q2 = _sin_over_q(self.b, q2, k0 * d2, zero2)
+        guarded = static or bool((q1.abs() < tiny).any()) or bool((q2.abs() < tiny).any())
+        self.sin_a, sa_q1 = _sin_over_q(self.a, q1, k0 * d1, guarded)
+        self.sin_b, sb_q2 = _sin_over_q(self.b, q2, k0 * d2, guarded)
+        if guarded:
+            self.sa_q1, self.sb_q2 = sa_q1, sb_q2
+            self.G_raw, self.g_scale = sa_q1 * sb_q2, 1.0
+            self.sb_raw, self.b_scale = sb_q2, 1.0
+        else:
+            self._q1, self._q2 = q1, q2
+            self.G_raw, self.g_scale = self.sin_a * self.sin_b, 1 / (q1 * q2)
+            self.sb_raw, self.b_scale = self.sin_b, 1 / q2
         half = k0 * (0.5 * (q1 * d1 + q2 * d2))
         self.sh = torch.sin(half)
         self.ch = torch.cos(half)
-        self.G = self.sa_q1 * self.sb_q2  # sin a sin b / (q1 q2)
         if need_cos:
             self.cos_a = torch.cos(self.a)
             self.cos_b = torch.cos(self.b)
+
+    def __getattr__(self, name):  # sin a / q1 and sin b / q2 on the grid, only when asked for
+        if name == "sa_q1":
+            self.sa_q1 = self.sin_a * (1 / self._q1)
+            return self.sa_q1
+        if name == "sb_q2":
+            self.sb_q2 = self.sin_b * (1 / self._q2)
+            return self.sb_q2
+        raise AttributeError(name)
 
 
 def _admittance_factors(pol, q1, q2, n1, n2):
@@ -192,7 +210,7 @@ def _admittance_factors(pol, q1, q2, n1, n2):
 
 def _one_minus_x(cell, eta1, eta2, m1, m2):
     """(1 - cos KΛ, 1 + cos KΛ) from the cancellation-free product forms."""
-    D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2)) * cell.G
+    D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2) * cell.g_scale) * cell.G_raw
     return torch.addcmul(D, cell.sh, cell.sh, value=2), torch.addcmul(-D, cell.ch, cell.ch, value=2)
 
 
@@ -223,9 +241,9 @@ def _yeh(P2, Q2, eps, N, safe, static=False):
     s = torch.sin(N * torch.atan2(r, 1 - eps))  # pass band: sin Nθ
     m = torch.expm1((-2 * N) * torch.log1p(r - eps))  # band gap: e^{-2Nt} - 1
     F = torch.where(gap, m, s)
-    Yw = torch.where(gap, 4 * absW * (1 + m), absW)
+    Yw = absW * torch.where(gap, 1 + m, 0.25)  # (gap: 4|W|e^{-2Nt}, pass: |W|) / 4
     num = P2 * (F * F)
-    den = torch.addcmul(num, Q2, Yw)
+    den = torch.addcmul(num, 4 * Q2, Yw)
     if has_near:
         e_near = torch.where(near, -eps, torch.zeros_like(eps))
         Us, _ = _edge_series(N, e_near)
@@ -263,7 +281,7 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
             omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
             eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
             # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
-            P = ((eta1 * eta1 - eta2 * eta2) * m2) * cell.sb_q2
+            P = ((eta1 * eta1 - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
             out.append(_yeh(P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
         return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
     out = []
