@@ -86,7 +86,7 @@ case "$cmd" in
     test)
         shift
         ensure_venv
-        "$PY" -m pytest -q tests "$@"
+        "$PY" -m pytest -q "$@"
         ;;
     -h | --help | help)
         usage

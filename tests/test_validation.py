@@ -20,7 +20,8 @@ from torch.overrides import TorchFunctionMode
 
 import torchirid
 
-F64 = torch.float64
+from tensors import F64, t64
+
 NAN = float("nan")
 
 # operations that only the physics performs (never the validation)
@@ -37,10 +38,6 @@ class _Recorder(TorchFunctionMode):
     def __torch_function__(self, func, types, args=(), kwargs=None):
         self.names.append(getattr(func, "__name__", str(func)))
         return func(*args, **(kwargs or {}))
-
-
-def t64(x):
-    return torch.as_tensor(x, dtype=F64)
 
 
 # ----------------------------------------------------------------------------------------

@@ -9,6 +9,9 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 
 from ._compile import compile_enabled, set_compile
 from .optics import (
+    BraggMirror,
+    Multilayer,
+    ThinFilm,
     bragg_dispersion,
     bragg_envelope,
     bragg_reflectance,
@@ -21,6 +24,9 @@ __version__ = "0.1.0"
 
 __all__ = [
     "__version__",
+    "BraggMirror",
+    "Multilayer",
+    "ThinFilm",
     "bragg_dispersion",
     "compile_enabled",
     "set_compile",

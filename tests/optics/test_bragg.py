@@ -15,11 +15,7 @@ from hypothesis import strategies as st
 
 from oracles import bragg_stack, mpmath_bragg_R, quarter_wave_R, tmm_RT
 
-F64 = torch.float64
-
-
-def t64(x):
-    return torch.as_tensor(x, dtype=F64)
+from tensors import F64, t64
 
 
 def _random_mirrors(rng, count, host_mode):

@@ -15,17 +15,7 @@ import torch
 import torchirid
 from oracles import material_nk, tmm_RT
 
-F64 = torch.float64
-C128 = torch.complex128
-POLS = ("s", "p", "unpolarized")
-
-
-def t64(x):
-    return torch.as_tensor(x, dtype=F64)
-
-
-def tc128(x):
-    return torch.as_tensor(np.asarray(x, dtype=complex), dtype=C128)
+from tensors import C128, F64, POLS, t64, tc128  # noqa: F401
 
 
 @pytest.mark.parametrize("pol", POLS)

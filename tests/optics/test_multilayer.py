@@ -22,18 +22,7 @@ import torch
 import torchirid
 from oracles import HIRAYAMA_TABLE1, hirayama_stack, material_nk, mpmath_stack_RT, tmm_RT, tmm_RT_grid
 
-F64 = torch.float64
-C128 = torch.complex128
-POLS = ("s", "p", "unpolarized")
-METALS = ("Ag", "Au", "Cu", "Al", "Si")
-
-
-def t64(x):
-    return torch.as_tensor(x, dtype=F64)
-
-
-def tc128(x):
-    return torch.as_tensor(np.asarray(x, dtype=complex), dtype=C128)
+from tensors import C128, F64, METALS, POLS, t64, tc128  # noqa: F401
 
 
 def ml(wl, c, idx, d, pol="unpolarized"):

@@ -445,10 +445,10 @@ def bragg_reflectance(
 
     Example (Fourneau Fig. 1: n2 = 1.5, d1 = 125, d2 = 375, N = 20, normal incidence):
         >>> import torch, torchirid
-        >>> R = torchirid.bragg_reflectance(torch.tensor([500.0, 600.0], dtype=torch.float64), 1.0,
+        >>> R = torchirid.bragg_reflectance(torch.tensor([680.0, 600.0], dtype=torch.float64), 1.0,
         ...                                 1.0, 1.5, 125.0, 375.0, 20)
         >>> [round(v, 6) for v in R.tolist()]
-        [0.999997, 0.015456]
+        [0.999998, 0.038657]
     """
     _checks.check_polarization(polarization)
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells)
@@ -525,7 +525,7 @@ def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polari
     Returns:
         R^e in [0, 1]; for ``"unpolarized"`` the mean of the s and p envelopes.
 
-    Example (at the Airy point cos KΛ = 0 the envelope equals the slab reflectance |r_1|²):
+    Example (inside the band gap of a quarter-wave stack at its design wavelength, R^e = 1):
         >>> import torch, torchirid
         >>> R = torchirid.bragg_envelope(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
         >>> float(R)

@@ -55,7 +55,7 @@ def thin_film_reflectance(
         >>> import torch, torchirid
         >>> R = torchirid.thin_film_reflectance(torch.tensor(550.0, dtype=torch.float64), 1.0, 1.33, 300.0, 1.0)
         >>> round(float(R), 6)
-        0.075426
+        0.07543
     """
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, thickness, n_substrate, n_outer)
