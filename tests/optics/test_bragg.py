@@ -433,3 +433,15 @@ def test_property_closed_form_equals_recursion(lam, c, n1, n2, d1, d2, N, host, 
     Rm, _ = ti.multilayer(t64(lam), t64(c), t64(idx), t64(d), polarization=pol)
     assert 0 <= float(R) <= 1
     assert abs(float(R) - float(Rm)) <= 1e-9
+
+
+@pytest.mark.parametrize("pol", ["s", "p"])
+@pytest.mark.parametrize("n1", [1.5, 1.5 + 0.01j], ids=["real path", "scattering path"])
+def test_n2_exactly_at_its_critical_angle(pol, n1):
+    # host 1.25, cos θ = 0.6: s² = 1.25² · 0.64 = 1 = n2² exactly, q2 = 0 (b = 0, η2 = 0):
+    # the closed form takes sin b / q2 → k0 d2, the scattering path the slab's exact limit
+    n1t = torch.tensor(n1, dtype=torch.complex128) if isinstance(n1, complex) else n1
+    for N in (1, 3, 40):
+        R = ti.bragg_reflectance(t64(500.0), t64(0.6), n1t, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
+        ref = mpmath_bragg_R(500.0, 0.6, n1, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
+        assert abs(float(R) - ref) <= 1e-12

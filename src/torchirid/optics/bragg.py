@@ -27,12 +27,12 @@ Numerics (the hard cases are the product):
   (``m = q/η``), free of the cancellation of ``1 − cos KΛ`` near band edges;
 * at band edges ``|cos KΛ| = 1`` the 0/0 of ``sin NKΛ / sin KΛ`` is replaced by its Taylor
   series in ``ε = 1 − |cos KΛ|`` (both sides), so values *and gradients* are finite there;
-* in band gaps ``1/U`` is formed as ``2 sinh(t) e^{-Nt} / (1 − e^{-2Nt})``: no overflow for
-  N = 10⁶;
+* in band gaps (|cos KΛ| = cosh t) only ``e^{-2Nt}`` is formed, through ``expm1``:
+  R = P²m²/(P²m² + 4Q² sinh²t (1 + m)) with m = e^{-2Nt} − 1 — no overflow for N = 10⁶;
 * grazing incidence (``η₁ = 0``) is handled by scaling numerator and denominator by ``2η₁``
   and writing ``sin a / a`` as sinc, so R → 1 without 0·∞;
-* all of the above is real arithmetic (the common lossless, propagating case, ~4× cheaper
-  than complex arithmetic).  Light evanescent in n1 or n2 (total internal reflection) and
+* all of the above is real arithmetic (the common lossless, propagating case; see
+  docs/performance.md for its speed).  Light evanescent in n1 or n2 (total internal reflection) and
   absorbing layers go through an exact scattering-matrix evaluation: the cell's
   (r, r', t) are combined by Redheffer star products with binary exponentiation in
   ``⌈log₂ N⌉`` steps, which forms only decaying exponentials.
@@ -373,13 +373,16 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
             eta1, eta2 = q1 / (n1c * n1c), q2 / (n2c * n2c)
         r12 = interface(eta1, eta2)
         den = 1 - r12 * r12 * e2b
-        degenerate = den == 0  # |r12| = 1 with e^{2ib} = 1: η1 = 0 (grazing in n1) or η2 = 0 (q2 = 0)
+        # q2 = 0 (n2 exactly at its critical angle: r12 = 1, e^{2ib} = 1, a 0/0 up to rounding),
+        # or den = 0 exactly (η1 = 0, grazing in n1, with a zero- or half-wave n2 layer)
+        degenerate = (eta2 == 0) | (den == 0)
         if bool(degenerate.any()):
-            # guard: the slab's exact limit from its characteristic matrix [[1, iβ], [0, 1]],
-            # β = k0 d2 m2 (sin b / η2 as b, η2 → 0): r = iη1β/(2 + iη1β), t = 2 e^{ib}/(2 + iη1β);
+            # guard: the slab's exact limit from its characteristic matrix
+            # [[1, −iβ], [0, 1]], β = k0 d2 m2 (sin b / η2 as b, η2 → 0): r = −iη1β/(2 − iη1β),
+            # t = 2 e^{ib}/(2 − iη1β);
             # it is r = 0, t = e^{ib} (an invisible zero- or half-wave slab) when η1 = 0
             m2 = 1 if pol == "s" else n2c * n2c
-            ib = 1j * (k0 * d2 * m2) * eta1
+            ib = -1j * (k0 * d2 * m2) * eta1  # −iβη1
             lim_den = 2 + ib
             den = torch.where(degenerate, torch.ones_like(den), den)
             r_slab = torch.where(degenerate, ib / lim_den, r12 * (1 - e2b) / den)
