@@ -52,7 +52,8 @@ def _ours(P, pol, dtype=F64):
 def _tmm(P, i, pol):
     nh = None if P["nh"] is None else P["nh"][i]
     idx, d = bragg_stack(P["n1"][i], P["n2"][i], P["d1"][i], P["d2"][i], int(P["N"][i]), n_host=nh)
-    R = tmm_RT(P["lam"][i], P["c"][i], idx, d, pol)[0]
+    with np.errstate(all="ignore"):  # tmm's unnormalised matrices overflow for evanescent stacks
+        R = tmm_RT(P["lam"][i], P["c"][i], idx, d, pol)[0]
     if not np.isfinite(R):
         # tmm multiplies unnormalised matrices: evanescent stacks overflow; use mpmath there
         R = mpmath_bragg_R(P["lam"][i], P["c"][i], P["n1"][i], P["n2"][i], P["d1"][i], P["d2"][i],

@@ -34,7 +34,7 @@ def test_thin_film_fit_recovers_thickness():
         return loss
 
     opt.step(closure)
-    assert abs(float(m.thickness) - 310.0) < 1e-4
+    assert abs(m.thickness.item() - 310.0) < 1e-4
 
 
 def test_multilayer_module_complex_buffer():
@@ -42,6 +42,6 @@ def test_multilayer_module_complex_buffer():
     R, T = m(t64(550.0), t64(1.0))
     Rf, Tf = ti.multilayer(t64(550.0), t64(1.0), torch.tensor([1.0, 1.5, 0.2 + 3.0j], dtype=torch.complex128),
                            t64([80.0]))
-    assert torch.allclose(R, Rf, atol=1e-15) and float(T) == 0.0
+    assert torch.allclose(R, Rf, atol=1e-15) and T.item() == 0.0
     R.backward()
     assert m.thicknesses.grad is not None and torch.isfinite(m.thicknesses.grad).all()
