@@ -208,10 +208,15 @@ def _admittance_factors(pol, q1, q2, n1, n2):
     return q1 / m1, q2 / m2, m1, m2
 
 
-def _one_minus_x(cell, eta1, eta2, m1, m2):
-    """(1 - cos KΛ, 1 + cos KΛ) from the cancellation-free product forms."""
+def _one_minus_x(cell, eta1, eta2, m1, m2, inplace=False):
+    """(1 - cos KΛ, 1 + cos KΛ) from the cancellation-free product forms.
+
+    ``inplace`` (no autograd) reuses the temporaries: same values, fewer passes over memory.
+    """
     D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2) * cell.g_scale) * cell.G_raw
-    return torch.addcmul(D, cell.sh, cell.sh, value=2), torch.addcmul(-D, cell.ch, cell.ch, value=2)
+    omx = torch.addcmul(D, cell.sh, cell.sh, value=2)
+    opx = D.neg_().addcmul_(cell.ch, cell.ch, value=2) if inplace else torch.addcmul(-D, cell.ch, cell.ch, value=2)
+    return omx, opx
 
 
 def _yeh(P2, Q2, eps, N, safe, static=False):
@@ -231,18 +236,27 @@ def _yeh(P2, Q2, eps, N, safe, static=False):
     """
     gap = eps < 0
     abs_eps = eps.abs()
-    absW = abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
     near = abs_eps < _EDGE_SERIES / (N * N)
     has_near = static or bool(near.any())
+    # no autograd (and cells not broadcasting beyond the grid): temporaries may be overwritten
+    inplace = not (safe or static) and torch.broadcast_shapes(eps.shape, N.shape) == eps.shape
+    absW = abs_eps.mul_(2 - eps) if inplace else abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
     if safe and has_near:
         # guard: sqrt'(0) = inf at the edge itself, where the series is used instead
         absW = torch.where(near, torch.ones_like(absW), absW)
     r = torch.sqrt(absW)
-    s = torch.sin(N * torch.atan2(r, 1 - eps))  # pass band: sin Nθ
-    m = torch.expm1((-2 * N) * torch.log1p(r - eps))  # band gap: e^{-2Nt} - 1
-    F = torch.where(gap, m, s)
-    Yw = absW * torch.where(gap, 1 + m, 0.25)  # (gap: 4|W|e^{-2Nt}, pass: |W|) / 4
-    num = P2 * (F * F)
+    if inplace:
+        s = torch.atan2(r, 1 - eps).mul_(N).sin_()  # pass band: sin Nθ
+        m = r.sub_(eps).log1p_().mul_(-2 * N).expm1_()  # band gap: e^{-2Nt} - 1
+        F = torch.where(gap, m, s)
+        Yw = torch.where(gap, m.add_(1), 0.25).mul_(absW)  # (gap: 4|W|e^{-2Nt}, pass: |W|) / 4
+        num = F.mul_(F).mul_(P2)
+    else:
+        s = torch.sin(N * torch.atan2(r, 1 - eps))
+        m = torch.expm1((-2 * N) * torch.log1p(r - eps))
+        F = torch.where(gap, m, s)
+        Yw = absW * torch.where(gap, 1 + m, 0.25)
+        num = P2 * (F * F)
     den = torch.addcmul(num, 4 * Q2, Yw)
     if has_near:
         e_near = torch.where(near, -eps, torch.zeros_like(eps))
@@ -278,11 +292,12 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
         out = []
         for pol in _pols(polarization):
             eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
-            omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
-            eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
+            inplace = not (safe or static)
+            omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2, inplace)
+            eps = torch.minimum(omx, opx, out=omx) if inplace else torch.minimum(omx, opx)  # 1 - |cos KΛ|
             # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
             P = ((eta1 * eta1 - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
-            out.append(_yeh(P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
+            out.append(_yeh(P.square_() if inplace else P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
         return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
     out = []
     for pol in _pols(polarization):
