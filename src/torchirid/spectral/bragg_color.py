@@ -19,6 +19,10 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
 ``"sampled"`` — ``samples`` wavelengths uniform in λ over ``wavelength_range`` (the cheap
     fixed-sampling variants of the speed-against-error study; 1–5 nm grids alias the
     sub-nm fringes of large-N mirrors).
+
+``"piecewise"`` — the paper's fast approximation (§3.2): boxes between spectral
+    landmarks weighted by the envelope, integrated with cumulative CMF tables
+    (:mod:`torchirid.spectral.piecewise`).
 """
 
 from __future__ import annotations
@@ -31,11 +35,12 @@ import torch
 from .. import _checks
 from ..color.convert import xyz_weights
 from ..optics.bragg import bragg_reflectance
+from .piecewise import bragg_xyz_piecewise
 
 __all__ = ["BRAGG_XYZ_METHODS", "bragg_xyz", "spectral_samples"]
 
 #: method names accepted by :func:`bragg_xyz`
-BRAGG_XYZ_METHODS = ("spectral", "sampled")
+BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise")
 
 # points of the (batch × wavelength) reflectance evaluated at once: bounds memory (~64 MB)
 _CHUNK = 1 << 22
@@ -81,6 +86,8 @@ def bragg_xyz(
     samples_per_fringe: float = 96.0,
     max_samples: int = 65536,
     wavelength_range=(380.0, 780.0),
+    subdivisions: int = 1,
+    correction="fitted",
 ) -> torch.Tensor:
     r"""CIE XYZ of a Bragg mirror (Fourneau et al. 2024, §3.1–3.2), Y = 1 for a perfect reflector.
 
@@ -95,6 +102,9 @@ def bragg_xyz(
             ``"spectral"`` it overrides the automatic count.
         samples_per_fringe, max_samples: the ``"spectral"`` sampling rule.
         wavelength_range: ``(λ_min, λ_max)`` in nm integrated over (default 380–780 nm).
+        subdivisions, correction: options of ``"piecewise"`` (see
+            :func:`torchirid.spectral.piecewise.bragg_xyz_piecewise`); ``cells`` is not used
+            there beyond validation (the approximation models large N).
 
     Returns:
         XYZ ``(*, 3)``: the broadcast batch of the mirror parameters, dtype/device from them.
@@ -111,6 +121,19 @@ def bragg_xyz(
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
+    if method == "piecewise":
+        if n_host is not None:
+            with torch.no_grad():
+                same = bool((torch.as_tensor(n_host) == torch.as_tensor(n1)).all())
+            if not same:
+                raise ValueError("method='piecewise' models a mirror embedded in n1: n_host must be None or n1")
+        if isinstance(n1, complex) or isinstance(n2, complex) or any(
+                torch.is_tensor(t) and t.is_complex() for t in (n1, n2)):
+            raise ValueError("method='piecewise' needs real n1 and n2 (lossless layers)")
+        _checks.as_cells(cells, None)
+        return bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, polarization=polarization, subdivisions=subdivisions,
+                                   correction=correction, observer=observer, illuminant=illuminant,
+                                   wavelength_range=(lo, hi))
     if method == "sampled" and samples is None:
         raise ValueError("samples (number of wavelengths) is required for method='sampled'")
     if samples is not None and (not isinstance(samples, int) or isinstance(samples, bool) or samples < 2):
