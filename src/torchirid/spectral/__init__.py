@@ -1,5 +1,31 @@
-"""Spectral integration of structural colour: Bragg mirror XYZ (exact spectra; piecewise to come)."""
+"""Spectral integration of structural colour: Bragg mirror XYZ from exact spectra (sampled,
+converged) or from piecewise-constant spectra on spectral landmarks (Fourneau et al. 2024 §3.2)."""
 
 from .bragg_color import BRAGG_XYZ_METHODS, bragg_xyz, spectral_samples
+from .correction import (
+    PAPER_COEFFICIENTS,
+    angular_correction,
+    angular_correction_limit,
+    angular_correction_reference,
+    fitted_coefficients,
+)
+from .cumulative import box_integrals, build_cumulative_cmf, cumulative_cmf
+from .landmarks import bragg_landmarks, dispersion_parts
+from .piecewise import bragg_xyz_piecewise
 
-__all__ = ["BRAGG_XYZ_METHODS", "bragg_xyz", "spectral_samples"]
+__all__ = [
+    "BRAGG_XYZ_METHODS",
+    "PAPER_COEFFICIENTS",
+    "angular_correction",
+    "angular_correction_limit",
+    "angular_correction_reference",
+    "box_integrals",
+    "bragg_landmarks",
+    "bragg_xyz",
+    "bragg_xyz_piecewise",
+    "build_cumulative_cmf",
+    "cumulative_cmf",
+    "dispersion_parts",
+    "fitted_coefficients",
+    "spectral_samples",
+]

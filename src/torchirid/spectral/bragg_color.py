@@ -86,7 +86,8 @@ def bragg_xyz(
     samples_per_fringe: float = 96.0,
     max_samples: int = 65536,
     wavelength_range=(380.0, 780.0),
-    subdivisions: int = 1,
+    subdivisions: int = 8,
+    weights: str = "averaged",
     correction="fitted",
 ) -> torch.Tensor:
     r"""CIE XYZ of a Bragg mirror (Fourneau et al. 2024, §3.1–3.2), Y = 1 for a perfect reflector.
@@ -130,8 +131,8 @@ def bragg_xyz(
         if isinstance(n1, complex) or isinstance(n2, complex) or any(
                 torch.is_tensor(t) and t.is_complex() for t in (n1, n2)):
             raise ValueError("method='piecewise' needs real n1 and n2 (lossless layers)")
-        _checks.as_cells(cells, None)
-        return bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, polarization=polarization, subdivisions=subdivisions,
+        return bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, polarization=polarization, subdivisions=subdivisions,
+                                   weights=weights,
                                    correction=correction, observer=observer, illuminant=illuminant,
                                    wavelength_range=(lo, hi))
     if method == "sampled" and samples is None:

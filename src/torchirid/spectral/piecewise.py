@@ -41,8 +41,8 @@ def _pols(polarization):
     return ("s", "p") if polarization == "unpolarized" else (polarization,)
 
 
-def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, *, polarization="unpolarized", subdivisions: int = 1,
-                        correction="fitted", observer="CIE 1931 2", illuminant="D65",
+def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="unpolarized", subdivisions: int = 8,
+                        weights="averaged", correction="fitted", observer="CIE 1931 2", illuminant="D65",
                         wavelength_range=(380.0, 780.0)) -> torch.Tensor:
     r"""XYZ of a Bragg mirror embedded in n1 from its piecewise-constant spectrum (Fourneau eq. 14–16).
 
@@ -65,7 +65,10 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, *, polarization="unpolarized"
     if isinstance(correction, str):
         if correction not in ("fitted", "paper", "none"):
             raise ValueError(f"correction must be 'fitted', 'paper', 'none' or a pair (a, b); got {correction!r}")
+    if weights not in ("averaged", "paper"):
+        raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
     dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2)
+    N = _checks.as_cells(cells, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     n1 = _checks.as_real(n1, "n1", dtype, device)
     n2 = _checks.as_real(n2, "n2", dtype, device)
@@ -99,7 +102,8 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, *, polarization="unpolarized"
         safe2 = torch.where(eta2 > 0, eta2, torch.ones_like(eta2))
         delta = (eta1 - eta2) ** 2 / (2 * eta1 * safe2)  # Ω/2 − 1
         C_coef = ((eta1 * eta1 - eta2 * eta2) / (2 * eta1 * safe2)) ** 2  # |C|² = C_coef sin²(ωB)
-        xyz.append(_piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, subdivisions, table))
+        xyz.append(_piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, subdivisions, table,
+                                  weights, N))
     out = xyz[0] if len(xyz) == 1 else 0.5 * (xyz[0] + xyz[1])
     return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
 
@@ -110,8 +114,18 @@ def _coefficients(correction):
     return correction
 
 
-def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table):
-    A, B, delta, C_coef, w_corr = torch.broadcast_tensors(A, B, delta, C_coef, w_corr)
+def _yeh_at(omega, A, B, delta, C_coef, N):
+    """Exact Yeh reflectance (eq. 2/9) of N cells at ω from the landmark quantities."""
+    from ..optics.bragg import _yeh  # the closed form's stable Chebyshev evaluation
+
+    omx, opx = dispersion_parts(omega, A, B, delta)
+    eps = torch.minimum(omx, opx)
+    C2 = C_coef * torch.sin(omega * B) ** 2  # |C|² = P²/Q²
+    return _yeh(C2, torch.ones_like(C2), eps, N, safe=torch.is_grad_enabled())
+
+
+def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, weights="averaged", N=None):
+    A, B, delta, C_coef, w_corr, N = torch.broadcast_tensors(A, B, delta, C_coef, w_corr, N.to(A.dtype))
     with torch.no_grad():  # landmark positions by bisection: no gradient flows through them (yet)
         L = bragg_landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach())
     ends = torch.stack(torch.broadcast_tensors(torch.full_like(A, omega_min), torch.full_like(A, omega_max)), -1)
@@ -135,6 +149,14 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table):
     sin2 = torch.clamp(omx_s * opx_s, min=0)  # sin² KΛ, ≥ 0 outside the gaps
     den = C2 + sin2
     envelope = torch.where(den > 0, C2 / torch.where(den > 0, den, torch.ones_like(den)), torch.zeros_like(den))
-    weight = torch.where(gap.unsqueeze(-1), torch.ones_like(envelope), w_corr[..., None, None] * envelope)
+    if weights == "paper":
+        weight = torch.where(gap.unsqueeze(-1), torch.ones_like(envelope), w_corr[..., None, None] * envelope)
+    else:
+        # averaged: Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
+        # <C² sin²φ / (C² sin²φ + sin²KΛ)>_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e);
+        # inside the gaps the exact finite-N reflectance at the sub-box centre
+        fringe_mean = 1 - torch.sqrt(torch.clamp(1 - envelope, min=0))
+        exact = _yeh_at(sub_mid, Ax.unsqueeze(-1), Bx.unsqueeze(-1), dx.unsqueeze(-1), Cx.unsqueeze(-1), N[..., None, None])
+        weight = torch.where(gap.unsqueeze(-1), exact, fringe_mean)
     C = table(omega=edges)  # (*, J, s+1, 3) cumulative CMF at every sub-box edge
     return (weight.unsqueeze(-1) * (C[..., 1:, :] - C[..., :-1, :])).sum(dim=(-3, -2))

@@ -1,0 +1,76 @@
+"""Spectral landmarks against a dense scan of the dispersion relation."""
+
+import math
+
+import numpy as np
+import torch
+
+import torchirid as ti
+from tensors import F64, t64
+from torchirid.spectral import bragg_landmarks, dispersion_parts
+
+W_MIN, W_MAX = 2 * math.pi / 780, 2 * math.pi / 380
+
+
+def _setup(c, n1, n2, d1, d2, pol):
+    q1 = n1 * c
+    q2 = math.sqrt(n2 ** 2 - n1 ** 2 * (1 - c ** 2))
+    e1, e2 = (q1, q2) if pol == "s" else (q1 / n1 ** 2, q2 / n2 ** 2)
+    return q1 * d1, q2 * d2, (e1 - e2) ** 2 / (2 * e1 * e2)
+
+
+def _finite(t):
+    return np.sort(t[~torch.isnan(t)].numpy())
+
+
+def test_landmarks_match_a_dense_scan():
+    rng = np.random.default_rng(2)
+    omega = torch.linspace(W_MIN, W_MAX, 200001, dtype=F64)
+    step = float(omega[1] - omega[0])
+    for _ in range(12):
+        n2, lam_, f, c = rng.uniform(1.2, 2.4), rng.uniform(150, 1000), rng.uniform(0.1, 0.9), rng.uniform(0.05, 1)
+        d1, d2 = f * lam_, (1 - f) * lam_
+        for pol in ("s", "p"):
+            A, B, delta = _setup(c, 1.0, n2, d1, d2, pol)
+            L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta))
+            x = ti.bragg_dispersion(2 * math.pi / omega, t64(c), 1.0, n2, d1, d2, polarization=pol)
+            airy_scan = omega[:-1][torch.sign(x[1:]) != torch.sign(x[:-1])].numpy()
+            gap = (x.abs() > 1).int()
+            edge_scan = omega[:-1][gap[1:] != gap[:-1]].numpy()
+            airy = _finite(L["airy"])
+            edges = _finite(torch.cat([L["edges_lo"], L["edges_hi"]]))
+            edges = edges[(edges > W_MIN) & (edges < W_MAX)]  # drop gaps clipped at the range ends
+            assert len(airy) == len(airy_scan) and np.abs(airy - airy_scan).max(initial=0) <= step
+            assert len(edges) == len(edge_scan) and np.abs(edges - edge_scan).max(initial=0) <= step
+
+
+def test_modes_lie_in_band_gaps_and_zero_points_kill_the_envelope():
+    A, B, delta = _setup(0.7, 1.0, 1.6, 300.0, 200.0, "s")
+    L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta))
+    modes = torch.tensor(_finite(L["modes"]), dtype=F64)
+    omx, opx = dispersion_parts(modes, A, B, delta)
+    assert (torch.minimum(omx, opx) <= 1e-12).all()  # |cos KΛ| ≥ 1 at every mode (appendix A)
+    zeros = _finite(L["zeros"])
+    assert len(zeros) > 0
+    Re = ti.bragg_envelope(t64(2 * math.pi / zeros), t64(0.7), 1.0, 1.6, 300.0, 200.0, polarization="s")
+    assert Re.abs().max() <= 1e-20
+
+
+def test_gaps_close_at_brewster_for_p():
+    c = math.cos(math.atan(1.5))
+    A, B, delta = _setup(c, 1.0, 1.5, 200.0, 300.0, "p")
+    assert abs(delta) < 1e-15
+    L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta))
+    ok = ~torch.isnan(L["modes"])
+    assert torch.equal(L["edges_lo"][ok], L["modes"][ok]) and torch.equal(L["edges_hi"][ok], L["modes"][ok])
+
+
+def test_batched_over_angles_equals_one_by_one():
+    cs = [0.2, 0.6, 1.0]
+    ABd = [_setup(c, 1.0, 1.7, 250.0, 180.0, "s") for c in cs]
+    A, B, delta = (t64([v[k] for v in ABd]) for k in range(3))
+    L = bragg_landmarks(W_MIN, W_MAX, A, B, delta)
+    for i, (a, b, d) in enumerate(ABd):
+        Li = bragg_landmarks(W_MIN, W_MAX, t64(a), t64(b), t64(d))
+        for key in ("airy", "edges_lo", "edges_hi", "zeros"):
+            assert np.allclose(_finite(L[key][i]), _finite(Li[key]), rtol=0, atol=1e-12)
