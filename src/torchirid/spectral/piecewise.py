@@ -124,12 +124,55 @@ def _yeh_at(omega, A, B, delta, C_coef, N):
     return _yeh(C2, torch.ones_like(C2), eps, N, safe=torch.is_grad_enabled())
 
 
+def _attach(L, A, B, delta, omega_min, omega_max):
+    """Landmarks with gradients: the implicit-function theorem on their defining equations.
+
+    For a root ω* of f(ω; θ) found by bisection, ω* − (f(ω*; θ) − f(ω*; θ̄)) / ∂_ω f(ω*; θ̄)
+    (θ̄ detached) has the value ω* and the derivative −∂_θ f / ∂_ω f. Landmarks clipped to
+    the range ends, and touching (closed) gaps where ∂_ω f = 0, keep no gradient.
+    """
+    Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
+    even = torch.remainder(L["m"], 2) == 0
+
+    def x_half(w, a, b_, d):  # x = ((1 + x) − (1 − x)) / 2, from the product forms
+        omx, opx = dispersion_parts(w, a, b_, d)
+        return 0.5 * (opx - omx)
+
+    def edge_f(w, a, b_, d):  # 1 − |x| near the mode of the gap
+        omx, opx = dispersion_parts(w, a, b_, d)
+        return torch.where(even, omx, opx)
+
+    def attach(w, f):
+        ok = ~torch.isnan(w) & (w > omega_min) & (w < omega_max)  # clipped to the range: constant
+        w0 = torch.where(ok, w, torch.zeros_like(w)).detach().requires_grad_(True)
+        with torch.enable_grad():
+            fw = f(w0, Ax.detach(), Bx.detach(), dx.detach())
+            (slope,) = torch.autograd.grad(fw.sum(), w0)
+        w0 = w0.detach()
+        usable = ok & (slope.abs() > 0)
+        safe = torch.where(usable, slope, torch.ones_like(slope))
+        f_live = f(w0, Ax, Bx, dx)
+        moved = w0 - (f_live - f_live.detach()) / safe
+        return torch.where(usable, moved, w)
+
+    airy = attach(L["airy"], x_half)
+    e_lo = attach(L["edges_lo"], edge_f)
+    e_hi = attach(L["edges_hi"], edge_f)
+    # zero points ω_z = zπ/B (eq. 12) are explicit in B
+    zeros = L["zeros"]
+    zeros = torch.where(torch.isnan(zeros), zeros, zeros.detach() * (Bx.detach() / Bx))
+    return airy, e_lo, e_hi, zeros
+
+
 def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, weights="averaged", N=None):
     A, B, delta, C_coef, w_corr, N = torch.broadcast_tensors(A, B, delta, C_coef, w_corr, N.to(A.dtype))
-    with torch.no_grad():  # landmark positions by bisection: no gradient flows through them (yet)
+    with torch.no_grad():  # landmark positions by bisection
         L = bragg_landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach())
+    airy, e_lo, e_hi, zeros = L["airy"], L["edges_lo"], L["edges_hi"], L["zeros"]
+    if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta)):
+        airy, e_lo, e_hi, zeros = _attach(L, A, B, delta, omega_min, omega_max)
     ends = torch.stack(torch.broadcast_tensors(torch.full_like(A, omega_min), torch.full_like(A, omega_max)), -1)
-    b = torch.cat([ends, L["edges_lo"], L["edges_hi"], L["airy"], L["zeros"]], dim=-1)
+    b = torch.cat([ends, e_lo, e_hi, airy, zeros], dim=-1)
     b = torch.where(torch.isnan(b), torch.full_like(b, omega_max), b)  # padding → empty boxes at the end
     b, _ = torch.sort(b, dim=-1)
     lo, hi = b[..., :-1], b[..., 1:]  # (*, J) boxes
@@ -155,7 +198,10 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
         # averaged: Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
         # <C² sin²φ / (C² sin²φ + sin²KΛ)>_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e);
         # inside the gaps the exact finite-N reflectance at the sub-box centre
-        fringe_mean = 1 - torch.sqrt(torch.clamp(1 - envelope, min=0))
+        one_minus = 1 - envelope
+        pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1, inside gaps: not used)
+        fringe_mean = 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
+                                      torch.zeros_like(one_minus))
         exact = _yeh_at(sub_mid, Ax.unsqueeze(-1), Bx.unsqueeze(-1), dx.unsqueeze(-1), Cx.unsqueeze(-1), N[..., None, None])
         weight = torch.where(gap.unsqueeze(-1), exact, fringe_mean)
     C = table(omega=edges)  # (*, J, s+1, 3) cumulative CMF at every sub-box edge
