@@ -160,7 +160,9 @@ def _attach(L, A, B, delta, omega_min, omega_max):
     e_hi = attach(L["edges_hi"], edge_f)
     # zero points ω_z = zπ/B (eq. 12) are explicit in B
     zeros = L["zeros"]
-    zeros = torch.where(torch.isnan(zeros), zeros, zeros.detach() * (Bx.detach() / Bx))
+    pad = torch.isnan(zeros)
+    z0 = torch.where(pad, torch.zeros_like(zeros), zeros)  # guard: NaN padding must not reach backward
+    zeros = torch.where(pad, zeros, z0 * (Bx.detach() / Bx))
     return airy, e_lo, e_hi, zeros
 
 
