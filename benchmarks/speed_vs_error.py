@@ -233,6 +233,12 @@ def _write(args, tables, npts):
             npts=npts, sub=args.subsample, nproc=os.cpu_count(),
         )
         out = ROOT / "docs" / "performance.md"
+        # keep the section other scripts own (benchmarks/bragg_color_speed_vs_error.py)
+        start, end = "<!-- bragg-color:start -->", "<!-- bragg-color:end -->"
+        old = out.read_text() if out.exists() else ""
+        if start in old and end in old:
+            kept = start + old.split(start, 1)[1].split(end, 1)[0] + end
+            text = text.rstrip("\n") + "\n\n" + kept + "\n"
         tmp = out.with_suffix(".md.tmp")
         tmp.write_text(text)
         os.replace(tmp, out)

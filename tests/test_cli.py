@@ -197,3 +197,109 @@ def test_python_dash_m(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert (tmp_path / "spectrum.npz").is_file() and (tmp_path / "spectrum.png").is_file()
     assert str(tmp_path / "spectrum.png") in proc.stdout
+
+
+# ------------------------------------------------------------------ torchirid gradients
+
+TINY = ["--lambdas", "244", "500", "--ratios", "0.3", "0.7", "--angles", "8"]
+
+
+def _gradients(tmp_path: Path, *extra: str, name: str = "atlas"):
+    rc = main(["gradients", "--out", str(tmp_path), "--name", name, *TINY, *extra])
+    assert rc == 0
+    png, npz = tmp_path / f"{name}.png", tmp_path / f"{name}.npz"
+    assert png.is_file() and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert npz.is_file() and npz.stat().st_size > 0
+    return _load(npz)
+
+
+def test_gradients_tiny_grid(tmp_path, capsys):
+    data = _gradients(tmp_path)
+    assert capsys.readouterr().out.split() == [str(tmp_path / "atlas.png"), str(tmp_path / "atlas.npz")]
+    for key in ("srgb_reference", "srgb_piecewise", "srgb_paper_sub"):
+        assert data[key].shape == (2, 2, 8, 3), key
+    assert data["srgb_thin_film"].shape == (2, 8, 3)
+    for key in ("srgb_reference", "srgb_piecewise", "srgb_paper_sub", "srgb_thin_film"):
+        strip = data[key]
+        assert np.isfinite(strip).all() and (strip >= 0).all() and (strip <= 1).all(), key
+        # grazing incidence: R = 1 at every wavelength, so every strip ends white
+        assert (strip[..., -1, :] > 0.99).all(), key
+    np.testing.assert_allclose(data["theta_deg"], np.linspace(0, 90, 8))
+    np.testing.assert_allclose(data["lambdas_nm"], [244.0, 500.0])
+    np.testing.assert_allclose(data["ratios"], [0.3, 0.7])
+    np.testing.assert_allclose(data["d1_nm"], [[73.2, 170.8], [150.0, 350.0]])
+    np.testing.assert_allclose(data["d1_nm"] + data["d2_nm"], [[244.0] * 2, [500.0] * 2])
+    np.testing.assert_allclose(data["curve_wavelength_nm"], [599.0, 556.0, 442.0])
+    R = data["reflectance_bragg"]
+    assert R.shape == (2, 2, data["curve_theta_deg"].size, 3)
+    assert data["reflectance_thin_film"].shape == (2, data["curve_theta_deg"].size, 3)
+    assert np.isfinite(R).all() and (R >= 0).all() and (R <= 1 + 1e-6).all()
+    params = json.loads(str(data["params"]))
+    assert (params["n1"], params["n2"], params["cells"]) == (1.0, 1.5, 20)
+    assert params["lambdas_nm"] == [244.0, 500.0] and params["ratios"] == [0.3, 0.7]
+    assert params["strips"]["paper_sub"] == {"label": "paper sub. s=3", "method": "piecewise",
+                                             "subdivisions": 3, "weights": "paper"}
+    assert params["torchirid_version"]
+
+
+def test_gradients_strips_match_library(tmp_path):
+    data = _gradients(tmp_path, "--cells", "7")
+    cos = f64(data["cos_theta"])
+    d1, d2 = f64(data["d1_nm"][1, 0]), f64(data["d2_nm"][1, 0])  # Λ = 500 nm, d1/Λ = 0.3
+    expected = {
+        "reference": torchirid.bragg_xyz(cos, 1.0, 1.5, d1, d2, 7, method="spectral"),
+        "piecewise": torchirid.bragg_xyz(cos, 1.0, 1.5, d1, d2, 7, method="piecewise", subdivisions=8),
+        "paper_sub": torchirid.bragg_xyz(cos, 1.0, 1.5, d1, d2, 7, method="piecewise", subdivisions=3,
+                                         weights="paper"),
+    }
+    for key, xyz in expected.items():
+        np.testing.assert_allclose(data[f"xyz_{key}"][1, 0], xyz.numpy(), rtol=1e-10, atol=1e-12)
+        srgb = np.clip(torchirid.xyz_to_srgb(xyz).numpy(), 0, 1)
+        np.testing.assert_allclose(data[f"srgb_{key}"][1, 0], srgb, rtol=1e-10, atol=1e-12)
+    # the thin-film column: a 244 nm slab of n = 1.5 in air, on a dense spectrum
+    wl = torch.linspace(380.0, 780.0, 2001, dtype=torch.float64)
+    film = torchirid.spectrum_to_xyz(torchirid.thin_film_reflectance(wl, cos[:, None], 1.5, 244.0, 1.0), wl)
+    np.testing.assert_allclose(data["xyz_thin_film"][0], film.numpy(), rtol=1e-10, atol=1e-12)
+    # the curves at the CMF peaks
+    R = torchirid.bragg_reflectance(f64([599.0, 556.0, 442.0]), f64(np.cos(np.radians(data["curve_theta_deg"][100]))),
+                                    1.0, 1.5, d1, d2, 7)
+    np.testing.assert_allclose(data["reflectance_bragg"][1, 0, 100], R.numpy(), rtol=1e-5, atol=1e-6)
+    # the approximations are approximations: close to the reference, not equal to it
+    assert 0 < np.abs(data["srgb_piecewise"] - data["srgb_reference"]).max() < 0.5
+
+
+def test_gradients_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["gradients", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for word in ("--lambdas", "--ratios", "--angles", "--cells", "--n2", "--dpi", "599", "Fig. 4"):
+        assert word in out
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert "gradients" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--angles", "0"],
+        ["--angles", "1"],
+        ["--ratios", "0"],
+        ["--ratios", "0.5", "1.2"],
+        ["--lambdas", "-5"],
+        ["--lambdas", "nan"],
+        ["--cells", "0"],
+        ["--n2", "glass"],
+        ["--n1", "2"],  # n1 > n2: total internal reflection, outside the piecewise model
+        ["--dpi", "0"],
+        ["--name", "a/b"],
+    ],
+)
+def test_gradients_bad_arguments_exit_2(tmp_path, capsys, extra):
+    with pytest.raises(SystemExit) as exc:
+        main(["gradients", "--out", str(tmp_path), *TINY, *extra])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "error:" in err and "Traceback" not in err
+    assert not any(tmp_path.iterdir())

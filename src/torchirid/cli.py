@@ -484,6 +484,10 @@ def _cmd_gradients(args: argparse.Namespace) -> int:
     parser: argparse.ArgumentParser = args.parser
     if not args.name or os.sep in args.name or (os.altsep and os.altsep in args.name):
         parser.error(f"--name must be a plain file stem, got {args.name!r}")
+    if args.n1 > args.n2:
+        # the piecewise strips model light propagating in layer 2 at every angle up to 90°
+        parser.error(f"--n1 ({args.n1:g}) must not exceed --n2 ({args.n2:g}): the piecewise approximations "
+                     "need light propagating in layer 2 (no total internal reflection) up to 90°")
 
     import numpy as np
     import torch
@@ -516,19 +520,19 @@ def _cmd_gradients(args: argparse.Namespace) -> int:
     try:
         with torch.no_grad():
             for (key, label, kwargs) in GRADIENT_METHODS:
-                bar.set_postfix_str(label)
+                bar.set_postfix_str(label, refresh=False)
                 xyz[key] = torchirid.bragg_xyz(cos_t, n1, n2, d1, d2, args.cells, **kwargs, **common).numpy()
                 bar.update()
 
             # thin film: a slab of index n2, thickness Λ, in n1 (air by default) — (L, A, 3)
-            bar.set_postfix_str("thin film")
+            bar.set_postfix_str("thin film", refresh=False)
             wl = torch.linspace(380.0, 780.0, THIN_FILM_SAMPLES, dtype=dtype)
             R_film = torchirid.thin_film_reflectance(wl, cos_t[:, None], n2, period, n1, n_outer=n1, **common)
             xyz["thin_film"] = torchirid.spectrum_to_xyz(R_film, wl).numpy()
             bar.update()
 
             # reflectance curves at the CMF peaks: (L, R, C, 3) and (L, C, 3)
-            bar.set_postfix_str("curves")
+            bar.set_postfix_str("curves", refresh=False)
             wl_c = torch.as_tensor(CURVE_WAVELENGTHS_NM, dtype=dtype)
             cos_c = cosines(curve_theta_deg)[:, None]
             R_bragg = torchirid.bragg_reflectance(wl_c, cos_c, n1, n2, d1[..., None], d2[..., None], args.cells,
@@ -570,7 +574,7 @@ def _cmd_gradients(args: argparse.Namespace) -> int:
     png_path = out / f"{args.name}.png"
     try:
         out.mkdir(parents=True, exist_ok=True)
-        bar.set_postfix_str("figure")
+        bar.set_postfix_str("figure", refresh=False)
         fig = _plot_gradients(theta_deg, curve_theta_deg, lambdas, ratios, d1.squeeze(-1).numpy(),
                               d2.squeeze(-1).numpy(), strips, R_bragg, R_thin, args)
         try:
@@ -657,7 +661,7 @@ def _plot_gradients(theta_deg, curve_theta_deg, lambdas, ratios, d1_nm, d2_nm, s
         # thin film: reflectance curves and the reference strip
         cell = outer[i, 0].subgridspec(4, 1, height_ratios=[4.2, 0.8, 0.8, 0.8], hspace=0.12)
         ax = fig.add_subplot(cell[0])
-        curves(ax, R_thin[i], f"thin film, d = {period:g} nm", f"Λ = {period:g} nm\nR")
+        curves(ax, R_thin[i], f"d = {period:g} nm", f"Λ = {period:g} nm\nR")
         strip(fig.add_subplot(cell[1]), strips["thin_film"][i], labels[0], True, last_row)
         if i == 0:
             ax.annotate(f"thin film (n = {args.n2:g})", (0.5, 1.0), xycoords="axes fraction", xytext=(0, 13),
