@@ -23,8 +23,10 @@ several calls per round); time per colour = median over rounds / 810; speed-up =
 over rounds of the per-round ratio to default ``spectral`` (drift of a shared machine
 cancels). Per-grid ("all") times are the sums over the three Λ / 2430; errors pool the 2430
 colours. Before each round the script waits (bounded by ``--max-wait``) until other processes
-leave the cores idle. A batch-size check times a few methods at 810 and 8100 colours per call
-(fig4, Λ = 500 nm). Takes ~2–4 min on 2 idle cores.
+leave the cores idle. By default it runs with glibc's mmap/trim thresholds raised to 2^30
+(``--malloc tuned``, for every method alike; ``--malloc default`` leaves glibc alone). A
+batch-size check times a few methods at 810 and 8100 colours per call (fig4, Λ = 500 nm).
+Takes ~2–4 min on 2 idle cores.
 
 Outputs (unless ``--no-write``):
 
@@ -41,7 +43,8 @@ JSON schema (``format`` "torchirid.bragg_color_errors", ``format_version`` 1)::
       "description": str,
       "provenance": {"created": ISO date-time, "command": str, "torchirid_version": str,
                      "torch_version": str, "python": str, "cpu": str, "threads": 2,
-                     "dtype": "float64", "timing": str, "rounds": int, "contended_rounds": int},
+                     "dtype": "float64", "allocator": str, "timing": str, "rounds": int,
+                     "contended_rounds": int},
       "grids": {                       # grid name -> its definition
         "fig4" | "dense": {"n1": float, "n2": float, "cells": int, "periods_nm": [float],
                  "d1_over_period": [float], "angles_deg": [float], "polarization": str,
@@ -105,6 +108,7 @@ FIGURE = ROOT / "docs" / "figures" / "bragg_color_speed_vs_error.png"
 PERF_MD = ROOT / "docs" / "performance.md"
 JSON_OUT = ROOT / "src" / "torchirid" / "data" / "bragg_color_errors.json"
 START, END = "<!-- bragg-color:start -->", "<!-- bragg-color:end -->"
+MALLOC = str(1 << 30)  # glibc MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ of --malloc tuned
 REF_SPF, CHECK_SPF = 192.0, 384.0  # samples per fringe: error reference (2× the default 96) and its check
 
 GRIDS = {
@@ -241,7 +245,7 @@ def measure(args):
     total = sum(len(g["periods"]) for g in GRIDS.values()) * (args.rounds + 1) + args.rounds
     with tqdm(total=total, desc="grids × Λ × rounds", file=sys.stdout, mininterval=1.0) as bar:
         for grid, g in GRIDS.items():
-            results[grid], refinfo[grid] = {}, {"samples": {}, "ref_samples": {}, "check": {}}
+            results[grid], refinfo[grid] = {}, {"samples": {}, "ref_samples": {}, "check": {}, "spectral_worst": {}}
             for period in g["periods"]:
                 bar.set_postfix_str(f"{grid} Λ={period:.0f} errors")
                 cos, n1, n2, d1, d2, N = batch(grid, period)
@@ -262,6 +266,9 @@ def measure(args):
                     fn = (lambda kw=kw: ti.bragg_xyz(cos, n1, n2, d1, d2, N, **kw))
                     fns[key] = fn
                     errs[key] = delta_e_2000(xyz_to_lab(fn()), ref_lab).numpy()
+                e_spec = errs[ref_key]
+                refinfo[grid]["spectral_worst"][pk] = (float(e_spec.max()),
+                                                       ANGLES[int(np.unravel_index(e_spec.argmax(), e_spec.shape)[1])])
                 bar.update(1)
                 bar.set_postfix_str(f"{grid} Λ={period:.0f} timing")
                 times = time_rounds(fns, args.rounds, seed=int(period) + len(grid), bar=bar, quiet=quiet)
@@ -406,8 +413,21 @@ def pareto_text(cfgs, keys, entries):
                 cmp_ = (f"{label(cfg_of[bk])} (p95 {fmt(entries[bk][grid]['p95'] if pk == 'all' else entries[bk][grid]['per_period'][pk]['p95'])}) "
                         f"vs sampled K={bv['cheapest'][1]}: sampled takes {bv['ratio']:.2f}× the time")
             lines.append(f"| {grid} | {pk} | {names(fr['p95'])} | {names(fr['median'])} | {cmp_} |")
-            summary[(grid, pk)] = (len(fr["p95"]), len(fr["median"]))
-    return "\n".join(lines), summary
+            summary[(grid, pk)] = dict(front_p95=len(fr["p95"]), front_median=len(fr["median"]), ratio=bv["ratio"])
+    cells = [(k, v) for k, v in summary.items() if k[1] != "all"]
+    on = [f"{g} Λ = {pk}" for (g, pk), v in cells if v["front_p95"] or v["front_median"]]
+    if on:
+        verdict = f"Piecewise configurations are on the front for: {', '.join(on)}."
+    else:
+        verdict = "**No piecewise configuration is on the front for any grid and Λ** (p95 or median)."
+    ratios = [(v["ratio"], k) for k, v in cells if v["ratio"] is not None]
+    if ratios:
+        r, (g, pk) = max(ratios)
+        verdict += (f" The narrowest p95 margin is at {g} Λ = {pk} nm: the cheapest sampled K at least as accurate "
+                    f"as the best piecewise configuration takes {r:.2f}× its time"
+                    + (f", so timings would have to move by more than {1 / r:.1f}× to change the verdict." if r < 1
+                       else "."))
+    return "\n".join(lines) + "\n\n" + verdict, summary
 
 
 def batch_text(entries, refinfo):
@@ -436,7 +456,8 @@ def batch_text(entries, refinfo):
     return "\n".join(lines)
 
 
-def plot(cfgs, keys, entries, path):
+def plot(cfgs, keys, entries, path, resolution=0.05):
+    YMIN = 5e-3
     import matplotlib
 
     matplotlib.use("Agg")
@@ -457,27 +478,41 @@ def plot(cfgs, keys, entries, path):
                 ax.plot(xs, p95, marker=marker, color=colour, ls="-", label=f"{fam} (p95)")
                 ax.plot(xs, med, marker=marker, color=colour, ls=":", mfc="none", alpha=0.7,
                         label=f"{fam} (median)")
+                if fam == "piecewise paper/fitted":
+                    continue  # nearly on top of paper/paper: not annotated
+                left = fam == "piecewise paper/paper"
                 for (c, _), x, y in zip(sel, xs, p95):
                     ann = f"K={c['samples']}" if c["method"] == "sampled" else f"s={c['subdivisions']}"
-                    ax.annotate(ann, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=7, color=colour)
+                    ax.annotate(ann, (x, y), textcoords="offset points", xytext=(-4, 0) if left else (4, 4),
+                                ha="right" if left else "left", va="center" if left else "bottom",
+                                fontsize=7, color=colour)
             tref = entries[keys[0]][grid]["per_period"][pk]["us_per_colour"]
             ax.axvline(tref, color="k", ls="--", lw=1, label="spectral reference (time)")
             ax.axhline(1.0, color="grey", ls="-.", lw=0.8, label="ΔE2000 = 1")
+            ax.axhspan(YMIN, resolution, color="grey", alpha=0.12, lw=0,
+                       label="below the reference's resolution")
             ax.set_xscale("log")
             ax.set_yscale("log")
+            ax.set_ylim(bottom=YMIN)
             ax.set_xlabel("µs per colour (2 threads)")
             ax.set_ylabel("ΔE2000 vs spectral reference")
             ax.set_title(f"{grid}: n2 = {g['n2']}, N = {g['cells']}, Λ = {pk} nm")
             ax.grid(True, which="both", alpha=0.3)
     h, lab = axes[0, 0].get_legend_handles_labels()
-    fig.legend(h, lab, loc="outside lower center", ncol=5, fontsize=8)
+    fig.legend(h, lab, loc="outside lower center", ncol=6, fontsize=8)
     fig.suptitle("Bragg mirror colour: speed against error (Fourneau Fig. 4 grid and a dense grid; "
-                 "filled/solid: p95, open/dotted: median)")
+                 "filled/solid: p95, open/dotted: median; values below 5e-3 are off the axes)")
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.stem + ".tmp.png")
     fig.savefig(tmp, dpi=110)
     os.replace(tmp, path)
     plt.close(fig)
+
+
+def allocator(args):
+    if args.malloc == "tuned":
+        return "glibc allocator tuned (MALLOC_MMAP_THRESHOLD_=MALLOC_TRIM_THRESHOLD_=2^30, set by the script)"
+    return "glibc allocator defaults"
 
 
 def cpu_name():
@@ -497,10 +532,10 @@ def write_json(cfgs, keys, entries, refinfo, args, elapsed):
                         "benchmarks/bragg_color_speed_vs_error.py."),
         "provenance": {
             "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "command": "python benchmarks/bragg_color_speed_vs_error.py " + " ".join(args.argv),
+            "command": " ".join(["python benchmarks/bragg_color_speed_vs_error.py", *args.argv]),
             "torchirid_version": ti.__version__, "torch_version": torch.__version__,
             "python": platform.python_version(), "cpu": f"{cpu_name()}, {os.cpu_count()} cores",
-            "threads": 2, "dtype": "float64",
+            "threads": 2, "dtype": "float64", "allocator": allocator(args),
             "timing": (f"one call per (method, Λ) on the 9 × 90 batch; median of {args.rounds} interleaved rounds; "
                        f"whole run {elapsed:.0f} s"),
             "contended_rounds": refinfo["quiet"]["contended"], "rounds": refinfo["quiet"]["rounds"],
@@ -540,9 +575,35 @@ def section(md, comparison, front, batchmd, entries, refinfo, args, elapsed):
     chk = max(v for grid in GRIDS for v in refinfo[grid]["check"].values())
     spec_max = max(entries[spec][grid]["max"] for grid in GRIDS)
     spec_p95 = max(entries[spec][grid]["p95"] for grid in GRIDS)
+    worst = max((v for grid in GRIDS for v in refinfo[grid]["spectral_worst"].values()), key=lambda v: v[0])
+    big = sorted({v[1] for grid in GRIDS for v in refinfo[grid]["spectral_worst"].values() if v[0] > 0.5 * worst[0]})
+    where = (f"the largest deviation ({worst[0]:.3f}) is at θ = {worst[1]}°"
+             + ("" if big == [worst[1]] else f"; deviations above half of it at θ ∈ {{{', '.join(map(str, big))}}}°"))
+    resol = max(0.05, 2 * chk)
+    app = json.dumps({"method": "piecewise", "subdivisions": 1, "weights": "paper", "correction": "paper"},
+                     sort_keys=True)
+    ours = [entries[app]["fig4"]["per_period"][str(p)]["speedup_vs_spectral"] for p in PAPER_TABLE1]
+    paper = [v[0] for v in PAPER_TABLE1.values()]
+
+    def trend(v):
+        return "rise" if all(b > a for a, b in zip(v, v[1:])) else (
+            "fall" if all(b < a for a, b in zip(v, v[1:])) else "are not monotonic")
+    trend_txt = (f"Our app. (paper/paper) speed-ups {trend(ours)} with Λ "
+                 f"(×{ours[0]:.1f} → ×{ours[-1]:.1f}), the paper's {trend(paper)} (×{paper[0]} → ×{paper[-1]}).")
+    bt, sizes = refinfo["batch"], [9 * a for a in BATCH_CHECK["angles"]]
+
+    def fixed_ms(cfg):  # t(n) = a + b n through the two batch sizes
+        u = bt[json.dumps(cfg, sort_keys=True)]
+        t0, t1 = u[str(sizes[0])] * sizes[0], u[str(sizes[1])] * sizes[1]
+        b = (t1 - t0) / (sizes[1] - sizes[0])
+        return (t0 - b * sizes[0]) / 1e3, b
+    pw = [fixed_ms(c) for c in BATCH_CONFIGS if c["method"] == "piecewise"]
+    fixed_txt = (f"Fitting t = a + b·n through the two batch sizes gives the piecewise calls a fixed cost "
+                 f"a = {min(a for a, _ in pw):.1f}–{max(a for a, _ in pw):.1f} ms and b = "
+                 f"{min(b for _, b in pw):.1f}–{max(b for _, b in pw):.1f} µs per colour")
     q = refinfo["quiet"]
     quiet = (f"Before each round the script waits (bounded) until other processes leave the cores idle "
-             f"(2 torch threads on 2 shared cores slow down 10–300× next to a busy process); "
+             f"(2 torch threads on 2 shared cores can slow down by orders of magnitude next to a busy process); "
              f"{q['contended']} of {q['rounds']} rounds still ran next to one ({q['waited_s']:.0f} s waited).")
     cmd = "python benchmarks/bragg_color_speed_vs_error.py" + ("" if not args.argv else " " + " ".join(args.argv))
     return f"""{START}
@@ -555,7 +616,8 @@ All figures of this section from one run of
 ```
 
 on {datetime.date.today().isoformat()}: {cpu_name()}, {os.cpu_count()} cores, torch {torch.__version__},
-Python {platform.python_version()}, `torch.set_num_threads(2)`, float64; whole run {elapsed:.0f} s.
+Python {platform.python_version()}, `torch.set_num_threads(2)`, float64, {allocator(args)};
+whole run {elapsed:.0f} s.
 The same run writes `src/torchirid/data/bragg_color_errors.json` (these numbers, for method
 selection; schema in the script's docstring) and the figure below.
 
@@ -570,8 +632,8 @@ median of the per-round ratios to `method="spectral"` (default settings, 96 ω s
 Errors are ΔE2000 (CIE Lab, D65 white) against the spectral integration at 2× the default
 sampling (192 samples per fringe; ω samples for the worst mirror of each batch, default → 2×:
 {ref}), which is itself within {chk:.3f} ΔE2000 of the 4× sampling everywhere. The default
-`spectral` method is within {spec_max:.3f} (max) / {spec_p95:.3f} (p95) of it; the largest
-deviations are at θ = 89°. Errors below ~0.05 are at the reference's resolution.
+`spectral` method is within {spec_max:.3f} (max) / {spec_p95:.3f} (p95) of it; {where}.
+Errors below ~{resol:.2f} are at the reference's resolution (shaded in the figure).
 
 Methods: `sampled` K = K wavelengths uniform in λ; `piecewise` app. (s = 1) and sub. (s > 1):
 "paper/paper" is the published method (weights w̃·R^e, the paper's angular-correction
@@ -590,12 +652,12 @@ the largest time advantage over the cheapest sampled K that is at least as accur
 
 {front}
 
-**Batch size.** The verdict above is for 810 colours per call. A fixed per-call cost (~ms)
-weighs on `piecewise` (landmark bisection: many small ops), while `sampled` materialises a
-(colours × K) reflectance whose per-colour cost grows on large batches (cache, and glibc
-returning large temporaries to the system; see the allocator note above). Same run, fig4,
-Λ = 500 nm, 90 or 900 angles (0–89°); domination recomputed with the times at each batch size
-and the errors of the 810-colour grid:
+**Batch size.** The verdict above is for 810 colours per call. Same run, fig4, Λ = 500 nm,
+90 or 900 angles (0–89°), i.e. 810 or 8100 colours per call; domination recomputed with the
+times at each batch size and the errors of the 810-colour grid. {fixed_txt}. `sampled`
+materialises a (colours × K) reflectance, whose per-colour cost can grow on large batches
+(memory traffic; with glibc's default allocator also page faults, see the allocator note above:
+`--malloc default` measures that setting).
 
 {batchmd}
 
@@ -611,8 +673,10 @@ and five times faster than the reference"; Table 1 gives app. ×10.6 / ×6.8 / �
 The references differ: the paper's is its own spectral renderer (the text does not give its
 wavelength sampling), ours the converged 96-samples-per-fringe integration, whose cost grows
 with N·Λ·n (more fringes), while the piecewise cost grows only with the number of landmarks.
-Hence our speed-ups rise with Λ where the paper's fall. The ratios are not like for like, and
-neither says anything about accuracy: that is the Pareto table's job.
+{trend_txt} The ratios are not like for like, and neither says anything about accuracy: that is
+the Pareto table's job. On this shared VM the speed-ups of this table moved by up to ~1.6× between
+runs of the same code (2026-11-22: small-op-bound piecewise calls and memory-bound spectral calls
+drift differently).
 
 <details><summary>Full table, fig4 grid (n2 = {g4['n2']:g}, N = {g4['cells']})</summary>
 
@@ -648,10 +712,26 @@ def main(argv=None):
     ap.add_argument("--no-write", action="store_true",
                     help="print only: do not write the figure, docs/performance.md or the JSON table")
     ap.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds (median; ≥ 5)")
+    ap.add_argument("--malloc", choices=("tuned", "default"), default="tuned",
+                    help="glibc allocator: 'tuned' (default) re-runs this script with MALLOC_MMAP_THRESHOLD_ = "
+                         "MALLOC_TRIM_THRESHOLD_ = 2^30 so that MB-sized temporaries are not mmap'ed and page-faulted "
+                         "afresh on every call (glibc's adaptive threshold otherwise makes times bimodal); "
+                         "'default' leaves glibc as it is")
     ap.add_argument("--max-wait", type=float, default=150.0,
                     help="seconds in all spent waiting for other processes to leave the cores idle before rounds")
     args = ap.parse_args(argv)
-    args.argv = [a for a in (sys.argv[1:] if argv is None else argv) if a != "--no-write"]
+    raw = list(sys.argv[1:] if argv is None else argv)
+    args.argv = [a for a in raw if a != "--no-write"]
+    tuned = os.environ.get("MALLOC_MMAP_THRESHOLD_") == MALLOC and os.environ.get("MALLOC_TRIM_THRESHOLD_") == MALLOC
+    if (args.malloc == "tuned") != tuned:  # glibc reads these at start-up: run again with the wanted setting
+        env = dict(os.environ)
+        if args.malloc == "tuned":
+            env.update(MALLOC_MMAP_THRESHOLD_=MALLOC, MALLOC_TRIM_THRESHOLD_=MALLOC)
+        else:
+            env.pop("MALLOC_MMAP_THRESHOLD_", None)
+            env.pop("MALLOC_TRIM_THRESHOLD_", None)
+        sys.stdout.flush()
+        os.execve(sys.executable, [sys.executable, os.path.abspath(__file__), *raw], env)
     if args.rounds < 5:
         ap.error("--rounds must be >= 5")
     t0 = time.perf_counter()
@@ -670,7 +750,8 @@ def main(argv=None):
     print(f"\n### Pareto front\n\n{front}\n\n### Batch size\n\n{batchmd}\n\n### Paper Table 1\n\n{comparison}\n")
     print(f"measured in {elapsed:.0f} s; timing rounds: {refinfo['quiet']}")
     if not args.no_write:
-        plot(cfgs, keys, entries, FIGURE)
+        chk = max(v for g in GRIDS for v in refinfo[g]["check"].values())
+        plot(cfgs, keys, entries, FIGURE, resolution=max(0.05, 2 * chk))
         print(f"wrote {FIGURE.relative_to(ROOT)}")
         write_json(cfgs, keys, entries, refinfo, args, elapsed)
         write_section(section(md, comparison, front, batchmd, entries, refinfo, args, elapsed))

@@ -1,0 +1,130 @@
+r"""``method="auto"``: the cheapest Bragg-colour method that meets a ΔE2000 tolerance, from measured tables.
+
+The tables are ``src/torchirid/data/bragg_color_errors.json``, written by
+``benchmarks/bragg_color_speed_vs_error.py`` (p95 ΔE2000 against the converged spectral colour
+and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
+
+1. **sampled K** — its error is governed by the samples per fringe. Every measured
+   (grid, Λ, K) gives a point (K / F, p95) with F = N (n1 d1 + n2 d2)_max Δω / π fringes;
+   the smallest samples-per-fringe ρ(τ) above which *every* measured point has p95 ≤ τ is
+   scaled to the query: K = max(64, ⌈ρ(τ) · F_query⌉). Its cost is the measured µs per
+   colour interpolated in K.
+2. **piecewise** (only for mirrors in n1, real indices, no total internal reflection,
+   cells ≥ 10 — the setting it was measured in): a configuration qualifies when its p95 on
+   *both* measured grids is ≤ τ; its cost (per colour) does not grow with N.
+3. **spectral** always qualifies for τ ≥ its measured p95 (~0.01); below that nothing is
+   guaranteed and spectral is used anyway. Its cost scales with its sample count.
+
+The qualifying configuration with the lowest estimated cost wins. A thin film (cells = 1)
+has ~1 fringe, so rule 1 gives a short sampled integration. :func:`choose_bragg_method`
+returns the choice with its estimated p95 and cost, for inspection.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from pathlib import Path
+
+import torch
+
+__all__ = ["choose_bragg_method"]
+
+_TABLE = Path(__file__).resolve().parent.parent / "data" / "bragg_color_errors.json"
+
+
+@functools.lru_cache(maxsize=1)
+def _table():
+    data = json.loads(_TABLE.read_text())
+    if data.get("format") != "torchirid.bragg_color_errors" or data.get("format_version") != 1:
+        raise ValueError(f"{_TABLE} is not a torchirid.bragg_color_errors table (format version 1)")
+    return data
+
+
+def _fringes(cells, n1, n2, d1, d2, lo, hi):
+    with torch.no_grad():
+        opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
+        F = torch.as_tensor(cells).to(opl.dtype) * opl
+        return float(F.max()) * 2 * math.pi * (1 / lo - 1 / hi) / math.pi
+
+
+def _grid_fringes(g):
+    lo, hi = g["wavelength_range_nm"]
+    out = {}
+    for lam in g["periods_nm"]:
+        opl = max(lam * (g["n1"] * f + g["n2"] * (1 - f)) for f in g["d1_over_period"])
+        out[str(int(lam)) if float(lam).is_integer() else str(lam)] = g["cells"] * opl * 2 * (1 / lo - 1 / hi)
+    return out
+
+
+def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolerance: float = 1.0,
+                        wavelength_range=(380.0, 780.0)) -> dict:
+    """The configuration ``method="auto"`` uses: ``{"config": {...}, "p95": float, "us_per_colour": float}``.
+
+    ``config`` holds keyword arguments of :func:`torchirid.bragg_xyz`; ``p95`` is the
+    measured 95th-percentile ΔE2000 it is expected to stay under, ``us_per_colour`` its
+    estimated cost on this machine class (see the module docstring for the rule).
+    """
+    if not (isinstance(tolerance, (int, float)) and tolerance > 0):
+        raise ValueError(f"tolerance must be a ΔE2000 > 0; got {tolerance!r}")
+    data = _table()
+    lo, hi = wavelength_range
+    F_q = _fringes(cells, n1, n2, d1, d2, lo, hi)
+    entries = data["entries"]
+    candidates = []
+
+    # 1. sampled: samples-per-fringe envelope over every measured grid and period
+    points, costs = [], []
+    for e in entries:
+        if e["config"].get("method") != "sampled":
+            continue
+        K = e["config"]["samples"]
+        for gname, g in data["grids"].items():
+            fr = _grid_fringes(g)
+            for lam, stats in e["grids"][gname]["per_period"].items():
+                points.append((K / fr[lam], stats["p95"]))
+            costs.append((K, e["grids"][gname]["us_per_colour"]))
+    points.sort()
+    rho = None
+    for i, (spf, _) in enumerate(points):
+        if all(p <= tolerance for _, p in points[i:]):
+            rho = spf
+            break
+    if rho is not None:
+        K = max(64, math.ceil(rho * F_q))
+        Ks = sorted(costs)
+        per_sample = max(c / k for k, c in Ks if k >= 256) if any(k >= 256 for k, _ in Ks) else Ks[-1][1] / Ks[-1][0]
+        fixed = min(c for _, c in Ks)
+        candidates.append({"config": {"method": "sampled", "samples": K},
+                           "p95": max(p for s, p in points if s >= rho), "us_per_colour": fixed + per_sample * K})
+
+    # 2. piecewise, in the setting it was measured in
+    real = not any(torch.is_tensor(t) and t.is_complex() or isinstance(t, complex) for t in (n1, n2))
+    with torch.no_grad():
+        in_n1 = n_host is None or bool((torch.as_tensor(n_host) == torch.as_tensor(n1)).all())
+        c = torch.as_tensor(cos_theta, dtype=torch.float64)
+        tir = real and bool((torch.as_tensor(n2).real ** 2 < torch.as_tensor(n1).real ** 2 * (1 - c * c)).any())
+        many = bool((torch.as_tensor(cells) >= 10).all())
+    if real and in_n1 and not tir and many:
+        for e in entries:
+            if e["config"].get("method") != "piecewise":
+                continue
+            p95 = max(e["grids"][g]["p95"] for g in data["grids"])
+            if p95 <= tolerance:
+                us = max(e["grids"][g]["us_per_colour"] for g in data["grids"])
+                candidates.append({"config": dict(e["config"]), "p95": p95, "us_per_colour": us})
+
+    # 3. spectral: the converged reference
+    spec = next(e for e in entries if e["config"].get("method") == "spectral")
+    g0 = data["grids"]["fig4"]
+    k_ref = max(g0["spectral_samples"].values())
+    us_ref = spec["grids"]["fig4"]["us_per_colour"]
+    from .bragg_color import spectral_samples
+
+    k_q = spectral_samples(cells, n1, n2, d1, d2, wavelength_range=wavelength_range)
+    spectral = {"config": {"method": "spectral"}, "p95": max(spec["grids"][g]["p95"] for g in data["grids"]),
+                "us_per_colour": us_ref * k_q / k_ref}
+    if spectral["p95"] <= tolerance or not candidates:
+        candidates.append(spectral)
+    return min(candidates, key=lambda c: c["us_per_colour"])

@@ -1,0 +1,40 @@
+"""method="auto": the cheapest measured method that meets the tolerance."""
+
+import numpy as np
+import pytest
+import torch
+
+import torchirid as ti
+from tensors import F64, t64
+from torchirid.spectral.auto import choose_bragg_method
+
+
+@pytest.mark.parametrize("tolerance", [0.5, 2.0])
+def test_auto_meets_its_tolerance_on_random_mirrors(tolerance):
+    rng = np.random.default_rng(4)
+    c = torch.cos(torch.deg2rad(torch.linspace(0, 89, 30, dtype=F64)))
+    errs = []
+    for _ in range(12):
+        n2, lam_, f, N = rng.uniform(1.2, 2.4), rng.uniform(150, 1000), rng.uniform(0.1, 0.9), int(rng.integers(1, 51))
+        d1, d2 = f * lam_, (1 - f) * lam_
+        ref = ti.xyz_to_lab(ti.bragg_xyz(c, 1.0, n2, d1, d2, N))
+        got = ti.xyz_to_lab(ti.bragg_xyz(c, 1.0, n2, d1, d2, N, method="auto", tolerance=tolerance))
+        errs.append(ti.delta_e_2000(got, ref))
+    assert np.percentile(torch.cat(errs).numpy(), 95) <= tolerance
+
+
+def test_choices_follow_the_measured_tables():
+    c = t64([0.2, 0.7, 1.0])
+    thin = choose_bragg_method(c, 1.0, 1.5, 0.0, 300.0, 1, tolerance=1.0)
+    assert thin["config"] == {"method": "sampled", "samples": 64}  # a thin film: ~1 fringe
+    few = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 20, tolerance=1.0)["config"]
+    many = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 200, tolerance=1.0)["config"]
+    assert few["method"] == many["method"] == "sampled" and many["samples"] > 5 * few["samples"]
+    # the piecewise cost does not grow with N: it wins for very many cells at a loose tolerance
+    assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 2000, tolerance=3.0)["config"]["method"] == "piecewise"
+    # not its setting (host ≠ n1): never piecewise
+    assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 2000, n_host=1.33, tolerance=3.0)["config"]["method"] != "piecewise"
+    # tighter than anything measured but spectral: spectral
+    assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 20, tolerance=0.005)["config"] == {"method": "spectral"}
+    with pytest.raises(ValueError, match="tolerance"):
+        choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 20, tolerance=0)
