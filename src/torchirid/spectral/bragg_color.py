@@ -63,7 +63,10 @@ def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), 
     with torch.no_grad():
         opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
         fringes = float((torch.as_tensor(cells).to(opl.dtype) * opl).max()) * d_omega / math.pi
-    return int(min(max(math.ceil(samples_per_fringe * fringes) + 1, min_samples), max_samples))
+    wanted = samples_per_fringe * fringes
+    if not math.isfinite(wanted) or wanted >= max_samples:  # (also absurd or overflowing inputs)
+        return max_samples
+    return int(min(max(math.ceil(wanted) + 1, min_samples), max_samples))
 
 
 def _wavelengths(method, K, wavelength_range, dtype, device):
