@@ -545,6 +545,9 @@ class LUT:
                 np.savez(f, **arrays)
                 f.flush()
                 os.fsync(f.fileno())
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; a table is an ordinary file
             os.replace(tmp, path)
         except BaseException:
             try:
