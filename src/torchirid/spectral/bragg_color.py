@@ -12,7 +12,7 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     .. math:: F = N \,(n_1 d_1 + n_2 d_2)\,(\omega_{max} - \omega_{min}) / \pi .
 
     Samples are uniform in ω, ``samples_per_fringe`` (default 192) per fringe, at least 401,
-    and at most ``max_samples`` (65 536). How we know it converged: quadrupling the
+    and at most ``max_samples`` (262 144). How we know it converged: quadrupling the
     sampling moves no colour by more than ~0.03 ΔE2000 for the N ≤ 50, Λ ≤ 1 µm mirrors
     tested (``tests/spectral/test_bragg_color.py``, asserted ≤ 0.05; the issue bar is 0.1).
     Grazing angles converge slowest (fringes sharpen there): at 96 samples per fringe the
@@ -52,7 +52,7 @@ _CHUNK = 1 << 22
 
 
 def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), samples_per_fringe=192.0,
-                     min_samples=401, max_samples=65536) -> int:
+                     min_samples=401, max_samples=262144) -> int:
     """Number of ω samples the ``"spectral"`` method uses for the worst mirror of a batch.
 
     ``ceil(samples_per_fringe · N · (|n1| d1 + |n2| d2) · Δω / π)``, clipped to
@@ -92,7 +92,7 @@ def bragg_xyz(
     illuminant: str = "D65",
     samples: int | None = None,
     samples_per_fringe: float = 192.0,
-    max_samples: int = 65536,
+    max_samples: int = 262144,
     wavelength_range=(380.0, 780.0),
     subdivisions: int = 8,
     weights: str = "averaged",
