@@ -105,6 +105,9 @@ def flush_grazing(c: torch.Tensor) -> torch.Tensor:
     (0/0 → NaN). NaN passes through unchanged.
     """
     tiny = torch.finfo(c.dtype).tiny ** 0.5
+    with torch.no_grad():
+        if not bool((c.abs() < tiny).any()):  # the common case: nothing to flush, no extra pass
+            return c
     return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
 
 
@@ -137,7 +140,7 @@ def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
             raise ValueError(f"{name} must lie in [0, 1] (cosine of the incidence angle); got {v:g}")
         return
     with torch.no_grad():
-        if bool(((t < 0) | (t > 1)).any()):
+        if bool(((t < 0) | (t > 1)).any()):  # (NaN passes: it propagates)
             bad = t[(t < 0) | (t > 1)]
             raise ValueError(
                 f"{name} must lie in [0, 1] (cosine of the incidence angle); got {bad.flatten()[0].item():g}"

@@ -171,7 +171,7 @@ class _RealCell:
         # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
         # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal))
         tiny = torch.finfo(lam.dtype).tiny ** 0.5
-        guarded = static or bool((q1.abs() < tiny).any()) or bool((q2.abs() < tiny).any())
+        guarded = static or bool((torch.minimum(q1.min(), q2.min()) < tiny))  # q1, q2 ≥ 0 here
         self.sin_a, sa_q1 = _sin_over_q(self.a, q1, k0 * d1, guarded)
         self.sin_b, sb_q2 = _sin_over_q(self.b, q2, k0 * d2, guarded)
         if guarded:
@@ -202,8 +202,7 @@ class _RealCell:
 def _admittance_factors(pol, q1, q2, n1, n2):
     """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p)."""
     if pol == "s":
-        one = torch.ones_like(q1)
-        return q1, q2, one, one
+        return q1, q2, 1.0, 1.0  # Python constants: no tensor ops spent on multiplying by one
     m1, m2 = n1 * n1, n2 * n2
     return q1 / m1, q2 / m2, m1, m2
 
