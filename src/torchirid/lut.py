@@ -484,8 +484,7 @@ class LUT:
                     )
             elif extrapolate == "clamp":
                 x = torch.clamp(x, g[0], g[-1])  # zero gradient outside, edge value returned
-            i = torch.searchsorted(g, x.detach().contiguous(), right=True) - 1
-            i = i.clamp(0, g.numel() - 2)  # edge cells (also the cell used by "linear")
+            i = self._cell(name, g, x.detach())
             g0, g1 = g[i], g[i + 1]
             t = (x - g0) / (g1 - g0)
             idxs.append(i)
@@ -513,6 +512,37 @@ class LUT:
         return corners
 
     __call__ = interp
+
+    def _cell(self, name, g, x):
+        """Index of the cell ``[g[i], g[i+1])`` holding ``x`` (right-closed: a node belongs to
+        the cell on its right, the last node to the last cell), clamped to the edge cells.
+
+        Uniform axes (the common case: tables uniform in their variable) get the index by
+        arithmetic with a one-step correction for rounding; others by :func:`torch.searchsorted`.
+        Both give the same cells.
+        """
+        n = g.numel()
+        step = self._uniform_steps().get(name)
+        if step is None or n < 3:
+            return (torch.searchsorted(g, x.contiguous(), right=True) - 1).clamp(0, n - 2)
+        pos = torch.nan_to_num((x - g[0]) / step, nan=0.0, posinf=n, neginf=-1.0)
+        i = torch.floor(pos).clamp(0, n - 2).to(torch.long)
+        i = torch.where((x >= g[(i + 1).clamp(max=n - 1)]) & (i < n - 2), i + 1, i)  # rounding, one step
+        return torch.where((x < g[i]) & (i > 0), i - 1, i)
+
+    def _uniform_steps(self):
+        """{axis: step} for the axes whose nodes are equally spaced (to 1e-9 of the step)."""
+        cached = getattr(self, "_steps_cache", None)
+        if cached is None:
+            cached = {}
+            for name, g in self._axes.items():
+                if g.numel() >= 3:
+                    d = g[1:] - g[:-1]
+                    h = (g[-1] - g[0]) / (g.numel() - 1)
+                    if bool((d - h).abs().max() <= 1e-9 * h.abs()):
+                        cached[name] = float(h)
+            self._steps_cache = cached
+        return cached
 
     # ------------------------------------------------------------------ I/O
     def save(self, path) -> Path:
