@@ -32,7 +32,7 @@ def test_landmarks_match_a_dense_scan():
         d1, d2 = f * lam_, (1 - f) * lam_
         for pol in ("s", "p"):
             A, B, delta = _setup(c, 1.0, n2, d1, d2, pol)
-            L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta))
+            L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta), iterations=40)
             x = ti.bragg_dispersion(2 * math.pi / omega, t64(c), 1.0, n2, d1, d2, polarization=pol)
             airy_scan = omega[:-1][torch.sign(x[1:]) != torch.sign(x[:-1])].numpy()
             gap = (x.abs() > 1).int()
@@ -74,3 +74,15 @@ def test_batched_over_angles_equals_one_by_one():
         Li = bragg_landmarks(W_MIN, W_MAX, t64(a), t64(b), t64(d))
         for key in ("airy", "edges_lo", "edges_hi", "zeros"):
             assert np.allclose(_finite(L[key][i]), _finite(Li[key]), rtol=0, atol=1e-12)
+
+
+def test_default_iterations_are_accurate_enough():
+    # the default 12 halvings + a secant step: landmarks within 1e-5 (relative) of converged
+    A = torch.linspace(50, 900, 60, dtype=F64)
+    B = torch.linspace(900, 60, 60, dtype=F64)
+    d = torch.full_like(A, 0.08)
+    ref = bragg_landmarks(W_MIN, W_MAX, A, B, d, iterations=60)
+    got = bragg_landmarks(W_MIN, W_MAX, A, B, d)
+    for k in ("airy", "edges_lo", "edges_hi"):
+        rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
+        assert rel.max() <= 1e-5

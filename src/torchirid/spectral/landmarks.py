@@ -12,7 +12,7 @@ relation (eq. 8) reads x(ω) = cos KΛ = cos ωA cos ωB − ½ Ω sin ωA sin �
 * **zero points** ω_z = zπ/B, z ∈ ℕ⁺ (eq. 12), where the envelope vanishes (r1 = 0).
 
 Airy points and edges are found by a batched bisection (all modes of all angles,
-parameters and polarizations at once; 32 halvings by default),
+parameters and polarizations at once; 12 halvings and a final secant step by default),
 on the cancellation-free forms 1 ∓ x = 2 sin²/cos²(ω(A+B)/2) ± δ sin ωA sin ωB with
 δ = (η1 − η2)²/(2η1η2) = Ω/2 − 1 ≥ 0. Modes are padded to the largest count in the batch;
 padded entries are NaN in :func:`bragg_landmarks`'s output.
@@ -36,18 +36,26 @@ def dispersion_parts(omega, A, B, delta):
 
 
 def _bisect(f, lo, hi, iterations):
-    """Batched bisection for a sign change of ``f`` between ``lo`` and ``hi`` (same shapes)."""
-    f_lo = torch.sign(f(lo))
+    """Batched bisection for a sign change of ``f`` between ``lo`` and ``hi`` (same shapes),
+    finished by one secant (false-position) step in the final bracket: the error falls from
+    ~2^-iterations to ~(2^-iterations)² of the initial bracket."""
+    f_lo = f(lo)
+    s_lo = torch.sign(f_lo)
+    f_hi = f(hi)
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        s = torch.sign(f(mid))
-        left = s == f_lo  # the root is in [mid, hi]
-        lo = torch.where(left, mid, lo)
-        hi = torch.where(left, hi, mid)
-    return 0.5 * (lo + hi)
+        f_mid = f(mid)
+        left = torch.sign(f_mid) == s_lo  # the root is in [mid, hi]
+        lo, f_lo = torch.where(left, mid, lo), torch.where(left, f_mid, f_lo)
+        hi, f_hi = torch.where(left, hi, mid), torch.where(left, f_hi, f_mid)
+    den = f_hi - f_lo
+    ok = (den != 0) & torch.isfinite(den)
+    x = lo - f_lo * (hi - lo) / torch.where(ok, den, torch.ones_like(den))
+    inside = ok & (x >= lo) & (x <= hi)
+    return torch.where(inside, x, 0.5 * (lo + hi))
 
 
-def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 32):
+def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 12):
     r"""Modes, Airy points, band-gap edges and zero points of a Bragg mirror in [ω_min, ω_max].
 
     Args:
@@ -55,8 +63,9 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 32):
         A, B: optical thicknesses n1 d1 cos θ1 and n2 d2 cos θ2 (nm), real ≥ 0, any
             broadcasting batch shape (angles × parameters × polarizations).
         delta: Ω/2 − 1 = (η1 − η2)²/(2 η1 η2) ≥ 0 for the polarization (batch-broadcast).
-        iterations: bisection halvings: the bracket (a mode spacing) shrinks 2^-iterations;
-            32 puts every landmark within ~1e-12 nm⁻¹, far below what changes a colour.
+        iterations: bisection halvings before the final secant step; 12 put every landmark
+            within ~2e-6 (relative) of its exact position (~1e-9 with 18): a colour moves by
+            ≲ 1e-4 ΔE2000 — pass more for other uses.
 
     Returns:
         dict of tensors, batch shape ``(*,)`` first:

@@ -204,7 +204,8 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
         pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1, inside gaps: not used)
         fringe_mean = 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
                                       torch.zeros_like(one_minus))
-        exact = _yeh_at(sub_mid, Ax.unsqueeze(-1), Bx.unsqueeze(-1), dx.unsqueeze(-1), Cx.unsqueeze(-1), N[..., None, None])
+        # a gap box is never subdivided: its one sub-box centre is the box centre
+        exact = _yeh_at(mid, Ax, Bx, dx, Cx, N[..., None]).unsqueeze(-1)
         weight = torch.where(gap.unsqueeze(-1), exact, fringe_mean)
     C = table(omega=edges)  # (*, J, s+1, 3) cumulative CMF at every sub-box edge
     return (weight.unsqueeze(-1) * (C[..., 1:, :] - C[..., :-1, :])).sum(dim=(-3, -2))
