@@ -34,7 +34,6 @@ import math
 import os
 import re
 import sys
-import tempfile
 import time
 
 import torch
@@ -44,6 +43,7 @@ if os.path.join(ROOT, "src") not in sys.path:  # run from a checkout without ins
     sys.path.insert(0, os.path.join(ROOT, "src"))
 
 import torchirid  # noqa: E402
+from torchirid._io import atomic_write  # noqa: E402
 from torchirid.spectral.correction import (  # noqa: E402
     FILE_FORMAT,
     FILE_FORMAT_VERSION,
@@ -188,33 +188,14 @@ def normal_regression(pairs, w0) -> tuple[float, float]:
     return float(sol[0]), float(sol[1])
 
 
-def _file_mode() -> int:
-    """0o666 minus the umask: what open() would give (mkstemp makes 0o600 files)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
 def write_json_atomic(path: str, data: dict) -> None:
-    """Write ``data`` as JSON to a temporary file in the target directory, then os.replace it."""
+    """Write ``data`` as JSON atomically (torchirid's one atomic-write helper)."""
     text = json.dumps(data, indent=1, ensure_ascii=False, allow_nan=False)
     # lists of numbers on one line each (innermost brackets without strings or objects)
     text = re.sub(r"\[([^\[\]{}\"]*)\]",
                   lambda m: "[" + ", ".join(v.strip() for v in m.group(1).split(",")) + "]", text)
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".angular_correction.", suffix=".json.tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text + "\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, _file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    atomic_write(path, lambda f: f.write((text + "\n").encode("utf-8")))
 
 
 def plot(path, fitted, args) -> None:

@@ -69,13 +69,13 @@ import copy
 import hashlib
 import json
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Iterable, Mapping
 
 import numpy as np
 import torch
+
+from ._io import atomic_write
 
 __all__ = ["LUT", "FORMAT_VERSION", "EXTRAPOLATE_MODES"]
 
@@ -568,24 +568,7 @@ class LUT:
             arrays[f"axis_{j}"] = g.detach().to("cpu").contiguous().numpy()
         arrays["meta"] = np.frombuffer(meta_bytes, dtype=np.uint8)
 
-        directory = path.parent if str(path.parent) else Path(".")
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{path.name}.", suffix=".tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.savez(f, **arrays)
-                f.flush()
-                os.fsync(f.fileno())
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; a table is an ordinary file
-            os.replace(tmp, path)
-        except BaseException:
-            try:
-                os.unlink(tmp)
-            except FileNotFoundError:
-                pass
-            raise
-        return path
+        return atomic_write(path, lambda f: np.savez(f, **arrays))
 
     @classmethod
     def load(cls, path, *, builder: str | None = None, parameters: Mapping[str, Any] | None = None,

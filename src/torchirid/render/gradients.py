@@ -32,7 +32,7 @@ import torch
 from ..color import spectrum_to_xyz, xyz_to_srgb
 from ..optics import bragg_reflectance, thin_film_reflectance
 from ..spectral import bragg_xyz
-from ._io import atomic_write
+from .._io import atomic_write
 
 #: wavelengths (nm) of the reflectance curves: the peaks of the CIE 1931 x̄, ȳ, z̄ CMFs for
 #: red, green and blue. Fourneau et al.'s Fig. 4 caption prints {559, 556, 442} nm; 559 is a

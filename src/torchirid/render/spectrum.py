@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from ..optics import bragg_reflectance, thin_film_reflectance
-from ._io import atomic_write
+from .._io import atomic_write
 
 #: precisions of the computation, by name
 DTYPES = ("float64", "float32")

@@ -1,4 +1,5 @@
-"""Atomic file writes for the products of :mod:`torchirid.render` (PNG, ``.npz``)."""
+"""Atomic file writes: every file torchirid writes (LUTs, figures, ``.npz`` products, fitted
+coefficients) goes through :func:`atomic_write`."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ from typing import IO, Callable
 def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) -> Path:
     """Call ``write(f)`` on a temporary file in ``path``'s directory, then rename it over ``path``.
 
-    A reader never sees a half-written file, and a failed write leaves ``path`` as it was.
+    A reader never sees a half-written file, and a failed write leaves ``path`` as it was;
+    the data are flushed and fsynced before the rename.
     The file gets the usual permissions (0666 minus the umask), not ``mkstemp``'s 0600.
     The directory must exist; ``OSError`` propagates. Returns ``path`` as a ``Path``.
     """
@@ -20,6 +22,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) 
     try:
         with os.fdopen(fd, "wb") as f:
             write(f)
+            f.flush()
+            os.fsync(f.fileno())
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600 files; give the usual permissions
