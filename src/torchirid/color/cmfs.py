@@ -147,31 +147,24 @@ def _product_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.ndarr
 # ---------------------------------------------------------------------------------------
 
 
+def _tensors(wl, v, dtype, device):
+    """Numpy tables as (wavelength, values) tensors, converted from float64 (never cast up)."""
+    return tuple(torch.as_tensor(a, dtype=torch.float64).to(dtype=dtype, device=device) for a in (wl, v))
+
+
 @functools.lru_cache(maxsize=None)
 def _cmfs_tensor(observer: str, space: str, dtype: torch.dtype, device: torch.device):
-    wl, v = _cmfs_numpy(observer, space)
-    return (
-        torch.as_tensor(wl, dtype=torch.float64).to(dtype=dtype, device=device),
-        torch.as_tensor(v, dtype=torch.float64).to(dtype=dtype, device=device),
-    )
+    return _tensors(*_cmfs_numpy(observer, space), dtype, device)
 
 
 @functools.lru_cache(maxsize=None)
 def _illuminant_tensor(name: str, dtype: torch.dtype, device: torch.device):
-    wl, v = _illuminant_numpy(name)
-    return (
-        torch.as_tensor(wl, dtype=torch.float64).to(dtype=dtype, device=device),
-        torch.as_tensor(v, dtype=torch.float64).to(dtype=dtype, device=device),
-    )
+    return _tensors(*_illuminant_numpy(name), dtype, device)
 
 
 @functools.lru_cache(maxsize=None)
 def _product_tensor(observer: str, illuminant: str, dtype: torch.dtype, device: torch.device):
-    wl, p = _product_numpy(observer, illuminant)
-    return (
-        torch.as_tensor(wl, dtype=torch.float64).to(dtype=dtype, device=device),
-        torch.as_tensor(p, dtype=torch.float64).to(dtype=dtype, device=device),
-    )
+    return _tensors(*_product_numpy(observer, illuminant), dtype, device)
 
 
 @functools.lru_cache(maxsize=None)
