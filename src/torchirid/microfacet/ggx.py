@@ -47,7 +47,7 @@ def ggx_d(cos_theta_m, alpha) -> torch.Tensor:
         ``D`` broadcast over the inputs. Normalised so that ∫ D cos θm dω = 1.
 
     >>> round(float(ggx_d(1.0, 0.5)), 6)  # 1 / (π α²) at the pole
-    1.273240
+    1.273239
     """
     c, a = _prepare(cos_theta_m, alpha, "cos_theta_m")
     with torch.no_grad():
