@@ -1,0 +1,101 @@
+r"""Description of a layered Bragg structure (Fourneau et al. 2024 §4.1, Fig. 2(e)).
+
+From top to bottom: an optional smooth coating (present when the host index ``n1 ≠ 1``: a
+flat interface air | n1), ``L`` *rough Bragg layers* — each a GGX distribution (roughness α)
+of identical Bragg mirrors ``(n2, d2), (n1, d1)`` × ``cells`` embedded in the host ``n1`` —
+and an optional Lambertian base of albedo ρd. The host medium is lossless and thick enough
+that layers do not interfere; polarization is not tracked between layers (unpolarized
+reflectance per layer).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import torch
+
+
+from ..optics.bragg import bragg_reflectance
+
+__all__ = ["RoughBraggLayer", "LayeredBragg"]
+
+
+@dataclass(frozen=True)
+class RoughBraggLayer:
+    """One rough Bragg layer: a GGX distribution (``alpha``) of Bragg mirrors.
+
+    Attributes:
+        n1: host (low) index, real > 0 — the medium around the mirrors.
+        n2: second index of the cell, real > 0 (complex allowed: absorbing).
+        d1, d2: thicknesses in nm (> 0).
+        cells: number of (n2, n1) cells N ≥ 1.
+        alpha: GGX roughness of the mirror orientations, > 0.
+    """
+
+    n1: float
+    n2: float | complex
+    d1: float
+    d2: float
+    cells: int
+    alpha: float
+
+    def __post_init__(self):
+        for name in ("n1", "d1", "d2", "alpha"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ValueError(f"{name} must be a real number > 0; got {v!r}")
+        n2 = self.n2
+        if isinstance(n2, bool) or not isinstance(n2, (int, float, complex)) or not n2.real > 0:
+            raise ValueError(f"n2 must be a refractive index with real part > 0; got {n2!r}")
+        if isinstance(n2, complex) and n2.imag < 0:
+            raise ValueError(f"n2 must have Im(n2) >= 0 (absorption); got {n2!r}")
+        if isinstance(self.cells, bool) or not isinstance(self.cells, int) or self.cells < 1:
+            raise ValueError(f"cells must be an integer >= 1; got {self.cells!r}")
+
+    def reflectance(self, wavelength, cos_theta) -> torch.Tensor:
+        """Unpolarized Yeh reflectance R_λ of one mirror lit from the host at ``cos_theta``
+        (the cosine in the host medium n1; broadcast with ``wavelength`` in nm)."""
+        return bragg_reflectance(
+            wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, polarization="unpolarized"
+        )
+
+
+@dataclass(frozen=True)
+class LayeredBragg:
+    """A stack of rough Bragg layers over an optional Lambertian base, under an optional coating.
+
+    Attributes:
+        layers: the rough Bragg layers, top first (at least one). All share the host ``n1``.
+        base_albedo: Lambertian albedo ρd ∈ [0, 1] of the base (0: a black, absorbing base).
+
+    The coating is implied by the host index: ``n_host == 1`` means no coating (f_r,0 = 0,
+    f_t,0 = 1 in eq. 34); otherwise a smooth air | n_host interface sits on top.
+    """
+
+    layers: Sequence[RoughBraggLayer]
+    base_albedo: float = 0.0
+
+    def __post_init__(self):
+        layers = tuple(self.layers)
+        if not layers or not all(isinstance(layer, RoughBraggLayer) for layer in layers):
+            raise ValueError("layers must be a non-empty sequence of RoughBraggLayer")
+        hosts = {layer.n1 for layer in layers}
+        if len(hosts) != 1:
+            raise ValueError(f"layers must share one host index n1 (the coating medium); got {sorted(hosts)}")
+        rho = self.base_albedo
+        if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not 0.0 <= rho <= 1.0:
+            raise ValueError(f"base_albedo must lie in [0, 1]; got {rho!r}")
+        object.__setattr__(self, "layers", layers)
+
+    @property
+    def n_host(self) -> float:
+        """The host index n1 shared by all layers (the coating's index)."""
+        return self.layers[0].n1
+
+    @property
+    def coated(self) -> bool:
+        """True when a smooth coating air | n1 sits on top (n1 ≠ 1)."""
+        return self.n_host != 1.0
+
+
