@@ -24,7 +24,7 @@ import torch
 
 from .. import _checks
 
-__all__ = ["ggx_d", "smith_g1", "smith_lambda"]
+__all__ = ["ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g1", "smith_lambda"]
 
 
 def _prepare(cos, alpha, cos_name):
@@ -92,3 +92,168 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
     c = c.abs()
     root = torch.sqrt(c * c + a * a * (1.0 - c * c))  # > 0 for α > 0 (safe at c = 0)
     return 2.0 * c / (c + root)
+
+
+# ---------------------------------------------------------------------------------------
+# Vector helpers (local shading frame: geometric normal n = +z)
+# ---------------------------------------------------------------------------------------
+
+
+def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
+    """√x for x > 0, 0 otherwise; the gradient is 0 (not inf/NaN) where x <= 0."""
+    pos = x > 0
+    return torch.where(pos, torch.sqrt(torch.where(pos, x, torch.ones_like(x))), torch.zeros_like(x))
+
+
+def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """Eq. 18 on already-validated tensors (``c`` may exceed 1 by rounding)."""
+    a2 = a * a
+    denom = 1.0 + (a2 - 1.0) * (c * c)  # ≥ min(1, α²) > 0 for |c| ≤ 1
+    d = a2 / (math.pi * denom * denom)
+    return torch.where(c > 0, d, torch.zeros_like(d))
+
+
+def _g1_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """Eq. 19 (without χ⁺) on validated tensors; ``c`` ≥ 0."""
+    c2 = (c * c).clamp(max=1.0)  # rounding: |v| may be 1 + ulp
+    root = torch.sqrt(c2 + a * a * (1.0 - c2))  # > 0 for α > 0
+    return 2.0 * c / (c + root)
+
+
+def _as_vectors(x, name: str, size: int, dtype, device) -> torch.Tensor:
+    t = _checks.as_real(x, name, dtype, device)
+    if t.ndim == 0 or t.shape[-1] != size:
+        raise ValueError(f"{name} must have shape (*, {size}) (last axis = vector components); got {tuple(t.shape)}")
+    return t
+
+
+def _check_above(wz: torch.Tensor, name: str) -> None:
+    with torch.no_grad():
+        if bool((wz <= 0).any()):
+            raise ValueError(
+                f"{name} must point above the surface ({name}[..., 2] > 0 in the local frame with "
+                f"normal +z); got min z = {wz.min().item():g}"
+            )
+
+
+def reflect(wi, m) -> torch.Tensor:
+    r"""Mirror reflection of ``wi`` about the normal ``m``: :math:`\mathbf o = 2(\mathbf i\cdot\mathbf m)\mathbf m - \mathbf i`.
+
+    Args:
+        wi: directions pointing away from the surface, shape ``(*, 3)``.
+        m: unit normals, shape ``(*, 3)`` (broadcast with ``wi``).
+
+    Returns:
+        ``(*, 3)``; a unit vector when ``wi`` and ``m`` are unit vectors.
+
+    >>> reflect(torch.tensor([0.6, 0.0, 0.8]), torch.tensor([0.0, 0.0, 1.0])).tolist()
+    [-0.6000000238418579, 0.0, 0.800000011920929]
+    """
+    dtype, device = _checks.resolve_dtype_device(wi, m)
+    i = _as_vectors(wi, "wi", 3, dtype, device)
+    n = _as_vectors(m, "m", 3, dtype, device)
+    return 2.0 * (i * n).sum(-1, keepdim=True) * n - i
+
+
+def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
+    r"""Sample a microfacet normal from the GGX distribution of visible normals (isotropic α).
+
+    Heitz 2018, "Sampling the GGX Distribution of Visible Normals" (JCGT 7(4)), listing 1:
+    stretch ``wi`` by α to the hemisphere configuration, sample the projected area of a
+    unit hemisphere (a disk, warped by ``s = (1 + cos θ_h)/2``), lift to the hemisphere,
+    and unstretch. The density of the returned ``m`` in solid angle is
+    :func:`ggx_vndf_pdf`, :math:`D_{wi}(\mathbf m) = G_1(\mathbf i)\,\max(0,\mathbf i\cdot\mathbf m)\,D(\mathbf m)/\cos\theta_i`.
+
+    Args:
+        wi: viewing directions in the local frame (geometric normal = +z), shape ``(*, 3)``.
+            Need not be normalised (the sample only depends on the direction) but must
+            point above the surface: ``wi[..., 2] > 0``, else ``ValueError``.
+        alpha: GGX roughness > 0, shape broadcasting with the leading dims ``(*)``.
+        u: uniform random numbers in [0, 1], shape ``(*, 2)``.
+
+    Returns:
+        Unit microfacet normals ``m`` with ``m[..., 2] >= 0``, shape ``(*, 3)`` broadcast
+        over ``wi``, ``alpha`` and ``u``. Differentiable in ``alpha`` and ``wi``
+        (reparameterisation), finite at normal incidence.
+
+    >>> m = sample_ggx_vndf(torch.tensor([0.0, 0.0, 1.0]), 0.5, torch.tensor([0.0, 0.0]))
+    >>> m.tolist()  # u1 = 0 samples the centre of the disk: m = n
+    [0.0, 0.0, 1.0]
+    """
+    dtype, device = _checks.resolve_dtype_device(wi, alpha, u)
+    v = _as_vectors(wi, "wi", 3, dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    uu = _as_vectors(u, "u", 2, dtype, device)
+    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    _check_above(v[..., 2], "wi")
+    with torch.no_grad():
+        if bool(((uu < 0) | (uu > 1)).any()):
+            raise ValueError("u must lie in [0, 1] (uniform random numbers)")
+    a = a.unsqueeze(-1) if a.ndim > 0 else a
+    # stretch to the α = 1 configuration
+    vh = torch.cat([a * v[..., :2], v[..., 2:].expand(*torch.broadcast_shapes(a.shape, v[..., 2:].shape))], -1)
+    vh = vh / torch.linalg.vector_norm(vh, dim=-1, keepdim=True)  # |vh| ≥ vh.z > 0
+    # orthonormal basis (T1, T2, vh); T1 = x at normal incidence (lensq = 0, guarded sqrt)
+    lensq = vh[..., 0] ** 2 + vh[..., 1] ** 2
+    has_xy = lensq > 0
+    inv_len = torch.rsqrt(torch.where(has_xy, lensq, torch.ones_like(lensq)))
+    zero = torch.zeros_like(lensq)
+    t1 = torch.stack(
+        [
+            torch.where(has_xy, -vh[..., 1] * inv_len, torch.ones_like(lensq)),
+            torch.where(has_xy, vh[..., 0] * inv_len, zero),
+            zero,
+        ],
+        -1,
+    )
+    t2 = torch.linalg.cross(vh, t1, dim=-1)
+    # uniform point on the unit disk, warped towards the visible half
+    r = _safe_sqrt(uu[..., 0])
+    phi = (2.0 * math.pi) * uu[..., 1]
+    p1 = r * torch.cos(phi)
+    p2 = r * torch.sin(phi)
+    s = 0.5 * (1.0 + vh[..., 2])
+    p1, p2, s = torch.broadcast_tensors(p1, p2, s)
+    p2 = (1.0 - s) * _safe_sqrt(1.0 - p1 * p1) + s * p2
+    # lift to the hemisphere
+    p3 = _safe_sqrt(1.0 - p1 * p1 - p2 * p2)
+    nh = p1.unsqueeze(-1) * t1 + p2.unsqueeze(-1) * t2 + p3.unsqueeze(-1) * vh
+    # unstretch back to the α configuration
+    ne = torch.cat([a * nh[..., :2], nh[..., 2:].clamp(min=0.0)], -1)
+    return ne / torch.linalg.vector_norm(ne, dim=-1, keepdim=True)  # |ne| > 0: nh is unit, α > 0
+
+
+def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
+    r"""Density (sr⁻¹) of :func:`sample_ggx_vndf`: the GGX distribution of visible normals
+
+    .. math::
+
+        D_{\mathbf i}(\mathbf m) = \frac{G_1(\mathbf i)\,\max(0, \mathbf i\cdot\mathbf m)\,D(\mathbf m)}{\cos\theta_i}
+
+    (Heitz 2014 eq. 14; D and G1 from Fourneau et al. 2024 eq. 18–19). It integrates to 1
+    over the hemisphere of ``m`` for every ``wi`` above the surface.
+
+    Args:
+        wi: unit viewing directions, local frame (normal = +z), shape ``(*, 3)``,
+            ``wi[..., 2] > 0`` (else ``ValueError``).
+        m: unit microfacet normals, shape ``(*, 3)``; the density is 0 for ``m[..., 2] <= 0``
+            or ``wi·m <= 0``.
+        alpha: GGX roughness > 0, shape broadcasting with ``(*)``.
+
+    Returns:
+        The density, shape ``(*)``.
+
+    >>> n = torch.tensor([0.0, 0.0, 1.0])
+    >>> round(float(ggx_vndf_pdf(n, n, 0.5)), 6)  # = D(n) = 1/(π α²) at normal incidence
+    1.273239
+    """
+    dtype, device = _checks.resolve_dtype_device(wi, m, alpha)
+    i = _as_vectors(wi, "wi", 3, dtype, device)
+    mm = _as_vectors(m, "m", 3, dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    _check_above(i[..., 2], "wi")
+    ci = i[..., 2]
+    dot = (i * mm).sum(-1)
+    g1_over_c = _g1_unchecked(ci, a) / ci  # ci > 0 (validated)
+    return g1_over_c * dot.clamp(min=0.0) * _d_unchecked(mm[..., 2], a)
