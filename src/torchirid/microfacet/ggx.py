@@ -24,7 +24,7 @@ import torch
 
 from .. import _checks
 
-__all__ = ["ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g1", "smith_lambda"]
+__all__ = ["ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1", "smith_lambda"]
 
 
 def _prepare(cos, alpha, cos_name):
@@ -53,11 +53,7 @@ def ggx_d(cos_theta_m, alpha) -> torch.Tensor:
     with torch.no_grad():
         if bool((c.abs() > 1).any()):
             raise ValueError("cos_theta_m must lie in [-1, 1]")
-    a2 = a * a
-    c2 = c * c
-    denom = 1.0 + (a2 - 1.0) * c2  # = cos⁴θ (α² + tan²θ)² ** ½, ≥ min(1, α²) > 0
-    d = a2 / (math.pi * denom * denom)
-    return torch.where(c > 0, d, torch.zeros_like(d))
+    return _d_unchecked(c, a)
 
 
 def smith_lambda(cos_theta, alpha) -> torch.Tensor:
@@ -89,9 +85,7 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
     0.861002
     """
     c, a = _prepare(cos_theta, alpha, "cos_theta")
-    c = c.abs()
-    root = torch.sqrt(c * c + a * a * (1.0 - c * c))  # > 0 for α > 0 (safe at c = 0)
-    return 2.0 * c / (c + root)
+    return _g1_unchecked(c.abs(), a)
 
 
 # ---------------------------------------------------------------------------------------
@@ -108,7 +102,7 @@ def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
 def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """Eq. 18 on already-validated tensors (``c`` may exceed 1 by rounding)."""
     a2 = a * a
-    denom = 1.0 + (a2 - 1.0) * (c * c)  # ≥ min(1, α²) > 0 for |c| ≤ 1
+    denom = 1.0 + (a2 - 1.0) * (c * c)  # = cos²θ (α² + tan²θ), ≥ min(1, α²) > 0 for |c| ≤ 1
     d = a2 / (math.pi * denom * denom)
     return torch.where(c > 0, d, torch.zeros_like(d))
 
@@ -116,7 +110,7 @@ def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
 def _g1_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """Eq. 19 (without χ⁺) on validated tensors; ``c`` ≥ 0."""
     c2 = (c * c).clamp(max=1.0)  # rounding: |v| may be 1 + ulp
-    root = torch.sqrt(c2 + a * a * (1.0 - c2))  # > 0 for α > 0
+    root = torch.sqrt(c2 + a * a * (1.0 - c2))  # > 0 for α > 0 (safe sqrt at c = 0 and 1)
     return 2.0 * c / (c + root)
 
 
@@ -257,3 +251,41 @@ def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
     dot = (i * mm).sum(-1)
     g1_over_c = _g1_unchecked(ci, a) / ci  # ci > 0 (validated)
     return g1_over_c * dot.clamp(min=0.0) * _d_unchecked(mm[..., 2], a)
+
+
+def smith_g(wi, wo, m, alpha) -> torch.Tensor:
+    r"""Separable Smith shadowing–masking :math:`G(\mathbf i,\mathbf o,\mathbf m) = G_1(\mathbf i,\mathbf m)\,G_1(\mathbf o,\mathbf m)`
+    (Fourneau et al. 2024 eq. 19, with its χ⁺ factors), on vectors.
+
+    .. math::
+
+        G_1(\mathbf v,\mathbf m) = \chi^+\!\Bigl(\frac{\mathbf v\cdot\mathbf m}{\mathbf v\cdot\mathbf n}\Bigr)
+            \frac{2}{1+\sqrt{1+\alpha^2\tan^2\theta_v}}
+
+    The χ⁺ test is evaluated as ``(v·m)(v·n) > 0`` (no division), so directions below the
+    surface are allowed: e.g. the ballistic transmission of eq. 22 uses ``G(i, -i, m)``.
+
+    Args:
+        wi, wo: unit directions in the local frame (normal n = +z), shape ``(*, 3)``.
+        m: unit microfacet normal, shape ``(*, 3)``.
+        alpha: GGX roughness > 0, shape broadcasting with ``(*)``.
+
+    Returns:
+        ``G ∈ [0, 1]``, shape ``(*)``; 0 at grazing (``v·n = 0``) and where a χ⁺ fails.
+
+    >>> n = torch.tensor([0.0, 0.0, 1.0])
+    >>> v = torch.tensor([0.8660254037844386, 0.0, 0.5], dtype=torch.float64)
+    >>> round(float(smith_g(v, n, n, 0.5)), 6)  # = G1(cos 60°) · G1(1)
+    0.861002
+    """
+    dtype, device = _checks.resolve_dtype_device(wi, wo, m, alpha)
+    i = _as_vectors(wi, "wi", 3, dtype, device)
+    o = _as_vectors(wo, "wo", 3, dtype, device)
+    mm = _as_vectors(m, "m", 3, dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    ci, co = i[..., 2], o[..., 2]
+    chi_i = (i * mm).sum(-1) * ci > 0  # χ⁺((i·m)/(i·n)) without dividing by i·n
+    chi_o = (o * mm).sum(-1) * co > 0
+    g = _g1_unchecked(ci.abs(), a) * _g1_unchecked(co.abs(), a)
+    return torch.where(chi_i & chi_o, g, torch.zeros_like(g))
