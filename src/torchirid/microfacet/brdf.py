@@ -81,37 +81,37 @@ def microfacet_brdf(wi, wo, alpha, reflectance=1.0) -> torch.Tensor:
         _checks.check_nonnegative(r_const, "reflectance", unit="(a reflectance)")
 
     ci, co = i[..., 2], o[..., 2]
-    above = (ci > 0) & (co > 0)
+    below = (ci <= 0) | (co <= 0)  # (NaN is not below: it propagates)
     # Below the horizon the result is 0; feed those entries safe stand-ins (n) so that
     # neither the forward nor the backward pass of the unused branch meets 0/0.
     n = torch.tensor([0.0, 0.0, 1.0], dtype=dtype, device=device)
-    i_s = torch.where(above.unsqueeze(-1), i, n)
-    o_s = torch.where(above.unsqueeze(-1), o, n)
+    i_s = torch.where(below.unsqueeze(-1), n, i)
+    o_s = torch.where(below.unsqueeze(-1), n, o)
     s = i_s + o_s
     h = s / torch.linalg.vector_norm(s, dim=-1, keepdim=True)  # |i+o| ≥ (i+o)·n > 0 here
     cos_d = (i_s * h).sum(-1).clamp(0.0, 1.0)  # i·h > 0; clamp rounding to the cosine range
     dg = 0.25 * _d_unchecked(h[..., 2], a) * _g1_over_cos(i_s[..., 2], a) * _g1_over_cos(o_s[..., 2], a)
     shape = dg.shape
-    above = above.expand(shape)
+    below = below.expand(shape)
 
     if const:
         out = dg * r_const
-        return torch.where(above, out, torch.zeros_like(out))
+        return torch.where(below, torch.zeros_like(out), out)
 
     r = reflectance(cos_d.expand(shape))
     r = torch.as_tensor(r, device=device)
     if r.ndim == len(shape) + 1:  # spectral: wavelength on the last axis
         out = dg.unsqueeze(-1) * r
-        mask = above.unsqueeze(-1)
+        mask = below.unsqueeze(-1)
     elif r.ndim == len(shape):
         out = dg * r
-        mask = above
+        mask = below
     else:
         raise ValueError(
             f"reflectance(cos_d) must return shape (*) or (*, W) for cos_d of shape {tuple(shape)}; "
             f"got {tuple(r.shape)}"
         )
-    return torch.where(mask, out, torch.zeros_like(out))
+    return torch.where(mask, torch.zeros_like(out), out)
 
 
 class MicrofacetBRDF(nn.Module):

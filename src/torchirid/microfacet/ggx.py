@@ -102,9 +102,11 @@ def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
 def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """Eq. 18 on already-validated tensors (``c`` may exceed 1 by rounding)."""
     a2 = a * a
-    denom = 1.0 + (a2 - 1.0) * (c * c)  # = cos²θ (α² + tan²θ), ≥ min(1, α²) > 0 for |c| ≤ 1
+    # cos²θ (α² + tan²θ) = 1 + (α² − 1)cos²θ, summed as sin²θ + α² cos²θ: two terms ≥ 0, so no
+    # cancellation at the peak (1 + (α² − 1) loses ~log10(1/α²) digits there)
+    denom = (1.0 - c) * (1.0 + c) + a2 * (c * c)
     d = a2 / (math.pi * denom * denom)
-    return torch.where(c > 0, d, torch.zeros_like(d))
+    return torch.where(c <= 0, torch.zeros_like(d), d)  # χ⁺; NaN propagates
 
 
 def _g1_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
@@ -285,7 +287,7 @@ def smith_g(wi, wo, m, alpha) -> torch.Tensor:
     a = _checks.as_real(alpha, "alpha", dtype, device)
     _checks.check_positive(a, "alpha", unit="(GGX roughness)")
     ci, co = i[..., 2], o[..., 2]
-    chi_i = (i * mm).sum(-1) * ci > 0  # χ⁺((i·m)/(i·n)) without dividing by i·n
-    chi_o = (o * mm).sum(-1) * co > 0
+    # χ⁺((v·m)/(v·n)) tested as (v·m)(v·n) > 0, without dividing by v·n; NaN propagates
+    masked = ((i * mm).sum(-1) * ci <= 0) | ((o * mm).sum(-1) * co <= 0)
     g = _g1_unchecked(ci.abs(), a) * _g1_unchecked(co.abs(), a)
-    return torch.where(chi_i & chi_o, g, torch.zeros_like(g))
+    return torch.where(masked, torch.zeros_like(g), g)
