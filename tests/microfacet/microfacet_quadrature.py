@@ -13,7 +13,7 @@ import torch
 F64 = torch.float64
 
 
-def graded_edges(a, b, points=(), levels=44, ratio=0.5):
+def graded_edges(a, b, points=(), levels=32, ratio=0.5):
     """Panel edges on [a, b] refined geometrically towards each of ``points`` (and kept)."""
     base = sorted({a, b, *(p for p in points if a <= p <= b)})
     edges = set(base)
@@ -51,21 +51,33 @@ def spherical(c, phi):
     return torch.stack(torch.broadcast_tensors(s * torch.cos(phi), s * torch.sin(phi), c), -1)
 
 
-def visible_hemisphere_grid(theta_i_deg, alpha, n_c=16, n_phi=24):
+def _azimuth_bound(c, A_num, B_den):
+    """φ* ∈ [0, π] with {|φ| < φ*} = {cos φ > q}, q = A_num/B_den (B_den ≥ 0; q = −∞ if B_den = 0 and A_num < 0)."""
+    pos = B_den > 0
+    q = torch.where(pos, A_num / torch.where(pos, B_den, torch.ones_like(B_den)), torch.where(A_num < 0, -2.0, 2.0))
+    return torch.acos(q.clamp(-1.0, 1.0))
+
+
+def visible_hemisphere_grid(theta_i_deg, alpha, n_c=16, n_phi=24, reflected_above=False):
     """Nodes m (N, 3) and weights dω (N,) covering {m·n > 0, m·i > 0} for i at theta_i.
 
-    For each cos θm = c the visible azimuths are |φ| < φ0(c), φ0 = acos(−c cos θi / (√(1−c²) sin θi));
-    Gauss–Legendre in φ on that interval (the integrand max(0, i·m) is smooth inside),
-    panels in c graded towards the GGX peak c = 1 and the kink c = sin θi.
+    With ``reflected_above``, also only where the mirror direction o = reflect(i, m) has o·n > 0.
+    For each cos θm = c these sets are |φ| < φ*(c) (m·i > 0: cos φ > −c cos θi/(√(1−c²) sin θi);
+    o·n > 0: cos φ > (cos θi/(2c) − c cos θi)/(√(1−c²) sin θi)); Gauss–Legendre in φ on that
+    interval (the integrands are smooth inside), panels in c graded towards the GGX peak c = 1
+    and the c where a bound reaches 0 or π (θm = 90° − θi, (90° ± θi)/2), √-type points.
     """
     ti = math.radians(theta_i_deg)
-    kink = math.sin(ti)
-    edges = graded_edges(0.0, 1.0, points=(1.0, kink) if 0.0 < kink < 1.0 else (1.0,))
+    points = {1.0, math.sin(ti)}
+    if reflected_above:
+        points |= {math.cos((math.pi / 2 - ti) / 2), math.cos((math.pi / 2 + ti) / 2)}
+    edges = graded_edges(0.0, 1.0, points=tuple(p for p in points if 0.0 < p <= 1.0))
     c, wc = gauss_panels(edges, n_c)
     s = torch.sqrt(1.0 - c * c)
-    A, B = c * math.cos(ti), s * math.sin(ti)
-    ratio = torch.where(B > 0, -A / torch.where(B > 0, B, torch.ones_like(B)), torch.full_like(A, -2.0))
-    phi0 = torch.where(ratio <= -1.0, torch.full_like(A, math.pi), torch.acos(ratio.clamp(-1.0, 1.0)))
+    B = s * math.sin(ti)
+    phi0 = _azimuth_bound(c, -c * math.cos(ti), B)
+    if reflected_above:
+        phi0 = torch.minimum(phi0, _azimuth_bound(c, math.cos(ti) / (2 * c) - c * math.cos(ti), B))
     x, w = np.polynomial.legendre.leggauss(n_phi)
     x, w = torch.as_tensor(x, dtype=F64), torch.as_tensor(w, dtype=F64)
     phi = phi0[:, None] * x[None, :]
