@@ -1,8 +1,12 @@
-r"""Isotropic GGX (Trowbridge–Reitz) microfacet distribution and Smith masking.
+r"""Isotropic GGX (Trowbridge–Reitz) microfacet distribution, Smith masking, and sampling of
+the distribution of visible normals.
 
-Fourneau et al. 2024, eq. 18–19 (after Walter et al. 2007). Angles are given as cosines
-with respect to the geometric normal; ``alpha`` is the GGX roughness (> 0; the paper uses
-α ∈ [0, 1], α → 0 is a mirror).
+Fourneau et al. 2024, eq. 18–19 (after Walter et al. 2007); visible normals after Heitz 2014
+("Understanding the masking-shadowing function", its definition of D_ωi) and Heitz 2018 ("Sampling the GGX
+distribution of visible normals"). Scalar functions take cosines with respect to the
+geometric normal; vector functions (``smith_g``, ``sample_ggx_vndf``, ``ggx_vndf_pdf``,
+``reflect``) take ``(*, 3)`` directions in the local frame whose normal is +z. ``alpha`` is
+the GGX roughness (> 0; the paper uses α ∈ [0, 1], α → 0 is a mirror).
 
 Forms used (algebraically equal to the paper's, without ``tan`` so that they stay finite at
 grazing and normal incidence):
@@ -10,7 +14,10 @@ grazing and normal incidence):
 .. math::
 
     D(\theta_m) = \frac{\alpha^2 \chi^+(\cos\theta_m)}{\pi\cos^4\theta_m(\alpha^2+\tan^2\theta_m)^2}
-                = \frac{\alpha^2 \chi^+(\cos\theta_m)}{\pi\,\bigl(1 + (\alpha^2-1)\cos^2\theta_m\bigr)^2}
+                = \frac{\alpha^2 \chi^+(\cos\theta_m)}{\pi\,\bigl(\sin^2\theta_m + \alpha^2\cos^2\theta_m\bigr)^2}
+
+(the denominator summed as ``(1 − c)(1 + c) + α² c²``: two non-negative terms, so small α
+keeps full relative precision at the peak ``c = 1``)
 
     G_1(\theta) = \frac{2}{1+\sqrt{1+\alpha^2\tan^2\theta}}
                 = \frac{2\cos\theta}{\cos\theta + \sqrt{\cos^2\theta + \alpha^2(1-\cos^2\theta)}}
@@ -226,7 +233,8 @@ def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
 
         D_{\mathbf i}(\mathbf m) = \frac{G_1(\mathbf i)\,\max(0, \mathbf i\cdot\mathbf m)\,D(\mathbf m)}{\cos\theta_i}
 
-    (Heitz 2014 eq. 14; D and G1 from Fourneau et al. 2024 eq. 18–19). It integrates to 1
+    (Heitz 2014's distribution of visible normals; D and G1 from Fourneau et al. 2024
+    eq. 18–19). It integrates to 1
     over the hemisphere of ``m`` for every ``wi`` above the surface.
 
     Args:
