@@ -1,0 +1,277 @@
+r"""Integrated transmissivity of a rough Bragg layer and the transmission sampling weights
+(Fourneau et al. 2024 §4.2.2–4.2.3, eq. 28 and 30–33).
+
+* :func:`integrated_transmissivity` — :math:`\tau(\theta_i) = f_t(\theta_i)\cos\theta_i =
+  \int_0^{\pi/2} T_\lambda(\theta_d) F_\alpha(\theta_i,\theta_d)\,d\theta_d` (eq. 28) with
+  :math:`T_\lambda = 1 - R_\lambda` of the layer's Bragg mirror, by the Gauss–Legendre rule of
+  :func:`~torchirid.layered.filter.filter_quadrature` (weights ∝ F_α, normalised to G1).
+* :func:`transmissivity_lut` — the paper's "1-D table per layer": τ over the incidence angle,
+  one channel per wavelength (a :class:`torchirid.lut.LUT`).
+* :func:`absorption` — :math:`A = 1 - G_1(\theta_i)` (eq. 30, Appendix C).
+* :func:`transmission_probability` — :math:`p_\mathrm{trans} = 2\tau/(1+G_1)` (eq. 31),
+  multiplexed: τ replaced by its mean over wavelengths.
+* :func:`transmission_weight` — :math:`(1+G_1)/2` (eq. 32), multiplexed
+  :math:`\frac{1+G_1}{2}\,\tau/\langle\tau\rangle_\lambda` (eq. 33); always
+  ``weight × p_trans = τ``.
+
+Shapes: τ carries wavelength on its **last** axis ``(*, W)``. In the probability and weight
+functions ``cos_theta`` and ``alpha`` describe the batch ``*`` only (no wavelength axis):
+they broadcast with ``tau.shape[:-1]``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from ..lut import LUT
+from .filter import _quadrature, _theta_i_from_cos
+from .structure import RoughBraggLayer
+
+__all__ = [
+    "absorption",
+    "integrated_transmissivity",
+    "transmission_probability",
+    "transmission_weight",
+    "transmissivity_lut",
+]
+
+#: default Gauss–Legendre nodes per incidence angle for eq. 28 (see integrated_transmissivity)
+DEFAULT_NODES = 128
+#: default number of incidence angles of :func:`transmissivity_lut` (0.25° steps, as the paper)
+DEFAULT_ANGLES = 361
+
+_LUT_BUILDER = "torchirid.layered.transmission.transmissivity_lut"
+
+
+def _g1(c: torch.Tensor, alpha) -> torch.Tensor:
+    """Smith G1 (eq. 19) for cos θ ∈ [0, 1] (no validation)."""
+    a2 = alpha * alpha
+    return 2.0 * c / (c + torch.sqrt(c * c + a2 * (1.0 - c * c)))
+
+
+def _check_layer(layer) -> RoughBraggLayer:
+    if not isinstance(layer, RoughBraggLayer):
+        raise ValueError(f"layer must be a RoughBraggLayer; got {type(layer).__name__}")
+    return layer
+
+
+def _check_nodes(nodes) -> int:
+    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
+        raise ValueError(f"nodes must be an integer >= 2; got {nodes!r}")
+    return nodes
+
+
+def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int) -> torch.Tensor:
+    """τ for cos θ ``c`` (S1) and wavelengths ``lam`` (S2) → broadcast (S)."""
+    a = torch.full_like(c, float(layer.alpha))
+    theta_d, weight = _quadrature(_theta_i_from_cos(c), a, nodes, True)  # (S1, K)
+    cos_d = torch.cos(theta_d).clamp(0.0, 1.0)
+    t = 1.0 - layer.reflectance(lam.unsqueeze(-1), cos_d)  # (S, K)
+    return (weight * t).sum(-1)
+
+
+def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFAULT_NODES) -> torch.Tensor:
+    r"""Integrated transmissivity :math:`\tau = f_t(\theta_i)\cos\theta_i` of a rough Bragg layer
+    (Fourneau et al. 2024 eq. 28), the weight of a ballistic transmission.
+
+    .. math:: \tau(\theta_i) = \int_0^{\pi/2} \bigl(1 - R_\lambda(\theta_d)\bigr)\,F_\alpha(\theta_i,\theta_d)\,d\theta_d
+
+    Args:
+        layer: a :class:`~torchirid.layered.structure.RoughBraggLayer` (its Bragg mirror gives
+            ``R_λ``, unpolarized; its ``alpha`` the filter).
+        cos_theta: cosine of the incidence angle in the host medium, in [0, 1].
+        wavelength: wavelengths in nm (> 0), broadcasting with ``cos_theta`` — e.g.
+            ``cos_theta`` ``(*, 1)`` with ``wavelength`` ``(W,)`` gives ``(*, W)``.
+        nodes: Gauss–Legendre nodes per incidence angle (:func:`filter_quadrature`). The
+            weights are positive and sum to G1 exactly, so ``0 ≤ τ ≤ G1`` and ``τ = G1`` when
+            ``R = 0``. The error is that of resolving ``R(θd)``'s fringes and band edges
+            under the filter: see the accuracy table in the docstring of this module's tests
+            (``tests/layered/test_transmission.py``); 128 nodes keep it below 1e-3 for
+            ``cells`` ≤ 50 and α ≥ 0.025.
+
+    Returns:
+        τ, broadcast shape of ``cos_theta`` and ``wavelength``; differentiable with respect
+        to ``cos_theta`` (finite at 0 and 1). ``τ = 0`` at grazing (G1 = 0).
+
+    >>> import torch
+    >>> from torchirid.layered import RoughBraggLayer
+    >>> layer = RoughBraggLayer(1.0, 1.5, 100.0, 80.0, 10, 0.1)
+    >>> tau = integrated_transmissivity(layer, torch.tensor([[1.0], [0.5]], dtype=torch.float64),
+    ...                                 torch.tensor([450.0, 550.0], dtype=torch.float64))
+    >>> tau.shape
+    torch.Size([2, 2])
+    """
+    layer = _check_layer(layer)
+    nodes = _check_nodes(nodes)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, wavelength)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    _checks.check_cosine(c)
+    _checks.check_positive(lam, "wavelength")
+    try:
+        torch.broadcast_shapes(c.shape, lam.shape)
+    except RuntimeError:
+        raise ValueError(f"cos_theta {tuple(c.shape)} and wavelength {tuple(lam.shape)} do not broadcast") from None
+    return _tau(layer, c, lam, nodes)
+
+
+def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES, nodes: int = DEFAULT_NODES) -> LUT:
+    r"""The integrated transmissivity of eq. 28 tabulated over the incidence angle — the paper's
+    "1-D table per layer" (§4.2.2) — with one channel per wavelength.
+
+    Args:
+        layer: a :class:`~torchirid.layered.structure.RoughBraggLayer`.
+        wavelength: ``(W,)`` wavelengths in nm (> 0).
+        angles: number of incidence angles, uniform in θ on [0, π/2] (361: 0.25° steps).
+        nodes: quadrature nodes per angle (:func:`integrated_transmissivity`).
+
+    Returns:
+        a :class:`~torchirid.lut.LUT` with one axis ``cos_theta`` (the nodes' cosines,
+        increasing, from exactly 0 to 1) and ``W`` channels: ``lut(cos_theta)`` of shape
+        ``(*)`` interpolates to ``(*, W)`` (batched, differentiable). Saved and loaded through
+        the LUT container (builder ``torchirid.layered.transmission.transmissivity_lut``,
+        parameters: the layer, ``angles``, ``nodes``, the wavelengths).
+
+    >>> import torch
+    >>> from torchirid.layered import RoughBraggLayer
+    >>> layer = RoughBraggLayer(1.0, 1.5, 100.0, 80.0, 10, 0.1)
+    >>> lut = transmissivity_lut(layer, torch.tensor([450.0, 550.0], dtype=torch.float64))
+    >>> lut(torch.tensor([0.3, 0.9], dtype=torch.float64)).shape
+    torch.Size([2, 2])
+    """
+    layer = _check_layer(layer)
+    nodes = _check_nodes(nodes)
+    if isinstance(angles, bool) or not isinstance(angles, int) or angles < 2:
+        raise ValueError(f"angles must be an integer >= 2; got {angles!r}")
+    dtype, device = _checks.resolve_dtype_device(wavelength)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    if lam.dim() != 1 or lam.numel() < 1:
+        raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
+    _checks.check_positive(lam, "wavelength")
+    theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device).flip(0)  # cos increasing
+    cos = torch.cos(theta)
+    cos = torch.where(theta == theta[0], torch.zeros_like(cos), cos)  # exactly 0 at grazing
+    values = _tau(layer, cos.unsqueeze(-1), lam, nodes)  # (angles, W)
+    return LUT(
+        values,
+        {"cos_theta": cos},
+        builder=_LUT_BUILDER,
+        parameters={
+            "n1": layer.n1, "n2": str(layer.n2), "d1": layer.d1, "d2": layer.d2, "cells": layer.cells,
+            "alpha": layer.alpha, "angles": angles, "nodes": nodes,
+            "wavelength_nm": [float(x) for x in lam.tolist()],
+        },
+        units={"cos_theta": "1", "values": "1 (tau = f_t cos theta), channels = wavelengths"},
+    )
+
+
+def absorption(cos_theta, alpha) -> torch.Tensor:
+    r"""Absorption of a rough Bragg layer :math:`A = 1 - G_1(\theta_i)` (eq. 30): the energy the
+    single-scattering microfacet model loses (Appendix C: :math:`\int F_\alpha = G_1`).
+
+    Args:
+        cos_theta: cosine of the incidence angle, in [0, 1].
+        alpha: GGX roughness > 0.
+
+    Returns:
+        ``A ∈ [0, 1]`` broadcast over the inputs (0 at normal incidence, 1 at grazing).
+
+    >>> round(float(absorption(torch.tensor(0.5, dtype=torch.float64), 0.1)), 9)
+    0.007389566
+    """
+    dtype, device = _checks.resolve_dtype_device(cos_theta, alpha)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    _checks.check_cosine(c)
+    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    return 1.0 - _g1(c, a)
+
+
+def _prepare_tau(tau, cos_theta, alpha):
+    dtype, device = _checks.resolve_dtype_device(tau, cos_theta, alpha)
+    t = _checks.as_real(tau, "tau", dtype, device)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    if t.dim() == 0:
+        raise ValueError("tau must have a last (wavelength) axis (*, W); got a scalar")
+    if t.shape[-1] < 1:
+        raise ValueError("tau must have at least one wavelength on its last axis")
+    _checks.check_cosine(c)
+    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    for name, x in (("cos_theta", c), ("alpha", a)):
+        if x.dim() > t.dim() - 1:
+            raise ValueError(
+                f"{name} must broadcast with tau's batch shape tau.shape[:-1] = {tuple(t.shape[:-1])} "
+                f"(no wavelength axis); got shape {tuple(x.shape)}"
+            )
+    try:
+        torch.broadcast_shapes(c.shape, a.shape, t.shape[:-1])
+    except RuntimeError:
+        raise ValueError(
+            f"cos_theta {tuple(c.shape)} and alpha {tuple(a.shape)} must broadcast with tau.shape[:-1] "
+            f"= {tuple(t.shape[:-1])}"
+        ) from None
+    with torch.no_grad():
+        if bool((t < 0).any()):
+            raise ValueError(f"tau must be >= 0 (a transmissivity); got min {t.min().item():g}")
+    return t, c.unsqueeze(-1), a.unsqueeze(-1)
+
+
+def transmission_probability(tau, cos_theta, alpha, *, multiplexed: bool = True) -> torch.Tensor:
+    r"""Probability of sampling transmission through a rough Bragg layer (eq. 31):
+
+    .. math:: p_\mathrm{trans} = \frac{\tau}{1 - A/2} = \frac{2\tau}{1 + G_1(\theta_i)}
+
+    (half of the absorption A is charged to each of reflection and transmission).
+
+    Args:
+        tau: integrated transmissivity ``(*, W)`` (eq. 28), wavelengths on the last axis.
+        cos_theta: cosine of the incidence angle in [0, 1], broadcasting with
+            ``tau.shape[:-1]`` (no wavelength axis).
+        alpha: GGX roughness > 0, broadcasting likewise.
+        multiplexed: ``True`` (default): one probability for all wavelengths, τ replaced by
+            its mean over the last axis (§4.2.3); ``False``: one per wavelength.
+
+    Returns:
+        ``(*, 1)`` when multiplexed (the wavelength axis kept, of size 1), else ``(*, W)``;
+        in [0, 1] whenever ``0 ≤ τ ≤ G1`` (clamped to 1 against rounding).
+
+    >>> tau = torch.tensor([[0.4, 0.6]], dtype=torch.float64)
+    >>> transmission_probability(tau, torch.tensor([1.0], dtype=torch.float64), 0.1)
+    tensor([[0.5000]], dtype=torch.float64)
+    """
+    t, c, a = _prepare_tau(tau, cos_theta, alpha)
+    num = t.mean(-1, keepdim=True) if multiplexed else t
+    p = 2.0 * num / (1.0 + _g1(c, a))
+    return torch.clamp(p, max=1.0)  # only rounding can exceed 1 when τ ≤ G1
+
+
+def transmission_weight(tau, cos_theta, alpha, *, multiplexed: bool = True) -> torch.Tensor:
+    r"""Path weight after sampling transmission with :func:`transmission_probability`.
+
+    Per wavelength (eq. 32): :math:`(1 + G_1)/2 = 1 - A/2`. Multiplexed (eq. 33):
+    :math:`\frac{1+G_1}{2}\,\tau/\langle\tau\rangle_\lambda`, wavelength-dependent. In both
+    cases ``weight × p_trans = τ`` (up to the clamp of ``p_trans`` at 1).
+
+    Args:
+        tau, cos_theta, alpha, multiplexed: as in :func:`transmission_probability`.
+
+    Returns:
+        ``(*, W)`` when multiplexed, ``(*, 1)`` otherwise. Where ``⟨τ⟩ = 0`` (transmission
+        is never sampled) the multiplexed weight is 0.
+
+    >>> tau = torch.tensor([[0.4, 0.6]], dtype=torch.float64)
+    >>> transmission_weight(tau, torch.tensor([1.0], dtype=torch.float64), 0.1)
+    tensor([[0.8000, 1.2000]], dtype=torch.float64)
+    """
+    t, c, a = _prepare_tau(tau, cos_theta, alpha)
+    half = 0.5 * (1.0 + _g1(c, a))
+    if not multiplexed:
+        return half.expand(torch.broadcast_shapes(half.shape, t.shape[:-1] + (1,)))
+    mean = t.mean(-1, keepdim=True)
+    ok = mean > 0
+    ratio = torch.where(ok, t / torch.where(ok, mean, torch.ones_like(mean)), torch.zeros_like(t))
+    return half * ratio
