@@ -21,13 +21,14 @@ they broadcast with ``tau.shape[:-1]``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import torch
 
 from .. import _checks
 from ..lut import LUT
-from .filter import _quadrature, _theta_i_from_cos
+from .filter import _hat_weights, _quadrature, _theta_i_from_cos
 from .structure import RoughBraggLayer
 
 __all__ = [
@@ -39,9 +40,11 @@ __all__ = [
 ]
 
 #: default Gauss–Legendre nodes per incidence angle for eq. 28 (see integrated_transmissivity)
-DEFAULT_NODES = 128
+DEFAULT_NODES = 256
 #: default number of incidence angles of :func:`transmissivity_lut` (0.25° steps, as the paper)
 DEFAULT_ANGLES = 361
+#: default number of θd cells of the product integration in :func:`transmissivity_lut`
+DEFAULT_THETA_D_CELLS = 4096
 
 _LUT_BUILDER = "torchirid.layered.transmission.transmissivity_lut"
 
@@ -118,22 +121,66 @@ def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFA
     return _tau(layer, c, lam, nodes)
 
 
-def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES, nodes: int = DEFAULT_NODES) -> LUT:
+#: step of the extra grazing nodes ``cos θ = α sinh(s)`` of :func:`transmissivity_lut`
+_GRAZING_STEP = 0.025
+
+
+def _lut_cosines(alpha: float, angles: int, dtype, device) -> torch.Tensor:
+    """Increasing cosines: ``angles`` nodes uniform in θ, plus nodes ``α sinh(k·0.025)`` below
+    ``cos θ = 4α`` — near grazing τ ∝ G1 bends on the scale ``cos θ ~ α`` (G1'' ≈ −4/α² at 0),
+    which 0.25° steps would interpolate to ~1e-2 for α = 0.025 (measured); with them, ~1e-4."""
+    theta = torch.linspace(0.0, math.pi / 2, angles, dtype=torch.float64)
+    cos = torch.cos(theta)
+    cos[-1] = 0.0  # exactly 0 at grazing
+    top = min(4.0 * alpha, 1.0)
+    s = torch.arange(1, int(math.asinh(top / alpha) / _GRAZING_STEP) + 1, dtype=torch.float64) * _GRAZING_STEP
+    cos = torch.cat([cos, alpha * torch.sinh(s)]).clamp(0.0, 1.0)
+    cos = torch.unique(cos)  # sorted increasing
+    keep = torch.cat([torch.tensor([True]), (cos[1:] - cos[:-1]) > 1e-9])
+    cos = cos[keep]
+    return cos.to(dtype=dtype, device=device)
+
+
+@functools.lru_cache(maxsize=8)
+def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, device: str):
+    """(cos nodes increasing, θd grid, product weights (nodes, cells + 1)); layer-independent, cached."""
+    cos = _lut_cosines(alpha, angles, dtype, device)
+    a = torch.tensor(float(alpha), dtype=dtype, device=device)
+    weights = _hat_weights(torch.acos(cos), a, cells)
+    grid = torch.linspace(0.0, math.pi / 2, cells + 1, dtype=dtype, device=device)
+    return cos, grid, weights
+
+
+def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
+                       theta_d_cells: int = DEFAULT_THETA_D_CELLS) -> LUT:
     r"""The integrated transmissivity of eq. 28 tabulated over the incidence angle — the paper's
     "1-D table per layer" (§4.2.2) — with one channel per wavelength.
+
+    Computed by product integration: ``T = 1 − R`` is sampled once on a uniform θd grid of
+    ``theta_d_cells`` cells and integrated piecewise-linearly against F_α,
+    :math:`\tau_r = \sum_j W_{rj} T(\theta_j)` with :math:`W_{rj} = \int F_\alpha(\theta_{i,r},\cdot)\,\phi_j`
+    (hat functions; the weights depend on α only and are cached). The error is that of
+    linear interpolation of ``T`` between θd nodes — no quadrature error over the fringes of
+    ``R``. Measured against a converged reference (Bragg n = 1 | 1.5, d = 110 | 75 nm,
+    α ∈ {0.025, 0.1, 0.4}, 400–700 nm) with the default 4096 cells: max |Δτ| ≤ 3e-6 for
+    10 cells, 3e-5 for 50, 4e-4 for 200, 2e-3 for 1000 (error ∝ cells⁻²: raise
+    ``theta_d_cells`` for long stacks).
 
     Args:
         layer: a :class:`~torchirid.layered.structure.RoughBraggLayer`.
         wavelength: ``(W,)`` wavelengths in nm (> 0).
-        angles: number of incidence angles, uniform in θ on [0, π/2] (361: 0.25° steps).
-        nodes: quadrature nodes per angle (:func:`integrated_transmissivity`).
+        angles: number of incidence angles uniform in θ on [0, π/2] (361: 0.25° steps, the
+            paper's resolution); the table adds ~80 nodes ``cos θ = α sinh(0.025 k) < 4α``
+            near grazing, where τ ∝ G1 bends on the scale ``cos θ ~ α``.
+        theta_d_cells: cells of the uniform θd grid on which ``R`` is sampled.
 
     Returns:
         a :class:`~torchirid.lut.LUT` with one axis ``cos_theta`` (the nodes' cosines,
         increasing, from exactly 0 to 1) and ``W`` channels: ``lut(cos_theta)`` of shape
         ``(*)`` interpolates to ``(*, W)`` (batched, differentiable). Saved and loaded through
         the LUT container (builder ``torchirid.layered.transmission.transmissivity_lut``,
-        parameters: the layer, ``angles``, ``nodes``, the wavelengths).
+        parameters: the layer, ``angles``, ``theta_d_cells``, the wavelengths). Values obey
+        ``0 ≤ τ ≤ G1`` (positive weights summing to G1).
 
     >>> import torch
     >>> from torchirid.layered import RoughBraggLayer
@@ -143,25 +190,24 @@ def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES, nodes
     torch.Size([2, 2])
     """
     layer = _check_layer(layer)
-    nodes = _check_nodes(nodes)
-    if isinstance(angles, bool) or not isinstance(angles, int) or angles < 2:
-        raise ValueError(f"angles must be an integer >= 2; got {angles!r}")
+    for name, val in (("angles", angles), ("theta_d_cells", theta_d_cells)):
+        if isinstance(val, bool) or not isinstance(val, int) or val < 2:
+            raise ValueError(f"{name} must be an integer >= 2; got {val!r}")
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     if lam.dim() != 1 or lam.numel() < 1:
         raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
     _checks.check_positive(lam, "wavelength")
-    theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device).flip(0)  # cos increasing
-    cos = torch.cos(theta)
-    cos = torch.where(theta == theta[0], torch.zeros_like(cos), cos)  # exactly 0 at grazing
-    values = _tau(layer, cos.unsqueeze(-1), lam, nodes)  # (angles, W)
+    cos, grid, weights = _lut_weights(float(layer.alpha), angles, theta_d_cells, dtype, str(device))
+    t = 1.0 - layer.reflectance(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
+    values = weights @ t  # (angles, W)
     return LUT(
         values,
         {"cos_theta": cos},
         builder=_LUT_BUILDER,
         parameters={
             "n1": layer.n1, "n2": str(layer.n2), "d1": layer.d1, "d2": layer.d2, "cells": layer.cells,
-            "alpha": layer.alpha, "angles": angles, "nodes": nodes,
+            "alpha": layer.alpha, "angles": angles, "theta_d_cells": theta_d_cells,
             "wavelength_nm": [float(x) for x in lam.tolist()],
         },
         units={"cos_theta": "1", "values": "1 (tau = f_t cos theta), channels = wavelengths"},
