@@ -1,0 +1,392 @@
+r"""Single-reflection BRDF of a layered rough Bragg structure (Fourneau et al. 2024 §4.3, eq. 34–35).
+
+Only light paths that reflect **once** — on one of the ``L`` rough Bragg layers or on the
+Lambertian base — are modelled; every other crossing of a layer is the ballistic
+transmission of §4.2 (direction unchanged, weight :math:`\tau_k(\theta)=\int T_\lambda F_\alpha
+\,d\theta_d`, eq. 28). For a pair of directions (i, o) above the surface:
+
+.. math::
+
+    f_r(\mathbf i,\mathbf o) = f_{r,0}(\mathbf i,\mathbf o) + \frac{T_c(\mathbf i)T_c(\mathbf o)}{n_1^2}
+        \sum_{l=1}^{L+1} f_{r,l}(\mathbf i',\mathbf o')\prod_{k=1}^{l-1}\tau_k(\mathbf i')\tau_k(\mathbf o')
+    \qquad (34)
+
+with :math:`f_{r,l}` the microfacet BRDF of eq. 17 with the layer's Yeh reflectance
+:math:`R_\lambda(\mathbf i'\cdot\mathbf h)` (``l ≤ L``), :math:`f_{r,L+1} = \rho_d/\pi` the base,
+``i'``, ``o'`` the directions refracted into the host ``n1`` and :math:`T_c = 1 - F` the
+coating's Fresnel transmittance (unpolarized). Without a coating (``n1 = 1``) ``T_c = 1``
+and nothing is refracted. The coating's own reflection :math:`f_{r,0}` is a Dirac delta in
+the mirror direction; it is returned separately by :func:`coating_reflectance` and is not
+part of the tabulated BRDF (it has no value at a pair of directions).
+
+``f_t,0(i) f_t,0(o) / n1²`` of eq. 34 is :math:`T_c(\mathbf i)T_c(\mathbf o)/n_1^2`: radiance
+entering the host is compressed by ``n1²`` and the solid angles refract
+(:math:`n^2\cos\theta\,d\omega` is invariant), so the outer BRDF is
+:math:`T_c(i)\,T_c(o)\,f_\text{inner}(i', o')/n_1^2`.
+
+Reflection-layer sampling (eq. 35): :math:`p_{\mathrm{refl},l} = (1-p_{\mathrm{trans},l})\prod_{k<l} p_{\mathrm{trans},k}`
+with :math:`p_\mathrm{trans}` of eq. 31 (multiplexed over wavelengths); the base takes the
+remaining :math:`\prod_k p_{\mathrm{trans},k}`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from ..lut import LUT
+from ..microfacet.ggx import ggx_d, sample_ggx_vndf, smith_g1
+from ..optics.fresnel import fresnel_reflectance
+from .structure import LayeredBragg, RoughBraggLayer
+from .transmission import transmission_probability, transmissivity_lut
+
+__all__ = [
+    "coating_reflectance",
+    "layer_reflection_probabilities",
+    "reflectance_lut",
+    "refract_into_host",
+    "sample_single_reflection",
+    "single_reflection_brdf",
+    "single_reflection_pdf",
+]
+
+#: default angular resolution of the per-call 1-D transmissivity tables (uniform in θ)
+TRANSMISSIVITY_ANGLES = 361
+#: default angular resolution of :func:`reflectance_lut`
+REFLECTANCE_ANGLES = 1441
+
+
+# ----------------------------------------------------------------------------------------
+# inputs
+# ----------------------------------------------------------------------------------------
+def _directions(w, name, dtype, device) -> torch.Tensor:
+    t = _checks.as_real(w, name, dtype, device)
+    if t.dim() == 0 or t.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (*, 3) (unit vectors, z = surface normal); got {tuple(t.shape)}")
+    with torch.no_grad():
+        if bool((t[..., 2] < 0).any()):
+            raise ValueError(f"{name} must point into the upper hemisphere (z >= 0)")
+        norm = torch.linalg.vector_norm(t, dim=-1)
+        if bool(((norm - 1).abs() > 1e-3).any()):
+            raise ValueError(f"{name} must hold unit vectors; got a norm of {norm.flatten()[((norm - 1).abs() > 1e-3).flatten()][0].item():g}")
+    return t
+
+
+def _wavelengths(wavelength, dtype, device) -> torch.Tensor:
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    if lam.dim() != 1:
+        raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
+    _checks.check_positive(lam, "wavelength")
+    return lam
+
+
+def _check_structure(structure):
+    if isinstance(structure, RoughBraggLayer):
+        return LayeredBragg([structure])
+    if not isinstance(structure, LayeredBragg):
+        raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
+    return structure
+
+
+# ----------------------------------------------------------------------------------------
+# geometry
+# ----------------------------------------------------------------------------------------
+def refract_into_host(w: torch.Tensor, n_host: float) -> torch.Tensor:
+    """Direction ``w`` (*, 3) above a smooth air | ``n_host`` interface, refracted into the host.
+
+    Snell: the tangential part scales by ``1/n_host``; ``z' = sqrt(1 − |t|²/n²)``. For
+    ``n_host = 1`` the input is returned unchanged.
+    """
+    if n_host == 1.0:
+        return w
+    t = w[..., :2] / n_host
+    z = torch.sqrt((1.0 - (t * t).sum(-1)).clamp_min(0.0))
+    return torch.cat([t, z.unsqueeze(-1)], dim=-1)
+
+
+def _refract_out(w_in: torch.Tensor, n_host: float):
+    """Host direction ``w_in`` (z > 0) leaving through the coating: (outer direction, exits?)."""
+    if n_host == 1.0:
+        return w_in, torch.ones_like(w_in[..., 0], dtype=torch.bool)
+    t = w_in[..., :2] * n_host
+    s2 = (t * t).sum(-1)
+    exits = s2 < 1.0  # beyond the critical angle: total internal reflection, no exit
+    z = torch.sqrt((1.0 - s2).clamp_min(0.0))
+    return torch.cat([t, z.unsqueeze(-1)], dim=-1), exits
+
+
+def coating_transmittance(cos_theta: torch.Tensor, n_host: float) -> torch.Tensor:
+    """Unpolarized Fresnel transmittance ``T_c = 1 − F`` of the smooth air | n1 coating."""
+    if n_host == 1.0:
+        return torch.ones_like(cos_theta)
+    return 1.0 - fresnel_reflectance(cos_theta.clamp(0.0, 1.0), 1.0, n_host)
+
+
+def coating_reflectance(cos_theta, n_host) -> torch.Tensor:
+    """The coating's specular reflectance ``F`` (unpolarized), i.e. the weight of the Dirac
+    delta :math:`f_{r,0}` of eq. 34 in the mirror direction (0 when ``n_host = 1``)."""
+    dtype, device = _checks.resolve_dtype_device(cos_theta)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    _checks.check_cosine(c)
+    if float(n_host) == 1.0:
+        return torch.zeros_like(c)
+    return fresnel_reflectance(c, 1.0, float(n_host))
+
+
+# ----------------------------------------------------------------------------------------
+# tables
+# ----------------------------------------------------------------------------------------
+def reflectance_lut(layer: RoughBraggLayer, wavelength, *, angles: int = REFLECTANCE_ANGLES) -> LUT:
+    """The layer's unpolarized Yeh reflectance tabulated over the angle in the host (the "LUT"
+    variant of the model, Fourneau et al. 2024 §5 / Table 2 "Model-LUT").
+
+    Axis ``theta`` (radians, uniform on [0, π/2], ``angles`` nodes); the wavelengths are the
+    channel axis, so ``lut.interp(theta)`` returns ``(*, W)``.
+    """
+    if not isinstance(layer, RoughBraggLayer):
+        raise ValueError(f"layer must be a RoughBraggLayer; got {type(layer).__name__}")
+    if isinstance(angles, bool) or not isinstance(angles, int) or angles < 2:
+        raise ValueError(f"angles must be an integer >= 2; got {angles!r}")
+    dtype, device = _checks.resolve_dtype_device(wavelength)
+    lam = _wavelengths(wavelength, dtype, device)
+    theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device)
+    cos = torch.cos(theta).clamp(0.0, 1.0)
+    R = layer.reflectance(lam, cos.unsqueeze(-1))  # (angles, W)
+    return LUT(
+        R,
+        {"theta": theta},
+        builder="torchirid.layered.single_reflection.reflectance_lut",
+        parameters={
+            "n1": layer.n1, "n2": str(layer.n2), "d1": layer.d1, "d2": layer.d2, "cells": layer.cells,
+            "angles": angles, "wavelength_nm": [float(x) for x in lam.tolist()],
+        },
+        units={"theta": "rad", "values": "reflectance (unpolarized), channels = wavelengths"},
+    )
+
+
+class _LayerTables:
+    """Per-call 1-D tables of one layer at the call's wavelengths: τ(θ) always, R(θ) when asked."""
+
+    def __init__(self, layer, lam, transmissivity_angles, reflectance_angles, use_reflectance_lut):
+        self.layer = layer
+        self.lam = lam
+        self.tau = transmissivity_lut(layer, lam, angles=transmissivity_angles)
+        self.R = reflectance_lut(layer, lam, angles=reflectance_angles) if use_reflectance_lut else None
+
+    def transmissivity(self, cos_theta: torch.Tensor) -> torch.Tensor:
+        return self.tau(cos_theta)
+
+    def reflectance(self, cos_theta: torch.Tensor) -> torch.Tensor:
+        if self.R is not None:
+            return self.R.interp(torch.acos(cos_theta.clamp(-1.0, 1.0)))
+        return self.layer.reflectance(self.lam, cos_theta.unsqueeze(-1))
+
+
+def _tables(structure, lam, transmissivity_angles, reflectance_angles, use_lut):
+    return [_LayerTables(layer, lam, transmissivity_angles, reflectance_angles, use_lut) for layer in structure.layers]
+
+
+# ----------------------------------------------------------------------------------------
+# evaluation (eq. 34)
+# ----------------------------------------------------------------------------------------
+def single_reflection_brdf(
+    structure,
+    wi,
+    wo,
+    wavelength,
+    *,
+    lut: bool = False,
+    transmissivity_angles: int = TRANSMISSIVITY_ANGLES,
+    reflectance_angles: int = REFLECTANCE_ANGLES,
+) -> torch.Tensor:
+    r"""Single-reflection BRDF :math:`f_r(\mathbf i, \mathbf o)` of eq. 34, in sr⁻¹, for whole
+    batches of direction pairs and all wavelengths at once.
+
+    Args:
+        structure: a :class:`LayeredBragg` (or a single :class:`RoughBraggLayer`).
+        wi, wo: incident (towards the light) and outgoing (towards the viewer) unit vectors
+            ``(*, 3)`` in the surface frame (z = geometric normal, z ≥ 0), broadcasting
+            together.
+        wavelength: ``(W,)`` wavelengths in nm.
+        lut: ``False`` evaluates Yeh's reflectance exactly at every half-vector angle;
+            ``True`` interpolates it in a per-layer table over the angle
+            (:func:`reflectance_lut`, ``reflectance_angles`` nodes) — the paper's "Model-LUT".
+        transmissivity_angles: nodes of the per-layer 1-D tables of the integrated
+            transmissivity τ(θ) (eq. 28), uniform in θ, built once per call.
+
+    Returns:
+        ``(*, W)`` BRDF values (the coating's specular delta excluded, see
+        :func:`coating_reflectance`). Differentiable with respect to ``wi``, ``wo``.
+
+    Example:
+        >>> import torch
+        >>> from torchirid.layered import LayeredBragg, RoughBraggLayer
+        >>> s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.1)])
+        >>> w = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
+        >>> f = single_reflection_brdf(s, w, w, torch.tensor([500.0, 600.0], dtype=torch.float64))
+        >>> f.shape
+        torch.Size([1, 2])
+    """
+    structure = _check_structure(structure)
+    dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
+    wi = _directions(wi, "wi", dtype, device)
+    wo = _directions(wo, "wo", dtype, device)
+    lam = _wavelengths(wavelength, dtype, device)
+    wi, wo = torch.broadcast_tensors(wi, wo)
+    tables = _tables(structure, lam, transmissivity_angles, reflectance_angles, lut)
+    return _evaluate(structure, tables, wi, wo)
+
+
+def _evaluate(structure: LayeredBragg, tables, wi, wo) -> torch.Tensor:
+    n = structure.n_host
+    ci, co = wi[..., 2], wo[..., 2]
+    wi_h = refract_into_host(wi, n)
+    wo_h = refract_into_host(wo, n)
+    zi, zo = wi_h[..., 2], wo_h[..., 2]
+    up = (zi > 0) & (zo > 0)
+    # guard: grazing pairs have f_r·cos = 0; feed safe cosines so 1/(4 zi zo) stays finite
+    zi_s = torch.where(up, zi, torch.ones_like(zi))
+    zo_s = torch.where(up, zo, torch.ones_like(zo))
+    h = wi_h + wo_h
+    h = h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
+    cos_d = (wi_h * h).sum(-1).clamp(0.0, 1.0)
+    cos_h = h[..., 2].clamp(-1.0, 1.0)
+
+    total = None
+    through = None  # Π τ_k(i') τ_k(o') over the layers above the current one
+    for tab in tables:
+        a = tab.layer.alpha
+        shading = ggx_d(cos_h, a) * smith_g1(zi_s, a) * smith_g1(zo_s, a) / (4.0 * zi_s * zo_s)
+        f_l = shading.unsqueeze(-1) * tab.reflectance(cos_d)
+        if through is not None:
+            f_l = f_l * through
+        total = f_l if total is None else total + f_l
+        tt = tab.transmissivity(zi) * tab.transmissivity(zo)
+        through = tt if through is None else through * tt
+    if structure.base_albedo > 0:
+        total = total + (structure.base_albedo / math.pi) * through
+    total = torch.where(up.unsqueeze(-1), total, torch.zeros_like(total))
+    if structure.coated:
+        coat = coating_transmittance(ci, n) * coating_transmittance(co, n) / (n * n)
+        total = total * coat.unsqueeze(-1)
+    return total
+
+
+# ----------------------------------------------------------------------------------------
+# importance sampling (eq. 35)
+# ----------------------------------------------------------------------------------------
+def layer_reflection_probabilities(structure, cos_theta, wavelength, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
+    r"""Probabilities of eq. 35 that the single reflection happens on layer ``l`` (last entry:
+    the base), multiplexed over wavelengths: ``(*, L + 1)`` summing to 1.
+
+    ``cos_theta`` is the incidence cosine **in the host** (already refracted)."""
+    structure = _check_structure(structure)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, wavelength)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    _checks.check_cosine(c)
+    lam = _wavelengths(wavelength, dtype, device)
+    tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
+    return _reflection_probabilities(structure, tables, c)
+
+
+def _reflection_probabilities(structure, tables, c):
+    probs = []
+    carry = torch.ones_like(c)
+    for tab in tables:
+        p_t = transmission_probability(tab.transmissivity(c), c, tab.layer.alpha, multiplexed=True)
+        p_t = p_t.squeeze(-1) if p_t.dim() > c.dim() else p_t
+        probs.append(carry * (1.0 - p_t))
+        carry = carry * p_t
+    probs.append(carry)  # the base (or absorption when ρd = 0: its f_r is 0)
+    return torch.stack(probs, dim=-1)
+
+
+def _cosine_hemisphere(u: torch.Tensor) -> torch.Tensor:
+    r = torch.sqrt(u[..., 0])
+    phi = 2.0 * math.pi * u[..., 1]
+    z = torch.sqrt((1.0 - u[..., 0]).clamp_min(0.0))
+    return torch.stack([r * torch.cos(phi), r * torch.sin(phi), z], dim=-1)
+
+
+def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
+    r"""Importance-sample an outgoing direction of the single-reflection model (eq. 35).
+
+    A layer is chosen with the probabilities of eq. 35 (``u[..., 0]``), then a visible
+    microfacet normal of that layer (``u[..., 1:3]``, Heitz 2018) is reflected; the base is
+    sampled with a cosine lobe. With a coating the sampled host direction is refracted out
+    (directions trapped by total internal reflection come back with ``pdf = 0``).
+
+    Args:
+        structure: :class:`LayeredBragg`; wi: ``(*, 3)`` unit vectors (z ≥ 0);
+        wavelength: ``(W,)`` nm; u: ``(*, 3)`` uniforms in [0, 1).
+
+    Returns:
+        ``(wo, pdf)``: ``wo (*, 3)`` and its solid-angle density :func:`single_reflection_pdf`
+        (``0`` where the sample is invalid: below the horizon or trapped).
+    """
+    structure = _check_structure(structure)
+    dtype, device = _checks.resolve_dtype_device(wi, wavelength, u)
+    wi = _directions(wi, "wi", dtype, device)
+    lam = _wavelengths(wavelength, dtype, device)
+    u = _checks.as_real(u, "u", dtype, device)
+    if u.dim() == 0 or u.shape[-1] != 3:
+        raise ValueError(f"u must have shape (*, 3) (uniforms in [0, 1)); got {tuple(u.shape)}")
+    wi, u = torch.broadcast_tensors(wi, u)
+    tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
+    n = structure.n_host
+    wi_h = refract_into_host(wi, n)
+    probs = _reflection_probabilities(structure, tables, wi_h[..., 2])
+    cdf = torch.cumsum(probs, dim=-1)
+    choice = torch.searchsorted(cdf.contiguous(), u[..., :1].contiguous(), right=True).squeeze(-1)
+    choice = choice.clamp(max=len(tables))
+    # one candidate per layer and for the base, then pick (no per-sample Python loop)
+    cands = []
+    zi = wi_h[..., 2].clamp_min(torch.finfo(dtype).tiny)
+    wi_s = torch.cat([wi_h[..., :2], zi.unsqueeze(-1)], -1)
+    for tab in tables:
+        m = sample_ggx_vndf(wi_s, tab.layer.alpha, u[..., 1:3])
+        cands.append(2.0 * (wi_s * m).sum(-1, keepdim=True) * m - wi_s)
+    cands.append(_cosine_hemisphere(u[..., 1:3]))
+    cands = torch.stack(cands, dim=-2)
+    wo_h = torch.gather(cands, -2, choice[..., None, None].expand(*choice.shape, 1, 3)).squeeze(-2)
+    wo, exits = _refract_out(wo_h, n)
+    valid = exits & (wo_h[..., 2] > 0)
+    wo = torch.where(valid.unsqueeze(-1), wo, torch.zeros_like(wo))
+    pdf = _pdf(structure, tables, wi, wo, probs)
+    return wo, torch.where(valid, pdf, torch.zeros_like(pdf))
+
+
+def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES) -> torch.Tensor:
+    """Solid-angle density (sr⁻¹, in the outer medium) of :func:`sample_single_reflection`."""
+    structure = _check_structure(structure)
+    dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
+    wi = _directions(wi, "wi", dtype, device)
+    wo = _directions(wo, "wo", dtype, device)
+    lam = _wavelengths(wavelength, dtype, device)
+    wi, wo = torch.broadcast_tensors(wi, wo)
+    tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
+    probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_host)[..., 2])
+    return _pdf(structure, tables, wi, wo, probs)
+
+
+def _pdf(structure, tables, wi, wo, probs):
+    n = structure.n_host
+    wi_h = refract_into_host(wi, n)
+    wo_h = refract_into_host(wo, n)
+    zi, zo = wi_h[..., 2], wo_h[..., 2]
+    ok = (zi > 0) & (zo > 0)
+    zi_s = torch.where(ok, zi, torch.ones_like(zi))
+    h = wi_h + wo_h
+    h = h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
+    cos_d = (wi_h * h).sum(-1).clamp_min(torch.finfo(h.dtype).tiny)
+    pdf = probs[..., -1] * zo / math.pi  # base: cosine lobe in the host
+    for l, tab in enumerate(tables):
+        a = tab.layer.alpha
+        vndf = smith_g1(zi_s, a) * cos_d * ggx_d(h[..., 2].clamp(-1.0, 1.0), a) / zi_s
+        pdf = pdf + probs[..., l] * vndf / (4.0 * cos_d)
+    # host solid angle → outer solid angle: dω' = cos θo / (n² cos θo') dω
+    if n != 1.0:
+        pdf = pdf * wo[..., 2] / (n * n * zo.clamp_min(torch.finfo(zo.dtype).tiny))
+    return torch.where(ok, pdf, torch.zeros_like(pdf))
