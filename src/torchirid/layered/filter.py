@@ -198,11 +198,11 @@ def _cut_geometry(ti: torch.Tensor, td: torch.Tensor):
 
 def _prefactor(ti: torch.Tensor, td: torch.Tensor, alpha: torch.Tensor) -> torch.Tensor:
     """``2α²/π · G1²(θi)/cos θi · cos θd sin θd`` (G1²/cos θi = G1 · 2/(cos θi + root), finite at grazing)."""
-    ci, si = torch.cos(ti), torch.sin(ti)
+    ci, si = torch.cos(ti).clamp(min=0.0), torch.sin(ti)  # clamp: float32(π/2) > π/2 has cos < 0
     a2 = alpha * alpha
     root = torch.sqrt(ci * ci + a2 * si * si)  # > 0 for α > 0
     g1 = 2.0 * ci / (ci + root)
-    return (4.0 / math.pi) * a2 * g1 / (ci + root) * torch.cos(td) * torch.sin(td)
+    return (4.0 / math.pi) * a2 * g1 / (ci + root) * torch.cos(td).clamp(min=0.0) * torch.sin(td)
 
 
 def _filter(ti: torch.Tensor, td: torch.Tensor, alpha: torch.Tensor) -> torch.Tensor:
@@ -395,8 +395,11 @@ def _theta_i_from_cos(c: torch.Tensor) -> torch.Tensor:
     return torch.acos(c_safe)
 
 
-def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bool):
-    """Nodes θd (*, K) and weights (*, K) for ∫₀^{π/2} g(θd) F_α(θi, θd) dθd (no validation)."""
+def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bool, cos_i=None):
+    """Nodes θd (*, K) and weights (*, K) for ∫₀^{π/2} g(θd) F_α(θi, θd) dθd (no validation).
+
+    ``cos_i``: the exact cos θi when known (G1 of the normalisation is then exactly 0 at grazing).
+    """
     k_a = (nodes + 1) // 2
     k_b = nodes - k_a
     seg_a, seg_b = _quadrature_pieces(ti.unsqueeze(-1), alpha.unsqueeze(-1))
@@ -413,7 +416,7 @@ def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bo
     theta = torch.cat(theta, -1).clamp(0.0, hi)
     weight = torch.cat(weight, -1) * _filter(ti.unsqueeze(-1), theta, alpha.unsqueeze(-1))
     if normalize:  # Σ w = G1 exactly (Appendix C); the rule's own error for g = 1 is < 1e-9
-        ci = torch.cos(ti)
+        ci = torch.cos(ti) if cos_i is None else cos_i
         a2 = alpha * alpha
         g1 = 2.0 * ci / (ci + torch.sqrt(ci * ci + a2 * (1.0 - ci * ci)))
         total = weight.sum(-1)
@@ -447,7 +450,10 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
         ``(cos_theta_d, weights)``, each ``(*, K)``: the cosines of the nodes θd and the
         weights (in rad⁻¹·rad, i.e. dimensionless). Differentiable with respect to
         ``cos_theta_i`` and ``alpha``; finite at ``cos_theta_i = 1`` and ``0`` (grazing:
-        all weights 0).
+        all weights 0). At normal incidence single nodes and weights move like
+        ``√(1 − cos θi)`` (the kink split follows θi); sums ``Σ w g`` are even in θi, smooth
+        in ``cos θi``, and their gradient there is the limit (value taken at
+        ``cos θi = 1 − 2⁻⁴⁰``, gradient passed through).
 
     >>> import torch
     >>> c, w = filter_quadrature(torch.tensor(0.5, dtype=torch.float64), 0.1, nodes=32)
@@ -462,7 +468,7 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
     if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
         raise ValueError(f"nodes must be an integer >= 2; got {nodes!r}")
     c, a = torch.broadcast_tensors(c, a)
-    theta, weight = _quadrature(_theta_i_from_cos(c), a, nodes, normalize)
+    theta, weight = _quadrature(_theta_i_from_cos(c), a, nodes, normalize, c)
     return torch.cos(theta), weight
 
 

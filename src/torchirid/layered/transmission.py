@@ -70,7 +70,7 @@ def _check_nodes(nodes) -> int:
 def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int) -> torch.Tensor:
     """τ for cos θ ``c`` (S1) and wavelengths ``lam`` (S2) → broadcast (S)."""
     a = torch.full_like(c, float(layer.alpha))
-    theta_d, weight = _quadrature(_theta_i_from_cos(c), a, nodes, True)  # (S1, K)
+    theta_d, weight = _quadrature(_theta_i_from_cos(c), a, nodes, True, c)  # (S1, K)
     cos_d = torch.cos(theta_d).clamp(0.0, 1.0)
     t = 1.0 - layer.reflectance(lam.unsqueeze(-1), cos_d)  # (S, K)
     return (weight * t).sum(-1)
