@@ -79,6 +79,7 @@ from ..microfacet.brdf import microfacet_brdf
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
 from .structure import LayeredBragg, RoughBraggLayer
+from .transmission import integrated_transmissivity, transmission_probability, transmission_weight
 
 __all__ = ["montecarlo_brdf", "TRANSMISSION_MODES"]
 
@@ -151,51 +152,64 @@ def _coating_r_inside(cos_inner: torch.Tensor, n1: float) -> torch.Tensor:
 # ----------------------------------------------------------------------------------------
 # per-layer optics
 # ----------------------------------------------------------------------------------------
-def _transmittance(layer: RoughBraggLayer, lam: torch.Tensor, cos_d: torch.Tensor) -> torch.Tensor:
-    """Bragg-mirror transmittance T_λ at the host cosine ``cos_d`` (n,) → (n, W)."""
-    return _layer_transmittance(layer, lam, cos_d)
+#: τ/G1 tables of recent calls, keyed by (layer, wavelengths, dtype, device, angles, nodes):
+#: repeated calls on the same structure (image loops, tests) skip the quadrature
+_TABLES: dict = {}
+_TABLES_MAX = 32
 
 
 class _Layer:
-    """Per-layer data of one call: reflectance, transmittance and the τ table."""
+    """Per-layer optics of one call: R_λ, T_λ = 1 − R_λ (as eq. 28 in
+    :mod:`~torchirid.layered.transmission`), τ and its table."""
 
     def __init__(self, layer: RoughBraggLayer, lam: torch.Tensor, tau_angles: int, tau_nodes):
         self.layer = layer
         self.alpha = layer.alpha
         self.lam = lam
         self.tau_angles = tau_angles
-        self.tau_nodes = tau_nodes
-        self._table = None
+        self.tau_kw = {} if tau_nodes is None else {"nodes": tau_nodes}
+        self._key = (layer, tuple(lam.tolist()), lam.dtype, str(lam.device), tau_angles, tau_nodes)
 
     def reflectance(self, cos_d: torch.Tensor) -> torch.Tensor:
         """R_λ at host cosines ``cos_d`` (*) → (*, W)."""
         return self.layer.reflectance(self.lam, cos_d.clamp(0.0, 1.0).unsqueeze(-1))
 
     def transmittance(self, cos_d: torch.Tensor) -> torch.Tensor:
-        return _transmittance(self.layer, self.lam, cos_d.clamp(0.0, 1.0))
+        """T_λ = 1 − R_λ of the Bragg mirror (the host is lossless) at ``cos_d`` (*) → (*, W)."""
+        return 1.0 - self.reflectance(cos_d)
 
     def tau(self, cos_theta: torch.Tensor) -> torch.Tensor:
         """Integrated transmissivity τ (eq. 28) by quadrature, (n,) → (n, W)."""
-        return _integrated_transmissivity(self.layer, self.lam, cos_theta, self.tau_nodes)
+        return integrated_transmissivity(self.layer, cos_theta.clamp(0.0, 1.0).unsqueeze(-1), self.lam, **self.tau_kw)
+
+    def _table(self) -> torch.Tensor:
+        table = _TABLES.get(self._key)
+        if table is None:
+            k = self.tau_angles
+            theta = torch.linspace(0.0, self._theta_max, k, dtype=self.lam.dtype, device=self.lam.device)
+            c = torch.cos(theta)
+            table = self.tau(c) / smith_g1(c, self.alpha).unsqueeze(-1)  # G1 > 0 on the nodes
+            while len(_TABLES) >= _TABLES_MAX:
+                _TABLES.pop(next(iter(_TABLES)))
+            _TABLES[self._key] = table
+        return table
+
+    @property
+    def _theta_max(self) -> float:
+        # the last node sits a quarter step inside the horizon (τ/G1 is 0/0 at grazing);
+        # beyond it the ratio is held constant and the exact G1 takes τ to 0
+        return (math.pi / 2) * (1.0 - 0.25 / (self.tau_angles - 1))
 
     def tau_table(self, cos_theta: torch.Tensor) -> torch.Tensor:
-        """τ from a table of τ/G1 uniform in θ (linear interpolation) times the exact G1."""
-        if self._table is None:
-            k = self.tau_angles
-            dt = self.lam.dtype
-            theta = torch.linspace(0.0, math.pi / 2, k, dtype=dt, device=self.lam.device)
-            # the last node sits just inside the horizon: τ/G1 is 0/0 at exactly grazing
-            theta[-1] = math.pi / 2 - 0.25 * (math.pi / 2) / (k - 1)
-            c = torch.cos(theta)
-            self._table = self.tau(c) / smith_g1(c, self.alpha).unsqueeze(-1)
+        """τ from a table of τ/G1 uniform in θ (linear interpolation) times the exact G1: the
+        ratio is a smoothed T_λ, G1 carries the steep fall towards grazing."""
+        t = self._table()
         k = self.tau_angles
-        x = torch.acos(cos_theta.clamp(0.0, 1.0)) * ((k - 1) / (math.pi / 2))
+        x = torch.acos(cos_theta.clamp(0.0, 1.0)) * ((k - 1) / self._theta_max)
         j = x.floor().clamp(0, k - 2)
         w = (x - j).clamp(0.0, 1.0).unsqueeze(-1)
         j = j.long()
-        t = self._table
-        ratio = torch.lerp(t[j], t[j + 1], w)
-        return ratio * smith_g1(cos_theta, self.alpha).unsqueeze(-1)
+        return torch.lerp(t[j], t[j + 1], w) * smith_g1(cos_theta, self.alpha).unsqueeze(-1)
 
 
 # ----------------------------------------------------------------------------------------
@@ -226,13 +240,17 @@ class _Transport:
         self.beta0 = torch.where(ok_i, _coating_t(wi[:, 2], self.n1), torch.zeros_like(wi[:, 2]))
         self.wo_in = wo_in
         exit_ = torch.where(ok_o, _coating_t(wo[:, 2], self.n1), torch.zeros_like(wo[:, 2])) / (self.n1 * self.n1)
-        # chain[p, l] = Π_{k<l} τ_k(o') · T_c(o)/n1²: the deterministic way out from layer l (l = L: base)
+        # chain[p, l]: the way out from layer l (l = L: the base) towards o, T_c(o)/n1² times
+        #   "filter":     Π_{k<l} τ_k(o')            (eq. 28, deterministic)
+        #   "microfacet": Π_{k<l} G1_k(o')           (× T_k(o'·m_k), m_k ~ VNDF, sampled at each NEE)
         chain = [exit_.unsqueeze(-1).expand(-1, self.W)]
         for l, lay in enumerate(self.layers):
             if l == self.L - 1 and self.rho == 0:  # nothing comes back from a black base
                 chain.append(torch.zeros_like(chain[-1]))
-            else:
+            elif mode == "filter":
                 chain.append(chain[-1] * lay.tau(wo_in[:, 2]))
+            else:
+                chain.append(chain[-1] * smith_g1(wo_in[:, 2], lay.alpha).unsqueeze(-1))
         self.chain = torch.stack(chain, 1)  # (P, L+1, W)
         if mode == "filter":
             # exact τ_l(i') for the first descent (before any reflection the direction is −i')
@@ -258,7 +276,8 @@ class _Transport:
             n = pid.numel()
             if n == 0:
                 break
-            u = torch.rand(n, 4, generator=gen, dtype=dtype, device=device)
+            # u[:, 0] event, u[:, 1:3] direction, u[:, 3] roulette, u[:, 4 + 2k:6 + 2k] NEE through layer k
+            u = torch.rand(n, 4 + 2 * L, generator=gen, dtype=dtype, device=device)
             down = d[:, 2] < 0
             at_base = down & (gap == L)
             at_top = ~down & (gap == 0)
@@ -267,16 +286,18 @@ class _Transport:
             new_beta, new_d, new_gap, new_first = beta.clone(), d.clone(), gap.clone(), first.clone()
 
             # next-event estimation on every downward hit
+            nee = down & (gap < L) if self.rho == 0 else down
+            out = self._way_out(torch.nonzero(nee).squeeze(-1), gap, pair, u)
             for l, lay in enumerate(self.layers):
                 idx = torch.nonzero(down & (gap == l)).squeeze(-1)
                 if idx.numel():
                     p = pair[idx]
                     f = microfacet_brdf(-d[idx], self.wo_in[p], lay.alpha, lay.reflectance)
-                    acc.index_add_(0, pid[idx], beta[idx] * f * self.chain[p, l])
+                    acc.index_add_(0, pid[idx], beta[idx] * f * out[idx])
             if self.rho > 0:
                 idx = torch.nonzero(at_base).squeeze(-1)
                 if idx.numel():
-                    acc.index_add_(0, pid[idx], beta[idx] * (self.rho / math.pi) * self.chain[pair[idx], L])
+                    acc.index_add_(0, pid[idx], beta[idx] * (self.rho / math.pi) * out[idx])
 
             # scattering at the layers
             for l, lay in enumerate(self.layers):
@@ -316,6 +337,26 @@ class _Transport:
             state = [t[alive] for t in (new_beta, new_d, new_gap, new_first, pid, pair)]
         return acc
 
+    def _way_out(self, idx, gap, pair, u) -> torch.Tensor:
+        """Transmission factor from the gap above layer ``gap`` out towards ``o`` (n, W), filled
+        at ``idx``: the table ``chain`` ("filter"), times one sampled ``T_k(o'·m_k)`` per
+        crossed layer ("microfacet": unbiased for τ_k(o')/G1_k(o'), no quadrature)."""
+        out = torch.zeros(gap.numel(), self.W, dtype=self.dtype, device=self.device)
+        if not idx.numel():
+            return out
+        p, g = pair[idx], gap[idx]
+        vals = self.chain[p, g]
+        if self.mode == "microfacet":
+            wo = self.wo_in[p]
+            for k, lay in enumerate(self.layers[: self.L - (self.rho == 0)]):
+                j = torch.nonzero(g > k).squeeze(-1)  # paths below layer k
+                if not j.numel():
+                    break
+                m = sample_ggx_vndf(wo[j], lay.alpha, u[idx[j], 4 + 2 * k:6 + 2 * k])
+                vals[j] = vals[j] * lay.transmittance((wo[j] * m).sum(-1))
+        out[idx] = vals
+        return out
+
     def _layer_event(self, l, lay, idx, u, beta, d, first, pair, down,
                      new_beta, new_d, new_gap, new_first, alive):
         """Reflection or ballistic transmission at layer ``l`` for the paths ``idx``."""
@@ -335,9 +376,9 @@ class _Transport:
             j = torch.nonzero(~fi).squeeze(-1)
             if j.numel():
                 tau[j] = lay.tau_table(c[j])
-            p_t = (2.0 * tau.mean(-1) / (1.0 + g1)).clamp(0.0, 1.0)  # eq. 31, multiplexed
+            p_t = transmission_probability(tau, c, lay.alpha).squeeze(-1)  # eq. 31, multiplexed
             trans = u0 < p_t
-            w_t = tau / torch.where(trans, p_t, torch.ones_like(p_t)).unsqueeze(-1)  # eq. 33
+            w_t = transmission_weight(tau, c, lay.alpha)  # eq. 33 (= τ / p_trans)
             refl = ~trans
             p_r = 1.0 - p_t
             m = r_d = None
@@ -526,13 +567,3 @@ def montecarlo_brdf(
         err = torch.sqrt(m2 / ((samples - 1) * samples))
     return mean.to(dtype).reshape(*batch, W), err.to(dtype).reshape(*batch, W)
 
-
-def _integrated_transmissivity(layer, lam, cos_theta, nodes):
-    from .transmission import integrated_transmissivity
-
-    kw = {} if nodes is None else {"nodes": nodes}
-    return integrated_transmissivity(layer, cos_theta.unsqueeze(-1), lam, **kw)
-
-
-def _layer_transmittance(layer, lam, cos_d):
-    return 1.0 - layer.reflectance(lam, cos_d.unsqueeze(-1))

@@ -1,0 +1,246 @@
+"""Monte Carlo reference of a layered rough Bragg structure (Fourneau et al. 2024 §4.2):
+closed forms where the transport can be summed by hand, eq. 17 / eq. 34 for the
+single-reflection paths, the two transmission strategies against each other, reciprocity."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from torchirid.layered.montecarlo import montecarlo_brdf
+from torchirid.layered.structure import LayeredBragg, RoughBraggLayer
+from torchirid.layered.transmission import integrated_transmissivity
+from torchirid.optics import bragg_reflectance, fresnel_reflectance
+
+F64 = torch.float64
+LAM = torch.tensor([430.0, 520.0, 610.0], dtype=F64)
+Z = 4.5  # |z| bound of a test against a reference (several correlated entries per test)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    # thousands of small elementwise ops per call: intra-op threads only add synchronisation
+    # (and stall badly on a busy 2-core runner); the estimates do not depend on it
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
+def _dir(theta_deg, phi_deg):
+    t, p = math.radians(theta_deg), math.radians(phi_deg)
+    return torch.tensor([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)], dtype=F64)
+
+
+WI = torch.stack([_dir(25.0, 0.0), _dir(62.0, 30.0)])
+WO = torch.stack([_dir(40.0, 160.0), _dir(15.0, 250.0)])
+
+
+# independent references -------------------------------------------------------------------
+def _g1(c, alpha):
+    # eq. 19 with tan (not the library's tan-free form)
+    c = torch.as_tensor(c, dtype=F64)
+    return 2 / (1 + torch.sqrt(1 + alpha**2 * (1 - c**2) / c**2))
+
+
+def _eq17(layer, wi, wo, lam):
+    h = wi + wo
+    h = h / h.norm(dim=-1, keepdim=True)
+    ci, co, cm = wi[..., 2], wo[..., 2], h[..., 2]
+    tan2 = (1 - cm**2) / cm**2
+    D = layer.alpha**2 / (math.pi * cm**4 * (layer.alpha**2 + tan2) ** 2)
+    R = bragg_reflectance(lam, (wi * h).sum(-1, keepdim=True), layer.n1, layer.n2, layer.d1, layer.d2, layer.cells)
+    return (D * _g1(ci, layer.alpha) * _g1(co, layer.alpha) / (4 * ci * co)).unsqueeze(-1) * R
+
+
+def _refract(w, n1):
+    t = w[..., :2] / n1
+    return torch.cat([t, torch.sqrt(1 - (t * t).sum(-1, keepdim=True))], -1)
+
+
+def _coat_t(w, n1):
+    return 1 - fresnel_reflectance(w[..., 2], 1.0, n1)
+
+
+def _eq34(structure, wi, wo, lam):
+    """Single-reflection BRDF (eq. 34) with the base as the last 'layer' ρd/π."""
+    n1 = structure.n_host
+    i, o = _refract(wi, n1), _refract(wo, n1)
+    total, chain = 0.0, 1.0
+    for layer in structure.layers:
+        total = total + chain * _eq17(layer, i, o, lam)
+        tau_i = integrated_transmissivity(layer, i[..., 2:], lam, nodes=512)
+        chain = chain * tau_i * integrated_transmissivity(layer, o[..., 2:], lam, nodes=512)
+    total = total + chain * structure.base_albedo / math.pi
+    return (_coat_t(wi, n1) * _coat_t(wo, n1) / n1**2).unsqueeze(-1) * total
+
+
+def _z(a, b):
+    (fa, ea), (fb, eb) = a, b
+    return ((fa - fb) / torch.sqrt(ea**2 + eb**2)).abs().max().item()
+
+
+# structures ---------------------------------------------------------------------------------
+A = RoughBraggLayer(1.0, 1.5, 110.0, 90.0, 6, 0.15)
+B = RoughBraggLayer(1.0, 1.7, 140.0, 80.0, 4, 0.3)
+CA = RoughBraggLayer(1.33, 1.6, 120.0, 90.0, 6, 0.15)
+CB = RoughBraggLayer(1.33, 1.9, 150.0, 80.0, 4, 0.3)
+COATED = LayeredBragg([CA, CB], base_albedo=0.4)
+
+
+def test_single_layer_over_black_base_is_eq17_exactly():
+    # n1 = 1, one layer, black base: the only path to o is one reflection on the layer, and
+    # NEE evaluates it deterministically at the first vertex (zero variance)
+    ref = _eq17(A, WI, WO, LAM)
+    for mode in ("filter", "microfacet"):
+        for single in (False, True):
+            f, err = montecarlo_brdf(LayeredBragg([A]), WI, WO, LAM, samples=64, transmission=mode,
+                                     single_reflection=single)
+            torch.testing.assert_close(f, ref, rtol=1e-12, atol=0)
+            assert err.max().item() <= 1e-12 * ref.max().item()
+
+
+def test_transparent_layers_over_a_base():
+    # n2 = n1: R = 0, T = 1, τ = G1 (appendix C); no coating: f = Π_k G1(i) G1(o) · ρd/π
+    clear1 = RoughBraggLayer(1.0, 1.0, 100.0, 100.0, 3, 0.3)
+    clear2 = RoughBraggLayer(1.0, 1.0, 100.0, 100.0, 3, 0.1)
+    s = LayeredBragg([clear1, clear2], base_albedo=0.7)
+    g = _g1(WI[:, 2], 0.3) * _g1(WO[:, 2], 0.3) * _g1(WI[:, 2], 0.1) * _g1(WO[:, 2], 0.1)
+    ref = (0.7 / math.pi * g).unsqueeze(-1).expand(2, 3)
+    # microfacet mode: T = 1 for every m, so every path carries exactly G1 per crossing
+    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=256, transmission="microfacet")
+    torch.testing.assert_close(f, ref, rtol=1e-10, atol=0)
+    # filter mode: Bernoulli transmission with eq. 31/32
+    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=4000, transmission="filter")
+    assert (err > 0).all()
+    assert ((f - ref) / err).abs().max() < Z
+
+
+def _coated_clear_reference(n1, alpha, rho, wi, wo):
+    """Transparent layer under a coating over a Lambertian base: base ↔ coating inter-reflections
+    sum to a geometric series, f = T_c(i)T_c(o)/n1² · G1(i')G1(o') · (ρ/π)/(1 − ρK),
+    K = ∫ G1² F_int cos dω/π = 2∫₀¹ G1(c)² F(c; n1 → 1) c dc (TIR included)."""
+    cc = math.sqrt(1 - 1 / n1**2)  # critical cosine: F has a kink there, split the quadrature
+    x, w = np.polynomial.legendre.leggauss(200)
+    K = 0.0
+    for a, b in ((0.0, cc), (cc, 1.0)):
+        c = torch.tensor((x + 1) / 2 * (b - a) + a, dtype=F64)
+        K += float((2 * _g1(c, alpha) ** 2 * fresnel_reflectance(c, n1, 1.0) * c * torch.tensor(w * (b - a) / 2)).sum())
+    i, o = _refract(wi, n1), _refract(wo, n1)
+    t = _coat_t(wi, n1) * _coat_t(wo, n1) / n1**2
+    return t * _g1(i[:, 2], alpha) * _g1(o[:, 2], alpha) * rho / math.pi / (1 - rho * K), K
+
+
+@pytest.mark.parametrize("mode", ["filter", "microfacet"])
+def test_coating_inter_reflections_closed_form(mode):
+    n1, alpha, rho = 1.5, 0.3, 0.8
+    s = LayeredBragg([RoughBraggLayer(n1, n1, 100.0, 100.0, 3, alpha)], base_albedo=rho)
+    ref, K = _coated_clear_reference(n1, alpha, rho, WI, WO)
+    ref = ref.unsqueeze(-1).expand(2, 3)
+    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=10000, transmission=mode)
+    assert ((f - ref) / err).abs().max() < Z
+    # the inter-reflections matter: the single-bounce term alone is off by many σ
+    assert ((f - ref * (1 - rho * K)) / err).abs().max() > 8
+
+
+@pytest.mark.parametrize("mode", ["filter", "microfacet"])
+def test_single_reflection_estimator_converges_to_eq34(mode):
+    ref = _eq34(COATED, WI, WO, LAM)
+    f, err = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, single_reflection=True, transmission=mode)
+    assert (err > 0).all()
+    assert ((f - ref) / err).abs().max() < Z
+
+
+def test_two_transmission_modes_agree():
+    # τ = G1 · E_{m~VNDF}[T(d·m)]: sampling p_trans with τ (eq. 31–33) and sampling m first
+    # must have the same expectation, also for all the multiple-scattering paths
+    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, transmission="filter")
+    b = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, transmission="microfacet", seed=1)
+    assert _z(a, b) < Z
+
+
+def test_full_transport_adds_multiple_reflections():
+    s = LayeredBragg([A, B])  # two layers in air, black base: inter-reflections between layers
+    sr = montecarlo_brdf(s, WI, WO, LAM, samples=2000, single_reflection=True)
+    full = montecarlo_brdf(s, WI, WO, LAM, samples=2000, seed=1)
+    diff = full[0] - sr[0]
+    sigma = torch.sqrt(full[1] ** 2 + sr[1] ** 2)
+    assert (diff > -Z * sigma).all()
+    assert (diff > 3 * sigma).any()
+
+
+def test_reciprocity():
+    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=10000, transmission="microfacet")
+    b = montecarlo_brdf(COATED, WO, WI, LAM, samples=10000, transmission="microfacet", seed=7)
+    assert _z(a, b) < Z
+
+
+def test_albedo_at_most_one():
+    # bright base, reflective layers, coating: ∫ f cos dω_o + F_coat(i) ≤ 1 (energy is only
+    # lost: 1 − G1 per crossing, absorption in the base)
+    s = LayeredBragg([RoughBraggLayer(1.33, 2.2, 60.0, 60.0, 8, 0.2)], base_albedo=1.0)
+    g = torch.Generator().manual_seed(3)
+    u = torch.rand(256, 2, generator=g, dtype=F64)
+    r, phi = torch.sqrt(u[:, 0]), 2 * math.pi * u[:, 1]  # cosine-weighted wo: albedo = E[π f]
+    wo = torch.stack([r * torch.cos(phi), r * torch.sin(phi), torch.sqrt(1 - u[:, 0])], -1)
+    wi = _dir(30.0, 0.0)
+    f, _ = montecarlo_brdf(s, wi, wo, LAM, samples=16, transmission="microfacet")
+    albedo = math.pi * f.mean(0)
+    spread = math.pi * f.std(0) / math.sqrt(f.shape[0])
+    total = albedo + fresnel_reflectance(wi[2], 1.0, 1.33)
+    assert (total < 1 + Z * spread).all()
+    assert (albedo > 0.1).all()
+
+
+def test_reproducible_with_a_seed():
+    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=5)
+    b = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=5)
+    c = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=6)
+    assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1])
+    assert not torch.equal(a[0], c[0])
+
+
+def test_stderr_shrinks_as_inverse_sqrt_samples():
+    s = LayeredBragg([A, B], base_albedo=0.5)
+    _, e1 = montecarlo_brdf(s, WI, WO, LAM, samples=500, transmission="microfacet")
+    _, e4 = montecarlo_brdf(s, WI, WO, LAM, samples=2000, transmission="microfacet", seed=1)
+    ratio = (e4 / e1).median().item()
+    assert 0.4 < ratio < 0.6
+
+
+def test_shapes_broadcast_and_float32():
+    wi = WI[:, None, :]  # (2, 1, 3)
+    wo = torch.stack([WO[0], WO[1], _dir(0.0, 0.0)])[None]  # (1, 3, 3)
+    f, err = montecarlo_brdf(COATED, wi, wo, LAM, samples=8)
+    assert f.shape == err.shape == (2, 3, 3) and f.dtype == F64
+    f32, err32 = montecarlo_brdf(COATED, wi.float(), wo.float(), LAM.float(), samples=8)
+    assert f32.dtype == torch.float32 and torch.isfinite(f32).all() and torch.isfinite(err32).all()
+    # a single layer is accepted as a structure; a (3,) direction gives (W,)
+    f1, _ = montecarlo_brdf(A, WI[0], WO[0], LAM, samples=4, progress=True)
+    assert f1.shape == (3,)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(transmission="nope"), "transmission"),
+        (dict(samples=1), "samples"),
+        (dict(samples=2.5), "samples"),
+        (dict(max_depth=0), "max_depth"),
+        (dict(seed=-1), "seed"),
+        (dict(single_reflection=1), "single_reflection"),
+        (dict(wi=torch.tensor([0.0, 1.0, 0.0], dtype=F64)), "wi"),
+        (dict(wo=torch.tensor([0.0, 0.0, -1.0], dtype=F64)), "wo"),
+        (dict(wi=torch.tensor([0.0, 0.0, 2.0], dtype=F64)), "unit"),
+        (dict(wi=torch.ones(2, dtype=F64)), r"\(\*, 3\)"),
+        (dict(wavelength=torch.ones(2, 2, dtype=F64)), "wavelength"),
+        (dict(wavelength=torch.tensor([-1.0], dtype=F64)), "wavelength"),
+        (dict(structure="glass"), "structure"),
+    ],
+)
+def test_bad_input(kwargs, match):
+    args = dict(structure=COATED, wi=WI, wo=WO, wavelength=LAM)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        montecarlo_brdf(args.pop("structure"), args.pop("wi"), args.pop("wo"), args.pop("wavelength"), **args)
