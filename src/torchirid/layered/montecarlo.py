@@ -18,7 +18,7 @@ A layer hit from below is the same layer with its normal flipped.
 weight :math:`T_c(\mathbf i)` (the coating's Fresnel transmittance). Every path carries a
 spectral throughput β of shape ``(W,)`` (wavelength multiplexing: one geometric path for
 all wavelengths). Next-event estimation: whenever the path travels **down** onto layer
-``l`` (or the base), the deterministic way out towards ``o`` is added,
+``l`` (or the base), the way out towards ``o`` is added,
 
 .. math::
 
@@ -46,9 +46,17 @@ The path then continues by sampling the event at the layer it meets (incident di
 * ``transmission="microfacet"`` (independent of F_α): sample ``m`` first; reflect with
   probability :math:`P=\langle R\rangle_\lambda/(\langle R\rangle_\lambda+\langle T\rangle_\lambda)`
   (weight :math:`R_\lambda G_1(\mathbf o)/P`), else transmit ballistically with weight
-  :math:`G_1(\mathbf d)T_\lambda(-\mathbf d\cdot\mathbf m)/(1-P)`. Both modes have the same
+  :math:`G_1(\mathbf d)T_\lambda(-\mathbf d\cdot\mathbf m)/(1-P)`. The way out of the
+  next-event estimate is sampled the same way: one :math:`G_1(\mathbf o')T_k(\mathbf o'\cdot
+  \mathbf m_k)`, :math:`\mathbf m_k` from the visible normals of ``o'``, per crossed layer
+  instead of :math:`\tau_k(\mathbf o')`. This mode uses neither F_α nor any quadrature:
+  it is the independent reference for eq. 28 and eq. 34. Both modes have the same
   expectation because :math:`\tau(\theta)=G_1(\theta)\,E_{\mathbf m\sim D_{\mathbf d}}[T_\lambda]`
   (eq. 22 with the visible-normal density :math:`D_{\mathbf d}=G_1|\mathbf d\cdot\mathbf m|D/\cos\theta`).
+
+As in :mod:`~torchirid.layered.transmission`, the mirror's transmittance is
+:math:`T_\lambda = 1 - R_\lambda` (exact for lossless layers; an absorbing ``n2`` is
+treated the same way there and here).
 
 The base scatters with cosine-weighted sampling (weight ρd). Upward light at the top
 escapes (``n1 = 1``) or is internally reflected by the coating with weight
@@ -361,7 +369,7 @@ class _Transport:
                      new_beta, new_d, new_gap, new_first, alive):
         """Reflection or ballistic transmission at layer ``l`` for the paths ``idx``."""
         dl = d[idx]
-        c = dl[:, 2].abs()
+        c = dl[:, 2].abs().clamp(max=1.0)  # a unit vector's z can be 1 + ulp
         wi = torch.cat([-dl[:, :2], c.unsqueeze(-1)], -1)  # −d in the frame whose normal faces it
         sgn = torch.where(down[idx], 1.0, -1.0).to(dl.dtype)  # +1: hit from above
         b = beta[idx]
@@ -415,6 +423,7 @@ class _Transport:
         else:
             m, r = m[jr], r_d[jr]
         o = reflect(wr, m)
+        o = o / torch.linalg.vector_norm(o, dim=-1, keepdim=True)  # no drift of |d| over many bounces
         ok = o[:, 2] > 0  # reflected through the layer: masked (G1 χ⁺), the path dies
         pr = p_r[jr]
         w_r = r * (smith_g1(o[:, 2].clamp(min=0.0), lay.alpha) / torch.where(pr > 0, pr, torch.ones_like(pr))).unsqueeze(-1)
@@ -477,15 +486,19 @@ def montecarlo_brdf(
         single_reflection: only paths with exactly one reflection (the paper's "SR sim.");
             converges to the single-reflection BRDF of eq. 34.
         transmission: ``"filter"`` — p_trans and weight of eq. 31/33 with the integrated
-            transmissivity τ (eq. 28); or ``"microfacet"`` — sample the microfacet normal
-            first, then reflect or transmit (independent of F_α; same expectation).
+            transmissivity τ (eq. 28; the paper's optimized simulation); or
+            ``"microfacet"`` — sample the microfacet normal first, then reflect or transmit,
+            and sample the transmissions of the way out too (no F_α, no quadrature: the
+            independent reference; same expectation, slightly more variance).
         max_depth: maximum number of scattering events (layer, base or coating) per path.
         rr_depth: events before Russian roulette starts (survival ``min(1, max_λ β)``).
         batch_size: paths traced at once (memory ≈ ``batch_size · W · 8`` bytes per array).
         transmissivity_angles: size of the per-layer τ(θ) table (uniform in θ) used for
             directions made by reflections in the ``"filter"`` mode.
-        transmissivity_nodes: quadrature nodes of eq. 28 (None: the default of
-            :func:`~torchirid.layered.transmission.integrated_transmissivity`).
+        transmissivity_nodes: quadrature nodes of eq. 28 in the ``"filter"`` mode (None:
+            the default of :func:`~torchirid.layered.transmission.integrated_transmissivity`;
+            raise it for many cells / long periods at small α, where R(θd) has fringes finer
+            than the default resolves).
         progress: show a tqdm progress bar (None: only when stderr is a terminal).
 
     Returns:
