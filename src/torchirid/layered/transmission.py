@@ -28,7 +28,7 @@ import torch
 
 from .. import _checks
 from ..lut import LUT
-from .filter import _hat_weights, _quadrature, _theta_i_from_cos
+from .filter import _hat_weights, _normal_cap, _quadrature, _quadrature_cos
 from .structure import RoughBraggLayer
 
 __all__ = [
@@ -67,13 +67,27 @@ def _check_nodes(nodes) -> int:
     return nodes
 
 
-def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int) -> torch.Tensor:
-    """τ for cos θ ``c`` (S1) and wavelengths ``lam`` (S2) → broadcast (S)."""
-    a = torch.full_like(c, float(layer.alpha))
-    theta_d, weight = _quadrature(_theta_i_from_cos(c), a, nodes, True, c)  # (S1, K)
+def _tau_rule(layer, theta_d, weight, lam):
     cos_d = torch.cos(theta_d).clamp(0.0, 1.0)
     t = 1.0 - layer.reflectance(lam.unsqueeze(-1), cos_d)  # (S, K)
     return (weight * t).sum(-1)
+
+
+def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int) -> torch.Tensor:
+    """τ for cos θ ``c`` (S1) and wavelengths ``lam`` (S2) → broadcast (S).
+
+    Near normal incidence the gradient is that of the rule at ``cos θmin`` (see
+    :func:`~torchirid.layered.filter._quadrature_cos`) and the value is recomputed at the exact
+    cosine (a second, gradient-free pass, only when such lanes exist).
+    """
+    a = torch.full_like(c, float(layer.alpha))
+    tau = _tau_rule(layer, *_quadrature_cos(c, a, nodes, True), lam)
+    near = c > _normal_cap(c, a)
+    with torch.no_grad():
+        if not bool(near.any()):
+            return tau
+        exact = _tau_rule(layer, *_quadrature(torch.acos(c), a, nodes, True, c), lam)
+    return torch.where(near, tau + (exact - tau).detach(), tau)
 
 
 def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFAULT_NODES) -> torch.Tensor:
@@ -146,7 +160,7 @@ def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, devi
     """(cos nodes increasing, θd grid, product weights (nodes, cells + 1)); layer-independent, cached."""
     cos = _lut_cosines(alpha, angles, dtype, device)
     a = torch.tensor(float(alpha), dtype=dtype, device=device)
-    weights = _hat_weights(torch.acos(cos), a, cells)
+    weights = _hat_weights(torch.acos(cos), a, cells, cos_i=cos)
     grid = torch.linspace(0.0, math.pi / 2, cells + 1, dtype=dtype, device=device)
     return cos, grid, weights
 
