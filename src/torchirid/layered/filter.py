@@ -499,35 +499,58 @@ def _table_values(ti: torch.Tensor, u: torch.Tensor, alpha: torch.Tensor):
     return f + _cut_term(ti, td, alpha), f
 
 
+def _bisect_axis(ti, u, g, alpha, tol, axis, budget):
+    """Bisect the intervals of one axis (0: θi, 1: u) whose midpoint error of linear
+    interpolation exceeds ``tol``; the midpoint values become the new nodes (each closed-form
+    evaluation is used for both the check and the table). Returns the new grids, values and
+    the largest midpoint error found in the first (full) check."""
+    grid = ti if axis == 0 else u
+    todo = torch.arange(grid.numel() - 1)  # left ends of the intervals to check
+    first = None
+    while todo.numel():
+        mid = 0.5 * (grid[todo] + grid[todo + 1])
+        if axis == 0:
+            gm, _ = _table_values(mid[:, None], u[None, :], alpha)  # (m, n_u)
+            err = (gm - 0.5 * (g[todo] + g[todo + 1])).abs().amax(1)
+        else:
+            gm, _ = _table_values(ti[:, None], mid[None, :], alpha)  # (n_i, m)
+            err = (gm - 0.5 * (g[:, todo] + g[:, todo + 1])).abs().amax(0)
+        if first is None:
+            first = float(err.max()) if err.numel() else 0.0
+        bad = err > tol
+        if not bool(bad.any()) or grid.numel() + int(bad.sum()) > budget:
+            break
+        grid = torch.cat([grid, mid[bad]])
+        g = torch.cat([g, gm[bad]] if axis == 0 else [g, gm[:, bad]], axis)
+        order = torch.argsort(grid)
+        grid = grid[order]
+        g = g[order] if axis == 0 else g[:, order]
+        rank = torch.empty_like(order)
+        rank[order] = torch.arange(order.numel())
+        new = rank[-int(bad.sum()):]  # positions of the new nodes: check both halves next
+        todo = torch.unique(torch.cat([new - 1, new]))
+        if axis == 0:
+            ti = grid
+        else:
+            u = grid
+    return (grid, u, g, first) if axis == 0 else (ti, grid, g, first)
+
+
 def _refine(ti, u, alpha, rtol, max_rows, max_cols):
     """Bisect θi intervals and u intervals until the midpoint error of linear interpolation is
-    below ``rtol × peak`` in each direction (a posteriori: the closed form is the judge)."""
+    below ``rtol × peak`` in each direction (a posteriori: the closed form is the judge).
+    Returns the grids, the values and the final midpoint-error estimates (relative to the peak)."""
+    g, f = _table_values(ti[:, None], u[None, :], alpha)
+    peak = float(f.max())
+    tol = rtol * peak
     est_i = est_u = float("inf")
-    for _ in range(40):
-        g, f = _table_values(ti[:, None], u[None, :], alpha)
-        tol = rtol * float(f.max())
-        tm = 0.5 * (ti[1:] + ti[:-1])
-        um = 0.5 * (u[1:] + u[:-1])
-        gi, _ = _table_values(tm[:, None], u[None, :], alpha)
-        err_i = (gi - 0.5 * (g[1:] + g[:-1])).abs().amax(1)
-        gu, _ = _table_values(ti[:, None], um[None, :], alpha)
-        err_u = (gu - 0.5 * (g[:, 1:] + g[:, :-1])).abs().amax(0)
-        est_i, est_u = float(err_i.max()) / float(f.max()), float(err_u.max()) / float(f.max())
-        bad_i = err_i > tol
-        bad_u = err_u > tol
-        n_i, n_u = int(bad_i.sum()), int(bad_u.sum())
-        if n_i and ti.numel() + n_i > max_rows:
-            bad_i = torch.zeros_like(bad_i)  # budget reached: keep the table, report its estimate
-            n_i = 0
-        if n_u and u.numel() + n_u > max_cols:
-            bad_u = torch.zeros_like(bad_u)
-            n_u = 0
-        if not n_i and not n_u:
-            return ti, u, g, est_i, est_u
-        ti = torch.sort(torch.cat([ti, tm[bad_i]])).values
-        u = torch.sort(torch.cat([u, um[bad_u]])).values
-    g, _ = _table_values(ti[:, None], u[None, :], alpha)
-    return ti, u, g, est_i, est_u
+    for _ in range(6):  # alternate until a full check of both axes finds nothing to refine
+        n_before = (ti.numel(), u.numel())
+        ti, u, g, est_i = _bisect_axis(ti, u, g, alpha, tol, 0, max_rows)
+        ti, u, g, est_u = _bisect_axis(ti, u, g, alpha, tol, 1, max_cols)
+        if (ti.numel(), u.numel()) == n_before:
+            break
+    return ti, u, g, est_i / peak, est_u / peak
 
 
 class FilterLUT:
