@@ -48,3 +48,20 @@ class _no_warning:
 def test_set_compile_validates():
     with pytest.raises(ValueError, match="enabled"):
         ti.set_compile("yes")
+
+
+@pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+def test_compiled_piecewise_landmarks_match_eager(monkeypatch):
+    from torchirid import _compile
+
+    monkeypatch.setattr(_compile, "MIN_POINTS", 0)  # a small batch, compiled all the same
+    c = torch.cos(torch.deg2rad(torch.linspace(0, 89, 12, dtype=torch.float64)))
+    d1 = torch.tensor([50.0, 250.0, 450.0], dtype=torch.float64)[:, None]
+    x0 = ti.bragg_xyz(c, 1.0, 1.5, d1, 500.0 - d1, 20, method="piecewise")
+    ti.set_compile(True)
+    try:
+        with _no_warning():
+            x1 = ti.bragg_xyz(c, 1.0, 1.5, d1, 500.0 - d1, 20, method="piecewise")
+    finally:
+        ti.set_compile(False)
+    assert (x1 - x0).abs().max() <= 1e-12

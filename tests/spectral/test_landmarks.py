@@ -77,7 +77,7 @@ def test_batched_over_angles_equals_one_by_one():
 
 
 def test_default_iterations_are_accurate_enough():
-    # the default 12 halvings + a secant step: landmarks within 1e-5 (relative) of converged
+    # the default 13 halvings (between modes) + a secant step: landmarks within 1e-5 (relative) of converged
     A = torch.linspace(50, 900, 60, dtype=F64)
     B = torch.linspace(900, 60, 60, dtype=F64)
     d = torch.full_like(A, 0.08)

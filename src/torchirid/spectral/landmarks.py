@@ -11,9 +11,9 @@ relation (eq. 8) reads x(ω) = cos KΛ = cos ωA cos ωB − ½ Ω sin ωA sin �
   its neighbouring Airy points;
 * **zero points** ω_z = zπ/B, z ∈ ℕ⁺ (eq. 12), where the envelope vanishes (r1 = 0).
 
-Airy points and edges are found by a batched bisection (all modes of all angles,
-parameters and polarizations at once; 12 halvings and a final secant step by default),
-on the cancellation-free forms 1 ∓ x = 2 sin²/cos²(ω(A+B)/2) ± δ sin ωA sin ωB with
+Airy points and edges are found by one batched bisection (all kinds, modes, angles,
+parameters and polarizations at once, each bracketed by two consecutive modes; 13 halvings
+and a final secant step by default), on the cancellation-free forms 1 ∓ x = 2 sin²/cos²(ω(A+B)/2) ± δ sin ωA sin ωB with
 δ = (η1 − η2)²/(2η1η2) = Ω/2 − 1 ≥ 0. Modes are padded to the largest count in the batch;
 padded entries are NaN in :func:`bragg_landmarks`'s output.
 """
@@ -35,19 +35,9 @@ def dispersion_parts(omega, A, B, delta):
     return 2 * sh * sh + prod, 2 * ch * ch - prod
 
 
-def _bisect(f, lo, hi, iterations):
-    """Batched bisection for a sign change of ``f`` between ``lo`` and ``hi`` (same shapes),
-    finished by one secant (false-position) step in the final bracket: the error falls from
-    ~2^-iterations to ~(2^-iterations)² of the initial bracket."""
-    f_lo = f(lo)
-    s_lo = torch.sign(f_lo)
-    f_hi = f(hi)
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        f_mid = f(mid)
-        left = torch.sign(f_mid) == s_lo  # the root is in [mid, hi]
-        lo, f_lo = torch.where(left, mid, lo), torch.where(left, f_mid, f_lo)
-        hi, f_hi = torch.where(left, hi, mid), torch.where(left, f_hi, f_mid)
+def _secant(lo, hi, f_lo, f_hi):
+    """One secant (false-position) step in the final bracket [lo, hi] of a bisection: the error
+    falls from ~2^-k to ~(2^-k)² of the initial bracket (the midpoint if the step fails)."""
     den = f_hi - f_lo
     ok = (den != 0) & torch.isfinite(den)
     x = lo - f_lo * (hi - lo) / torch.where(ok, den, torch.ones_like(den))
@@ -55,7 +45,108 @@ def _bisect(f, lo, hi, iterations):
     return torch.where(inside, x, 0.5 * (lo + hi))
 
 
-def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 12):
+#: bisection halvings of :func:`bragg_landmarks` (every landmark is bracketed by two
+#: consecutive modes, one halving more than the Airy-point-to-mode brackets of the gap edges need)
+ITERATIONS = 13
+
+
+def _counts(omega_min, omega_max, A, B):
+    """Mode numbers ``m (*, M)`` and zero-point numbers ``z (*, Z)`` to search, and the last
+    zero number ``z_hi (*,)`` (eager: the counts M, Z are data dependent; one host sync each)."""
+    L = A + B
+    with torch.no_grad():
+        m_lo = torch.floor(omega_min * L / math.pi)  # the mode at or below ω_min (0 is ω = 0)
+        m_hi = torch.ceil(omega_max * L / math.pi)  # the mode at or above ω_max
+        safe_B = torch.where(B > 0, B, torch.ones_like(B))
+        z_lo = torch.ceil(omega_min * safe_B / math.pi).clamp(min=1)
+        z_hi = torch.floor(omega_max * safe_B / math.pi)
+        if L.numel():
+            count, zc = (int(v) for v in torch.stack([(m_hi - m_lo).max(), (z_hi - z_lo).max().clamp(min=0)]).tolist())
+        else:
+            count, zc = 0, 0
+    m = m_lo.unsqueeze(-1) + torch.arange(count + 1, dtype=L.dtype, device=L.device)  # (*, M) mode numbers
+    z = z_lo.unsqueeze(-1) + torch.arange(zc + 1, dtype=L.dtype, device=L.device)
+    return m, z, z_hi
+
+
+def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
+    """Landmarks from the mode numbers of :func:`_counts` (no data-dependent sizes or host
+    syncs: usable inside ``torch.compile(fullgraph=True)``).
+
+    Returns ``(modes, airy, edges_lo, edges_hi)`` as in :func:`bragg_landmarks`.
+
+    Every Airy point and gap edge between modes m and m + 1 is bracketed by [ω_m, ω_{m+1}]: on
+    it 1 ∓ x (the sign for mode m) is ≤ 0 only in gap m, 1 ± x (for mode m + 1) only in gap
+    m + 1, and x changes sign once; so one batched bisection finds all three kinds, on
+    g = c₁ sin²(ωL/2) + c₂ cos²(ωL/2) + c₃ δ sin ωA sin ωB with per-root coefficients
+    chosen so that g ≤ 0 left of the root and > 0 right of it.
+    """
+    Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
+    Lx = Ax + Bx
+    nan = float("nan")
+    modes = m * math.pi / Lx  # ω_m (eq. 13); m = 0 is ω = 0, where x = 1
+    even = torch.remainder(m, 2) == 0  # x(ω_m) ≥ 1 for even m, ≤ −1 for odd m (appendix A)
+    ev = even[..., :-1].to(A.dtype)  # parity of the lower mode of each bracket (1 even, 0 odd)
+    od = 1 - ev
+    sgn = ev - od  # +1 for even m, −1 for odd m
+    # g = c₀ + c₁ u² + c₃ δ sin ωA sin ωB with u = sin(ωL/2 + φ) (u = sin(ωL/2) for φ = 0,
+    # cos(ωL/2) for φ = π/2), per root, in order:
+    # * the upper edge of gap m: 1 − x = 2 sin²(ωL/2) + δ… (even m), 1 + x = 2 cos²(ωL/2) − δ… (odd m);
+    # * the Airy point: −x = 2 sin²(ωL/2) − 1 + δ… (even m), x (odd m);
+    # * the lower edge of gap m + 1: −(1 + x) (even m), −(1 − x) (odd m);
+    # each ≤ 0 left of its root and > 0 right of it in [ω_m, ω_{m+1}]
+    zero = torch.zeros_like(ev)
+    c0 = torch.cat([zero, -sgn, zero], -1)
+    c1 = torch.cat([2 + zero, 2 * sgn, zero - 2], -1)
+    phi = torch.cat([od, zero, ev], -1) * (math.pi / 2)
+    c3 = torch.cat([sgn, sgn, sgn], -1) * dx
+    lo = torch.cat([modes[..., :-1]] * 3, -1)
+    width = torch.cat([modes[..., 1:] - modes[..., :-1]] * 3, -1)
+    Lh = 0.5 * Lx
+
+    def g(w):
+        u = torch.sin(torch.addcmul(phi, w, Lh))
+        prod = torch.sin(w * Ax) * torch.sin(w * Bx)
+        return torch.addcmul(torch.addcmul(c0, c1, u * u), c3, prod)
+
+    a = lo  # the root stays in [a, a + h]
+    h = width
+    for _ in range(iterations):
+        h = 0.5 * h
+        mid = a + h
+        a = torch.where(g(mid) <= 0, mid, a)  # the root is in [mid, mid + h]
+    b = a + h
+    roots = _secant(a, b, g(a), g(b))
+    up, airy, down = roots.split(m.shape[-1] - 1, dim=-1)
+    pad = torch.full_like(modes[..., :1], nan)
+    edges_hi = torch.cat([up, pad], dim=-1)  # upper edge (larger ω) of the gap around each mode
+    edges_lo = torch.cat([pad, down], dim=-1)  # lower edge
+    # a closed gap (|x(ω_m)| = 1, e.g. p polarization at Brewster's angle): both edges at the mode
+    omx_m, opx_m = dispersion_parts(modes, Ax, Bx, dx)
+    closed = torch.where(even, omx_m, opx_m) >= 0
+    real_mode = m >= 1
+    edges_hi = torch.where(closed, modes, edges_hi)
+    edges_lo = torch.where(closed, modes, edges_lo)
+
+    def in_range(w, ok):
+        keep = (w >= omega_min) & (w <= omega_max) & ok
+        return torch.where(keep, w, torch.full_like(w, nan))
+
+    return (in_range(modes, real_mode), in_range(airy, True),
+            # gaps straddling the range ends are clipped to it (they still start/end a box)
+            torch.where(real_mode, edges_lo.clamp(omega_min, omega_max), torch.full_like(modes, nan)),
+            torch.where(real_mode, edges_hi.clamp(omega_min, omega_max), torch.full_like(modes, nan)))
+
+
+def _zeros(omega_min, omega_max, B, z, z_hi):
+    """Zero points ω_z = zπ/B (eq. 12) of the numbers ``z`` of :func:`_counts`, NaN-padded."""
+    safe_B = torch.where(B > 0, B, torch.ones_like(B)).unsqueeze(-1)
+    zeros = z * math.pi / safe_B
+    keep = (zeros >= omega_min) & (zeros <= omega_max) & (z <= z_hi.unsqueeze(-1)) & (B.unsqueeze(-1) > 0)
+    return torch.where(keep, zeros, torch.full_like(zeros, float("nan")))
+
+
+def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITERATIONS):
     r"""Modes, Airy points, band-gap edges and zero points of a Bragg mirror in [ω_min, ω_max].
 
     Args:
@@ -63,14 +154,14 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 12):
         A, B: optical thicknesses n1 d1 cos θ1 and n2 d2 cos θ2 (nm), real ≥ 0, any
             broadcasting batch shape (angles × parameters × polarizations).
         delta: Ω/2 − 1 = (η1 − η2)²/(2 η1 η2) ≥ 0 for the polarization (batch-broadcast).
-        iterations: bisection halvings before the final secant step; 12 put every landmark
-            within ~2e-6 (relative) of its exact position (~1e-9 with 18): a colour moves by
-            ≲ 1e-4 ΔE2000 — pass more for other uses.
+        iterations: bisection halvings of the bracket between consecutive modes before the
+            final secant step; 13 put every landmark within ~2e-6 (relative) of its exact
+            position (~1e-9 with 19): a colour moves by ≲ 1e-4 ΔE2000 — pass more for other uses.
 
     Returns:
         dict of tensors, batch shape ``(*,)`` first:
-        ``modes (*, M)`` (ω_m, NaN-padded), ``m (*, M)`` (mode numbers), ``airy (*, M + 1)``
-        (the zero of x between modes m − 1 and m, and after the last), ``edges_lo``,
+        ``modes (*, M)`` (ω_m, NaN-padded), ``m (*, M)`` (mode numbers), ``airy (*, M - 1)``
+        (the zero of x between consecutive modes), ``edges_lo``,
         ``edges_hi (*, M)`` (the gap around each mode), ``zeros (*, Z)`` (eq. 12; NaN-padded).
         Every landmark returned lies in [ω_min, ω_max] or is NaN (gaps and Airy points are
         found on the modes just outside the range too and clipped, so partial gaps at the
@@ -87,64 +178,7 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = 12):
         [531.8, 688.2]
     """
     A, B, delta = torch.broadcast_tensors(torch.as_tensor(A), torch.as_tensor(B), torch.as_tensor(delta))
-    L = A + B  # optical thickness of a cell (nm)
-    nan = float("nan")
-    with torch.no_grad():
-        m_lo = torch.floor(omega_min * L / math.pi)  # the mode at or below ω_min (0 is ω = 0)
-        m_hi = torch.ceil(omega_max * L / math.pi)  # the mode at or above ω_max
-        count = int((m_hi - m_lo).max().item()) + 1 if L.numel() else 1
-    m = m_lo.unsqueeze(-1) + torch.arange(count, dtype=L.dtype, device=L.device)  # (*, M) mode numbers
-    Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
-    modes = m * math.pi / (Ax + Bx)  # ω_m (eq. 13); m = 0 is ω = 0, where x = 1
-    even = torch.remainder(m, 2) == 0  # x(ω_m) ≥ 1 for even m, ≤ −1 for odd m (appendix A)
-
-    def x_of(w):
-        omx, opx = dispersion_parts(w, Ax, Bx, dx)
-        return torch.where(omx <= opx, 1 - omx, opx - 1)
-
-    def one_minus_abs_x(even_mode):
-        def f(w):  # 1 − |x| near a mode: 1 − x around even modes, 1 + x around odd ones
-            omx, opx = dispersion_parts(w, Ax, Bx, dx)
-            return torch.where(even_mode, omx, opx)
-
-        return f
-
-    # the Airy point between consecutive modes: x goes from (−1)^m to (−1)^(m+1)
-    airy = _bisect(x_of, modes[..., :-1], modes[..., 1:], iterations)
-    # each gap edge lies between its mode (1 − |x| ≤ 0) and the neighbouring Airy point (= 1)
-    # both edges of every gap in one batched bisection: [mode, next Airy] and [Airy, next mode]
-    both = _bisect(one_minus_abs_x(torch.cat([even[..., :-1], even[..., 1:]], -1)),
-                   torch.cat([modes[..., :-1], airy], -1), torch.cat([airy, modes[..., 1:]], -1), iterations)
-    up, down = both.split(airy.shape[-1], dim=-1)
-    pad = torch.full_like(modes[..., :1], nan)
-    edges_hi = torch.cat([up, pad], dim=-1)  # upper edge (larger ω) of the gap around each mode
-    edges_lo = torch.cat([pad, down], dim=-1)  # lower edge
-    # a closed gap (|x(ω_m)| = 1, e.g. p polarization at Brewster's angle): both edges at the mode
-    omx_m, opx_m = dispersion_parts(modes, Ax, Bx, dx)
-    closed = torch.where(even, omx_m, opx_m) >= 0
-    real_mode = m >= 1
-    edges_hi = torch.where(closed, modes, edges_hi)
-    edges_lo = torch.where(closed, modes, edges_lo)
-
-    def in_range(w, ok=True):
-        keep = (w >= omega_min) & (w <= omega_max) & ok
-        return torch.where(keep, w, torch.full_like(w, nan))
-
-    out = {
-        "modes": in_range(modes, real_mode),
-        "m": m,
-        "airy": in_range(airy),
-        # gaps straddling the range ends are clipped to it (they still start/end a box)
-        "edges_lo": torch.where(real_mode, edges_lo.clamp(omega_min, omega_max), torch.full_like(modes, nan)),
-        "edges_hi": torch.where(real_mode, edges_hi.clamp(omega_min, omega_max), torch.full_like(modes, nan)),
-    }
-    # zero points ω_z = zπ/B (eq. 12)
-    with torch.no_grad():
-        safe_B = torch.where(B > 0, B, torch.ones_like(B))
-        z_lo = torch.ceil(omega_min * safe_B / math.pi).clamp(min=1)
-        z_hi = torch.floor(omega_max * safe_B / math.pi)
-        zc = int((z_hi - z_lo).max().clamp(min=0).item()) + 1 if B.numel() else 1
-    z = z_lo.unsqueeze(-1) + torch.arange(zc, dtype=L.dtype, device=L.device)
-    zeros = z * math.pi / safe_B.unsqueeze(-1)
-    out["zeros"] = in_range(zeros, (z <= z_hi.unsqueeze(-1)) & (B.unsqueeze(-1) > 0))
-    return out
+    m, z, z_hi = _counts(omega_min, omega_max, A, B)
+    modes, airy, e_lo, e_hi = _landmarks(omega_min, omega_max, A, B, delta, m, iterations)
+    zeros = _zeros(omega_min, omega_max, B, z, z_hi)
+    return {"modes": modes, "m": m, "airy": airy, "edges_lo": e_lo, "edges_hi": e_hi, "zeros": zeros}

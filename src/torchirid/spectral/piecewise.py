@@ -20,7 +20,13 @@ Scope: the mirror embedded in n1 (``n_host`` = None or n1) with real indices and
 propagating in n2 (the paper's setting); other mirrors raise ``ValueError`` — use
 ``method="spectral"``. The approximation does not depend on the number of cells: it
 models large N (the paper assumes ≥ 95 % reflectance in the gaps). Gradients flow through
-the box weights and the correction, not through the landmark positions (bisection).
+the box weights, the correction and the landmark positions (implicit-function theorem).
+
+Cost: the landmarks of both polarizations are found in one batched bisection (about 200
+small elementwise ops; with :func:`torchirid.set_compile` they are one compiled kernel, at a
+one-off compile time of ~15–25 s), and the sub-boxes are laid out compactly (only the
+non-empty ones, padded to the largest count in the batch), then read from the cumulative
+table in one gather.
 """
 
 from __future__ import annotations
@@ -29,10 +35,10 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _compile
 from .correction import angular_correction
 from .cumulative import cumulative_cmf
-from .landmarks import bragg_landmarks, dispersion_parts
+from .landmarks import ITERATIONS, _counts, _landmarks, _zeros, dispersion_parts
 
 __all__ = ["bragg_xyz_piecewise"]
 
@@ -96,15 +102,16 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     q2 = torch.sqrt(torch.clamp(n2 * n2 - n1 * n1 * (1 - cs * cs), min=0))
     A, B = q1 * d1, q2 * d2
     w_corr = angular_correction(cs, n1, n2, coefficients=_coefficients(correction))
-    xyz = []
-    for pol in _pols(polarization):
-        eta1, eta2 = (q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2))
-        safe2 = torch.where(eta2 > 0, eta2, torch.ones_like(eta2))
-        delta = (eta1 - eta2) ** 2 / (2 * eta1 * safe2)  # Ω/2 − 1
-        C_coef = ((eta1 * eta1 - eta2 * eta2) / (2 * eta1 * safe2)) ** 2  # |C|² = C_coef sin²(ωB)
-        xyz.append(_piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, subdivisions, table,
-                                  weights, N))
-    out = xyz[0] if len(xyz) == 1 else 0.5 * (xyz[0] + xyz[1])
+    # the polarizations are one leading batch dimension P (landmarks depend on δ): one pass
+    etas = [(q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2)) for pol in _pols(polarization)]
+    batch = torch.broadcast_shapes(A.shape, B.shape, w_corr.shape, N.shape, *(e.shape for pair in etas for e in pair))
+    eta1 = torch.stack([e[0].expand(batch) for e in etas])
+    eta2 = torch.stack([e[1].expand(batch) for e in etas])
+    safe2 = torch.where(eta2 > 0, eta2, torch.ones_like(eta2))
+    delta = (eta1 - eta2) ** 2 / (2 * eta1 * safe2)  # Ω/2 − 1
+    C_coef = ((eta1 * eta1 - eta2 * eta2) / (2 * eta1 * safe2)) ** 2  # |C|² = C_coef sin²(ωB)
+    xyz = _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, subdivisions, table, weights, N)
+    out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
     return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
 
 
@@ -112,16 +119,6 @@ def _coefficients(correction):
     if isinstance(correction, str):
         return {"fitted": None, "paper": "paper", "none": (0.0, 1.0)}[correction]
     return correction
-
-
-def _yeh_at(omega, A, B, delta, C_coef, N):
-    """Exact Yeh reflectance (eq. 2/9) of N cells at ω from the landmark quantities."""
-    from ..optics.bragg import _yeh  # the closed form's stable Chebyshev evaluation
-
-    omx, opx = dispersion_parts(omega, A, B, delta)
-    eps = torch.minimum(omx, opx)
-    C2 = C_coef * torch.sin(omega * B) ** 2  # |C|² = P²/Q²
-    return _yeh(C2, torch.ones_like(C2), eps, N, safe=torch.is_grad_enabled())
 
 
 def _attach(L, A, B, delta, omega_min, omega_max):
@@ -166,13 +163,73 @@ def _attach(L, A, B, delta, omega_min, omega_max):
     return airy, e_lo, e_hi, zeros
 
 
+_PACKED: dict = {}
+
+
+def _packed(table):
+    """``(P, ω₀, h)``: the cumulative table uniform in ω (first node ω₀, step h) as rows
+    P[i] = (C̄(ω_i), C̄(ω_{i+1}) − C̄(ω_i)) of its n − 1 cells (one gather per lookup)."""
+    key = id(table)
+    hit = _PACKED.get(key)
+    if hit is None or hit[0] is not table:
+        grid, v = table.axes["omega"], table.values
+        packed = torch.cat([v[:-1], v[1:] - v[:-1]], dim=-1).contiguous()
+        hit = (table, (packed, float(grid[0]), float(grid[-1] - grid[0]) / (grid.numel() - 1)))
+        _PACKED[key] = hit
+    return hit[1]
+
+
+def _lookup(packed, omega0, step, x):
+    """C̄ at ``x`` by linear interpolation in the packed table of :func:`_packed`, clamped to
+    its range (as :meth:`torchirid.lut.LUT.interp` with ``"clamp"``, without the checks)."""
+    cells = packed.shape[0]
+    pos = ((x - omega0) / step).clamp(0, cells)
+    i = torch.floor(pos).clamp(max=cells - 1)
+    t = (pos - i).unsqueeze(-1)
+    rows = packed.index_select(0, i.to(torch.int64).reshape(-1)).reshape(x.shape + (packed.shape[-1],))
+    half = packed.shape[-1] // 2
+    return torch.addcmul(rows[..., :half], rows[..., half:], t)
+
+
 def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, weights="averaged", N=None):
+    """XYZ ``(P, *, 3)`` of the boxes; ``delta``, ``C_coef`` carry the polarizations in front."""
     A, B, delta, C_coef, w_corr, N = torch.broadcast_tensors(A, B, delta, C_coef, w_corr, N.to(A.dtype))
-    with torch.no_grad():  # landmark positions by bisection
-        L = bragg_landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach())
-    airy, e_lo, e_hi, zeros = L["airy"], L["edges_lo"], L["edges_hi"], L["zeros"]
-    if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta)):
-        airy, e_lo, e_hi, zeros = _attach(L, A, B, delta, omega_min, omega_max)
+    with torch.no_grad():
+        m, z, z_hi = _counts(omega_min, omega_max, A, B)  # data-dependent sizes: eager, one sync
+    tab = _packed(table)
+    if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta, C_coef, w_corr)):
+        with torch.no_grad():  # landmark positions by bisection
+            L = _landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach(), m)
+            L += (_zeros(omega_min, omega_max, B.detach(), z, z_hi),)
+        landmarks = _attach(dict(zip(("modes", "airy", "edges_lo", "edges_hi", "zeros"), L), m=m),
+                            A, B, delta, omega_min, omega_max)
+        return _boxes(A, B, delta, C_coef, w_corr, N, landmarks, omega_min, omega_max, s, weights, tab)
+    with torch.no_grad():
+        # the bisection is ~200 small elementwise ops: one fused loop when compiled (opt-in)
+        find = _compile.kernel("piecewise_landmarks", _landmarks, _landmarks, m.numel())
+        _, airy, e_lo, e_hi = find(omega_min, omega_max, A, B, delta, m, ITERATIONS)
+        zeros = _zeros(omega_min, omega_max, B, z, z_hi)
+        return _boxes(A, B, delta, C_coef, w_corr, N, (airy, e_lo, e_hi, zeros), omega_min, omega_max, s,
+                      weights, tab)
+
+
+def _parts(omega, A, B, delta):
+    """(1 − x, 1 + x, sin ωB) at ω (:func:`~torchirid.spectral.landmarks.dispersion_parts`,
+    sharing sin ωB with |C|² = C_coef sin² ωB)."""
+    half = (0.5 * omega) * (A + B)
+    sin_b = torch.sin(omega * B)
+    prod = delta * torch.sin(omega * A) * sin_b
+    sh, ch = torch.sin(half), torch.cos(half)
+    return torch.addcmul(prod, sh, sh, value=2), torch.addcmul(-prod, ch, ch, value=2), sin_b
+
+
+def _boxes(A, B, delta, C_coef, w_corr, N, landmarks, omega_min, omega_max, s, weights, tab):
+    """XYZ of the boxes between the sorted landmarks, each cut into its sub-boxes.
+
+    The sub-boxes are laid out compactly, T per colour (T = the largest count in the batch,
+    one host sync; shorter lists are padded with empty sub-boxes at ω_max): box j of width
+    > 0 holds n_j = 1 (gap) or max(1, s − m) sub-boxes, empty boxes none."""
+    airy, e_lo, e_hi, zeros = landmarks
     ends = torch.stack(torch.broadcast_tensors(torch.full_like(A, omega_min), torch.full_like(A, omega_max)), -1)
     b = torch.cat([ends, e_lo, e_hi, airy, zeros], dim=-1)
     b = torch.where(torch.isnan(b), torch.full_like(b, omega_max), b)  # padding → empty boxes at the end
@@ -180,32 +237,51 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
     lo, hi = b[..., :-1], b[..., 1:]  # (*, J) boxes
     Ax, Bx, dx, Cx = (t.unsqueeze(-1) for t in (A, B, delta, C_coef))
     mid = 0.5 * (lo + hi)
-    omx, opx = dispersion_parts(mid, Ax, Bx, dx)
+    omx, opx, sin_b = _parts(mid, Ax, Bx, dx)
     gap = torch.minimum(omx, opx) <= 0  # |cos KΛ| ≥ 1 at the box centre
     # sub-boxes: max(1, s − m) for boxes outside the gaps, m the mode just below the box
     m_box = torch.floor(mid * (Ax + Bx) / math.pi)
     n_sub = torch.where(gap, torch.ones_like(m_box), torch.clamp(s - m_box, min=1))
-    k = torch.arange(s + 1, dtype=A.dtype, device=A.device)
-    frac = torch.clamp(k / n_sub.unsqueeze(-1), max=1.0)  # (*, J, s+1), collapsed beyond n_sub
-    edges = lo.unsqueeze(-1) + (hi - lo).unsqueeze(-1) * frac
-    sub_mid = 0.5 * (edges[..., :-1] + edges[..., 1:])  # (*, J, s)
-    omx_s, opx_s = dispersion_parts(sub_mid, Ax.unsqueeze(-1), Bx.unsqueeze(-1), dx.unsqueeze(-1))
-    C2 = Cx.unsqueeze(-1) * torch.sin(sub_mid * Bx.unsqueeze(-1)) ** 2
+    n_sub = torch.where(hi > lo, n_sub, torch.zeros_like(n_sub)).to(torch.int64)
+    cum = torch.cumsum(n_sub, dim=-1)  # sub-boxes of boxes 0..j
+    T = int(cum[..., -1].max()) if cum.numel() else 0  # (host sync: the compact length)
+    t = torch.arange(T, device=A.device).expand(cum.shape[:-1] + (T,)).contiguous()
+    j = torch.searchsorted(cum, t, right=True)  # the box of sub-box t
+    valid = j < cum.shape[-1]
+    j = j.clamp(max=cum.shape[-1] - 1)
+
+    def at(v):
+        return torch.take_along_dim(v, j, dim=-1)
+
+    n_t = at(n_sub)
+    k = (t - (at(cum) - n_t)).to(A.dtype)  # index of the sub-box in its box
+    inv_n = 1 / torch.where(valid, n_t, torch.ones_like(n_t)).to(A.dtype)
+    lo_t, width = at(lo), at(hi - lo)
+    left = torch.where(valid, torch.addcmul(lo_t, width, k * inv_n), torch.full_like(lo_t, omega_max))
+    sub_mid = torch.addcmul(lo_t, width, (k + 0.5) * inv_n)  # (*, T)
+    omx_s, opx_s, sin_bs = _parts(sub_mid, Ax, Bx, dx)
+    C2 = Cx * (sin_bs * sin_bs)
     sin2 = torch.clamp(omx_s * opx_s, min=0)  # sin² KΛ, ≥ 0 outside the gaps
     den = C2 + sin2
     envelope = torch.where(den > 0, C2 / torch.where(den > 0, den, torch.ones_like(den)), torch.zeros_like(den))
+    gap_t = at(gap)
     if weights == "paper":
-        weight = torch.where(gap.unsqueeze(-1), torch.ones_like(envelope), w_corr[..., None, None] * envelope)
+        weight = torch.where(gap_t, torch.ones_like(envelope), w_corr.unsqueeze(-1) * envelope)
     else:
         # averaged: Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
         # <C² sin²φ / (C² sin²φ + sin²KΛ)>_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e);
-        # inside the gaps the exact finite-N reflectance at the sub-box centre
+        # inside the gaps the exact finite-N reflectance at the box centre (never subdivided)
         one_minus = 1 - envelope
         pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1, inside gaps: not used)
         fringe_mean = 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
                                       torch.zeros_like(one_minus))
-        # a gap box is never subdivided: its one sub-box centre is the box centre
-        exact = _yeh_at(mid, Ax, Bx, dx, Cx, N[..., None]).unsqueeze(-1)
-        weight = torch.where(gap.unsqueeze(-1), exact, fringe_mean)
-    C = table(omega=edges)  # (*, J, s+1, 3) cumulative CMF at every sub-box edge
-    return (weight.unsqueeze(-1) * (C[..., 1:, :] - C[..., :-1, :])).sum(dim=(-3, -2))
+        eps = torch.minimum(omx, opx)
+        from ..optics.bragg import _yeh  # the closed form's stable Chebyshev evaluation
+
+        C2_mid = Cx * (sin_b * sin_b)
+        exact = _yeh(C2_mid, torch.ones_like(C2_mid), eps, N[..., None], safe=torch.is_grad_enabled())
+        weight = torch.where(gap_t, at(exact), fringe_mean)
+    weight = torch.where(valid, weight, torch.zeros_like(weight))
+    edges = torch.cat([left, torch.full_like(left[..., :1], omega_max)], dim=-1)  # (*, T + 1)
+    C = _lookup(*tab, edges)  # (*, T + 1, 3) cumulative CMF at every sub-box edge
+    return (weight.unsqueeze(-1) * (C[..., 1:, :] - C[..., :-1, :])).sum(dim=-2)
