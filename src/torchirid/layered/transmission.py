@@ -104,10 +104,21 @@ def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFA
             ``cos_theta`` ``(*, 1)`` with ``wavelength`` ``(W,)`` gives ``(*, W)``.
         nodes: Gauss–Legendre nodes per incidence angle (:func:`filter_quadrature`). The
             weights are positive and sum to G1 exactly, so ``0 ≤ τ ≤ G1`` and ``τ = G1`` when
-            ``R = 0``. The error is that of resolving ``R(θd)``'s fringes and band edges
-            under the filter: see the accuracy table in the docstring of this module's tests
-            (``tests/layered/test_transmission.py``); 128 nodes keep it below 1e-3 for
-            ``cells`` ≤ 50 and α ≥ 0.025.
+            ``R = 0``. The error is that of resolving the fringes and band edges of
+            ``R(θd)`` under the filter. Measured max |Δτ| (n = 1 | 1.5, d = 110 | 75 nm,
+            α ∈ {0.025, 0.1, 0.4}, θi ∈ {0, 20, 45, 70, 85}°, 400–700 nm):
+
+            ======  ========  ========  ========  ========
+            cells   K = 128   K = 256   K = 512   K = 1024
+            ======  ========  ========  ========  ========
+            10      1.8e-3    4.7e-4    6.1e-6    1.3e-7
+            50      2.4e-2    6.0e-3    3.0e-3    1.2e-3
+            200     6.2e-2    2.3e-2    9.5e-3    2.9e-3
+            1000    6.0e-2    7.8e-2    2.1e-2    1.3e-2
+            ======  ========  ========  ========  ========
+
+            (roughly ``K ≳ 10 × cells`` for 1e-3). For long stacks or many angles prefer
+            :func:`transmissivity_lut` (product integration: 4e-4 for 200 cells at its default).
 
     Returns:
         τ, broadcast shape of ``cos_theta`` and ``wavelength``; differentiable with respect
