@@ -41,8 +41,9 @@ The path then continues by sampling the event at the layer it meets (incident di
   :math:`\tfrac{1+G_1}{2}\tau_\lambda/\langle\tau\rangle_\lambda` (eq. 33 = τ/p_trans); else
   reflect: sample ``m`` from the GGX visible normals of ``-d``, ``o = reflect(-d, m)``,
   weight :math:`R_\lambda(-\mathbf d\cdot\mathbf m)G_1(\mathbf o)/(1-p_\mathrm{trans})`
-  (the path dies if ``o`` points through the layer). τ of the entry direction is exact
-  (eq. 28 by quadrature); τ of directions made by reflections comes from a 1-D table in θ.
+  (the path dies if ``o`` points through the layer). τ comes from the per-layer 1-D
+  table of :func:`~torchirid.layered.transmission.transmissivity_lut` (the paper's
+  optimized simulation does the same), also for the way out of the next-event estimate.
 * ``transmission="microfacet"`` (independent of F_α): sample ``m`` first; reflect with
   probability :math:`P=\langle R\rangle_\lambda/(\langle R\rangle_\lambda+\langle T\rangle_\lambda)`
   (weight :math:`R_\lambda G_1(\mathbf o)/P`), else transmit ballistically with weight
@@ -87,7 +88,13 @@ from ..microfacet.brdf import microfacet_brdf
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
 from .structure import LayeredBragg, RoughBraggLayer
-from .transmission import integrated_transmissivity, transmission_probability, transmission_weight
+from .transmission import (
+    DEFAULT_ANGLES,
+    DEFAULT_THETA_D_CELLS,
+    transmission_probability,
+    transmission_weight,
+    transmissivity_lut,
+)
 
 __all__ = ["montecarlo_brdf", "TRANSMISSION_MODES"]
 
@@ -160,23 +167,22 @@ def _coating_r_inside(cos_inner: torch.Tensor, n1: float) -> torch.Tensor:
 # ----------------------------------------------------------------------------------------
 # per-layer optics
 # ----------------------------------------------------------------------------------------
-#: τ/G1 tables of recent calls, keyed by (layer, wavelengths, dtype, device, angles, nodes):
-#: repeated calls on the same structure (image loops, tests) skip the quadrature
+#: τ tables of recent calls, keyed by (layer, wavelengths, dtype, device, angles, cells):
+#: repeated calls on the same structure (image loops, tests) skip the table build
 _TABLES: dict = {}
 _TABLES_MAX = 32
 
 
 class _Layer:
     """Per-layer optics of one call: R_λ, T_λ = 1 − R_λ (as eq. 28 in
-    :mod:`~torchirid.layered.transmission`), τ and its table."""
+    :mod:`~torchirid.layered.transmission`) and the τ table (eq. 28)."""
 
-    def __init__(self, layer: RoughBraggLayer, lam: torch.Tensor, tau_angles: int, tau_nodes):
+    def __init__(self, layer: RoughBraggLayer, lam: torch.Tensor, tau_angles: int, tau_cells: int):
         self.layer = layer
         self.alpha = layer.alpha
         self.lam = lam
-        self.tau_angles = tau_angles
-        self.tau_kw = {} if tau_nodes is None else {"nodes": tau_nodes}
-        self._key = (layer, tuple(lam.tolist()), lam.dtype, str(lam.device), tau_angles, tau_nodes)
+        self.tau_kw = {"angles": tau_angles, "theta_d_cells": tau_cells}
+        self._key = (layer, tuple(lam.tolist()), lam.dtype, str(lam.device), tau_angles, tau_cells)
 
     def reflectance(self, cos_d: torch.Tensor) -> torch.Tensor:
         """R_λ at host cosines ``cos_d`` (*) → (*, W)."""
@@ -187,37 +193,16 @@ class _Layer:
         return 1.0 - self.reflectance(cos_d)
 
     def tau(self, cos_theta: torch.Tensor) -> torch.Tensor:
-        """Integrated transmissivity τ (eq. 28) by quadrature, (n,) → (n, W)."""
-        return integrated_transmissivity(self.layer, cos_theta.clamp(0.0, 1.0).unsqueeze(-1), self.lam, **self.tau_kw)
-
-    def _table(self) -> torch.Tensor:
-        table = _TABLES.get(self._key)
-        if table is None:
-            k = self.tau_angles
-            theta = torch.linspace(0.0, self._theta_max, k, dtype=self.lam.dtype, device=self.lam.device)
-            c = torch.cos(theta)
-            table = self.tau(c) / smith_g1(c, self.alpha).unsqueeze(-1)  # G1 > 0 on the nodes
+        """Integrated transmissivity τ (eq. 28) at host cosines (n,) → (n, W), interpolated in
+        :func:`~torchirid.layered.transmission.transmissivity_lut` (product integration over
+        θd: robust to the fringes of R; nodes every 0.25° plus extra ones near grazing)."""
+        lut = _TABLES.get(self._key)
+        if lut is None:
+            lut = transmissivity_lut(self.layer, self.lam, **self.tau_kw)
             while len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
-            _TABLES[self._key] = table
-        return table
-
-    @property
-    def _theta_max(self) -> float:
-        # the last node sits a quarter step inside the horizon (τ/G1 is 0/0 at grazing);
-        # beyond it the ratio is held constant and the exact G1 takes τ to 0
-        return (math.pi / 2) * (1.0 - 0.25 / (self.tau_angles - 1))
-
-    def tau_table(self, cos_theta: torch.Tensor) -> torch.Tensor:
-        """τ from a table of τ/G1 uniform in θ (linear interpolation) times the exact G1: the
-        ratio is a smoothed T_λ, G1 carries the steep fall towards grazing."""
-        t = self._table()
-        k = self.tau_angles
-        x = torch.acos(cos_theta.clamp(0.0, 1.0)) * ((k - 1) / self._theta_max)
-        j = x.floor().clamp(0, k - 2)
-        w = (x - j).clamp(0.0, 1.0).unsqueeze(-1)
-        j = j.long()
-        return torch.lerp(t[j], t[j + 1], w) * smith_g1(cos_theta, self.alpha).unsqueeze(-1)
+            _TABLES[self._key] = lut
+        return lut(cos_theta.clamp(0.0, 1.0))
 
 
 # ----------------------------------------------------------------------------------------
@@ -227,11 +212,11 @@ class _Transport:
     """One call's precomputation (per pair: refracted directions, entry weight, the way out
     of every layer towards ``o``) and the batched path tracer."""
 
-    def __init__(self, structure: LayeredBragg, wi, wo, lam, *, single, mode, tau_angles, tau_nodes,
+    def __init__(self, structure: LayeredBragg, wi, wo, lam, *, single, mode, tau_angles, tau_cells,
                  max_depth, rr_depth):
         self.n1 = float(structure.n_host)
         self.rho = float(structure.base_albedo)
-        self.layers = [_Layer(layer, lam, tau_angles, tau_nodes) for layer in structure.layers]
+        self.layers = [_Layer(layer, lam, tau_angles, tau_cells) for layer in structure.layers]
         self.L = len(self.layers)
         self.lam = lam
         self.W = lam.numel()
@@ -260,9 +245,6 @@ class _Transport:
             else:
                 chain.append(chain[-1] * smith_g1(wo_in[:, 2], lay.alpha).unsqueeze(-1))
         self.chain = torch.stack(chain, 1)  # (P, L+1, W)
-        if mode == "filter":
-            # exact τ_l(i') for the first descent (before any reflection the direction is −i')
-            self.tau_first = torch.stack([lay.tau(wi_in[:, 2]) for lay in self.layers], 1)  # (P, L, W)
 
     # -- one chunk of paths ---------------------------------------------------------------
     def trace(self, pair: torch.Tensor, gen: torch.Generator) -> torch.Tensor:
@@ -275,12 +257,11 @@ class _Transport:
         beta = self.beta0[pair].unsqueeze(-1).expand(n0, W).clone()
         d = self.d0[pair].clone()
         gap = torch.zeros(n0, dtype=torch.long, device=device)  # host gap: 0 under the coating, L above the base
-        first = torch.ones(n0, dtype=torch.bool, device=device)  # no reflection yet: d = −i'
         pid = torch.arange(n0, device=device)
         keep = self.beta0[pair] > 0
-        state = [t[keep] for t in (beta, d, gap, first, pid, pair)]
+        state = [t[keep] for t in (beta, d, gap, pid, pair)]
         for depth in range(self.max_depth):
-            beta, d, gap, first, pid, pair = state
+            beta, d, gap, pid, pair = state
             n = pid.numel()
             if n == 0:
                 break
@@ -291,7 +272,7 @@ class _Transport:
             at_top = ~down & (gap == 0)
             layer_of = torch.where(down, gap, gap - 1)  # the layer met (valid unless base / top)
             alive = torch.ones(n, dtype=torch.bool, device=device)
-            new_beta, new_d, new_gap, new_first = beta.clone(), d.clone(), gap.clone(), first.clone()
+            new_beta, new_d, new_gap = beta.clone(), d.clone(), gap.clone()
 
             # next-event estimation on every downward hit
             nee = down & (gap < L) if self.rho == 0 else down
@@ -311,8 +292,7 @@ class _Transport:
             for l, lay in enumerate(self.layers):
                 idx = torch.nonzero((layer_of == l) & ~at_base & ~at_top).squeeze(-1)
                 if idx.numel():
-                    self._layer_event(l, lay, idx, u, beta, d, first, pair, down,
-                                      new_beta, new_d, new_gap, new_first, alive)
+                    self._layer_event(lay, idx, u, beta, d, down, new_beta, new_d, new_gap, alive)
             # the Lambertian base: cosine-weighted sampling, weight ρd
             if self.single or self.rho == 0:
                 alive &= ~at_base
@@ -324,7 +304,6 @@ class _Transport:
                     z = torch.sqrt(1.0 - u[idx, 1])  # > 0: torch.rand < 1
                     new_d[idx] = torch.stack([r * torch.cos(phi), r * torch.sin(phi), z], -1)
                     new_beta[idx] = beta[idx] * self.rho
-                    new_first[idx] = False
             # the top: escape (its contribution was counted by NEE) or internal reflection
             if self.n1 == 1.0 or self.single:
                 alive &= ~at_top
@@ -333,7 +312,6 @@ class _Transport:
                 if idx.numel():
                     new_beta[idx] = beta[idx] * _coating_r_inside(d[idx, 2], self.n1).unsqueeze(-1)
                     new_d[idx, 2] = -d[idx, 2]
-                    new_first[idx] = False
 
             # Russian roulette
             if depth + 1 >= self.rr_depth:
@@ -342,7 +320,7 @@ class _Transport:
                 alive &= survive
                 new_beta = new_beta / torch.where(survive, q, torch.ones_like(q)).unsqueeze(-1)
             alive &= new_beta.amax(-1) > 0
-            state = [t[alive] for t in (new_beta, new_d, new_gap, new_first, pid, pair)]
+            state = [t[alive] for t in (new_beta, new_d, new_gap, pid, pair)]
         return acc
 
     def _way_out(self, idx, gap, pair, u) -> torch.Tensor:
@@ -365,8 +343,7 @@ class _Transport:
         out[idx] = vals
         return out
 
-    def _layer_event(self, l, lay, idx, u, beta, d, first, pair, down,
-                     new_beta, new_d, new_gap, new_first, alive):
+    def _layer_event(self, lay, idx, u, beta, d, down, new_beta, new_d, new_gap, alive):
         """Reflection or ballistic transmission at layer ``l`` for the paths ``idx``."""
         dl = d[idx]
         c = dl[:, 2].abs().clamp(max=1.0)  # a unit vector's z can be 1 + ulp
@@ -376,14 +353,7 @@ class _Transport:
         u0 = u[idx, 0]
         g1 = smith_g1(c, lay.alpha)
         if self.mode == "filter":
-            fi = first[idx]
-            tau = torch.empty_like(b)
-            j = torch.nonzero(fi).squeeze(-1)
-            if j.numel():
-                tau[j] = self.tau_first[pair[idx[j]], l]
-            j = torch.nonzero(~fi).squeeze(-1)
-            if j.numel():
-                tau[j] = lay.tau_table(c[j])
+            tau = lay.tau(c)
             p_t = transmission_probability(tau, c, lay.alpha).squeeze(-1)  # eq. 31, multiplexed
             trans = u0 < p_t
             w_t = transmission_weight(tau, c, lay.alpha)  # eq. 33 (= τ / p_trans)
@@ -429,7 +399,6 @@ class _Transport:
         w_r = r * (smith_g1(o[:, 2].clamp(min=0.0), lay.alpha) / torch.where(pr > 0, pr, torch.ones_like(pr))).unsqueeze(-1)
         new_beta[ir] = b[jr] * w_r
         new_d[ir] = torch.cat([o[:, :2], (o[:, 2] * sgn[jr]).unsqueeze(-1)], -1)
-        new_first[ir] = False
         alive[ir] &= ok
         # neither reflected nor transmitted (microfacet mode, R = T = 0 everywhere): absorbed
         alive[idx[~trans & ~refl]] = False
@@ -463,8 +432,8 @@ def montecarlo_brdf(
     max_depth: int = 100,
     rr_depth: int = 3,
     batch_size: int = 32768,
-    transmissivity_angles: int = 512,
-    transmissivity_nodes: int | None = None,
+    transmissivity_angles: int = DEFAULT_ANGLES,
+    theta_d_cells: int = DEFAULT_THETA_D_CELLS,
     progress: bool | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     r"""Monte Carlo estimate of the BRDF of a layered rough Bragg structure (Fourneau et al. 2024 §4.2).
@@ -493,12 +462,10 @@ def montecarlo_brdf(
         max_depth: maximum number of scattering events (layer, base or coating) per path.
         rr_depth: events before Russian roulette starts (survival ``min(1, max_λ β)``).
         batch_size: paths traced at once (memory ≈ ``batch_size · W · 8`` bytes per array).
-        transmissivity_angles: size of the per-layer τ(θ) table (uniform in θ) used for
-            directions made by reflections in the ``"filter"`` mode.
-        transmissivity_nodes: quadrature nodes of eq. 28 in the ``"filter"`` mode (None:
-            the default of :func:`~torchirid.layered.transmission.integrated_transmissivity`;
-            raise it for many cells / long periods at small α, where R(θd) has fringes finer
-            than the default resolves).
+        transmissivity_angles, theta_d_cells: resolution of the per-layer τ tables of the
+            ``"filter"`` mode (:func:`~torchirid.layered.transmission.transmissivity_lut`:
+            incidence angles uniform in θ, and θd cells of its product integration; raise
+            ``theta_d_cells`` for very long stacks, its error grows as cells²).
         progress: show a tqdm progress bar (None: only when stderr is a terminal).
 
     Returns:
@@ -516,7 +483,8 @@ def montecarlo_brdf(
         >>> from torchirid.layered import LayeredBragg, RoughBraggLayer
         >>> s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 100.0, 100.0, 5, 0.2)])
         >>> w = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64)
-        >>> f, err = montecarlo_brdf(s, w, w, torch.tensor([400.0, 600.0], dtype=torch.float64), samples=16)
+        >>> lam = torch.tensor([400.0, 600.0], dtype=torch.float64)
+        >>> f, err = montecarlo_brdf(s, w, w, lam, samples=16, transmission="microfacet")
         >>> [round(v, 6) for v in f.tolist()], bool(err.max() < 1e-12)
         ([0.047742, 1.158475], True)
     """
@@ -532,8 +500,7 @@ def montecarlo_brdf(
     rr_depth = _check_int(rr_depth, "rr_depth", 0)
     batch_size = _check_int(batch_size, "batch_size", 1)
     transmissivity_angles = _check_int(transmissivity_angles, "transmissivity_angles", 2)
-    if transmissivity_nodes is not None:
-        transmissivity_nodes = _check_int(transmissivity_nodes, "transmissivity_nodes", 1)
+    theta_d_cells = _check_int(theta_d_cells, "theta_d_cells", 2)
     if not isinstance(single_reflection, bool):
         raise ValueError(f"single_reflection must be a bool; got {single_reflection!r}")
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
@@ -547,7 +514,7 @@ def montecarlo_brdf(
 
     with torch.no_grad():
         tr = _Transport(structure, i, o, lam, single=single_reflection, mode=transmission,
-                        tau_angles=transmissivity_angles, tau_nodes=transmissivity_nodes,
+                        tau_angles=transmissivity_angles, tau_cells=theta_d_cells,
                         max_depth=max_depth, rr_depth=rr_depth)
         gen = torch.Generator(device=device)
         gen.manual_seed(seed)
