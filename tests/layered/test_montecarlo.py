@@ -253,8 +253,10 @@ def test_shapes_broadcast_and_float32():
     wo = torch.stack([WO[0], WO[1], _dir(0.0, 0.0)])[None]  # (1, 3, 3)
     f, err = montecarlo_brdf(COATED, wi, wo, LAM, samples=8)
     assert f.shape == err.shape == (2, 3, 3) and f.dtype == F64
-    f32, err32 = montecarlo_brdf(COATED, wi.float(), wo.float(), LAM.float(), samples=8)
+    f32, err32 = montecarlo_brdf(COATED, WI.float(), WO.float(), LAM.float(), samples=4000, seed=3)
     assert f32.dtype == torch.float32 and torch.isfinite(f32).all() and torch.isfinite(err32).all()
+    f64 = montecarlo_brdf(COATED, WI, WO, LAM, samples=4000)
+    assert _z(f64, (f32.double(), err32.double())) < Z
     # a single layer is accepted as a structure; a (3,) direction gives (W,)
     f1, _ = montecarlo_brdf(A, WI[0], WO[0], LAM, samples=4, progress=True)
     assert f1.shape == (3,)

@@ -460,7 +460,8 @@ def montecarlo_brdf(
             and sample the transmissions of the way out too (no F_α, no quadrature: the
             independent reference; same expectation, slightly more variance).
         max_depth: maximum number of scattering events (layer, base or coating) per path.
-        rr_depth: events before Russian roulette starts (survival ``min(1, max_λ β)``).
+        rr_depth: Russian roulette from the ``rr_depth``-th scattering event on (survival
+            probability ``min(1, max_λ β)``, β divided by it).
         batch_size: paths traced at once (memory ≈ ``batch_size · W · 8`` bytes per array).
         transmissivity_angles, theta_d_cells: resolution of the per-layer τ tables of the
             ``"filter"`` mode (:func:`~torchirid.layered.transmission.transmissivity_lut`:
