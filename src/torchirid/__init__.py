@@ -7,7 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
-from . import color, lut, optics, spectral
+from . import color, layered, lut, microfacet, optics, spectral
 from ._compile import compile_enabled, set_compile
 from .color import (
     DELTA_E_METHODS,
@@ -28,7 +28,31 @@ from .color import (
     xyz_to_srgb,
     xyz_weights,
 )
+from .layered import (
+    LayeredBragg,
+    RoughBraggLayer,
+    absorption,
+    filter_quadrature,
+    integrated_transmissivity,
+    montecarlo_brdf,
+    sample_single_reflection,
+    single_reflection_brdf,
+    transmission_filter,
+    transmission_filter_lut,
+    transmission_probability,
+    transmission_weight,
+    transmissivity_lut,
+)
 from .lut import LUT
+from .microfacet import (
+    MicrofacetBRDF,
+    ggx_d,
+    ggx_vndf_pdf,
+    microfacet_brdf,
+    sample_ggx_vndf,
+    smith_g,
+    smith_g1,
+)
 from .optics import (
     BraggMirror,
     Multilayer,
@@ -77,4 +101,24 @@ __all__ = [
     "fresnel_reflectance",
     "multilayer",
     "thin_film_reflectance",
+    "LayeredBragg",
+    "MicrofacetBRDF",
+    "RoughBraggLayer",
+    "absorption",
+    "filter_quadrature",
+    "ggx_d",
+    "ggx_vndf_pdf",
+    "integrated_transmissivity",
+    "microfacet_brdf",
+    "montecarlo_brdf",
+    "sample_ggx_vndf",
+    "sample_single_reflection",
+    "single_reflection_brdf",
+    "smith_g",
+    "smith_g1",
+    "transmission_filter",
+    "transmission_filter_lut",
+    "transmission_probability",
+    "transmission_weight",
+    "transmissivity_lut",
 ]

@@ -285,3 +285,24 @@ def test_bad_input(kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         montecarlo_brdf(args.pop("structure"), args.pop("wi"), args.pop("wo"), args.pop("wavelength"), **args)
+
+
+def test_full_is_single_plus_multiple():
+    # same seed: the multiple-reflection paths are a subset of the full estimator's events
+    s = LayeredBragg([RoughBraggLayer(1.35, 1.5, 250.0, 250.0, 10, 0.2)] * 2, base_albedo=0.5)
+    wi = torch.tensor([[0.3, 0.0, math.sqrt(1 - 0.09)]], dtype=torch.float64)
+    wo = torch.tensor([[-0.5, 0.1, math.sqrt(1 - 0.26)]], dtype=torch.float64)
+    lam = torch.tensor([450.0, 550.0, 650.0], dtype=torch.float64)
+    full, _ = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5)
+    single, _ = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5, single_reflection=True)
+    multi, se = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5, multiple_reflection=True)
+    assert bool((multi > 0).all())
+    from torchirid.layered.single_reflection import single_reflection_brdf
+
+    exact_single = single_reflection_brdf(s, wi, wo, lam)
+    # full ≈ exact single + multiple, within the two estimates' noise
+    _, se_full = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5)
+    z = (full - exact_single - multi).abs() / (se_full + se)
+    assert bool((z < 4.5).all()), z
+    with pytest.raises(ValueError, match="exclude"):
+        montecarlo_brdf(s, wi, wo, lam, samples=4, single_reflection=True, multiple_reflection=True)

@@ -213,7 +213,7 @@ class _Transport:
     of every layer towards ``o``) and the batched path tracer."""
 
     def __init__(self, structure: LayeredBragg, wi, wo, lam, *, single, mode, tau_angles, tau_cells,
-                 max_depth, rr_depth):
+                 max_depth, rr_depth, multiple=False):
         self.n1 = float(structure.n_host)
         self.rho = float(structure.base_albedo)
         self.layers = [_Layer(layer, lam, tau_angles, tau_cells) for layer in structure.layers]
@@ -221,6 +221,7 @@ class _Transport:
         self.lam = lam
         self.W = lam.numel()
         self.single = single
+        self.multiple = multiple
         self.mode = mode
         self.max_depth = max_depth
         self.rr_depth = rr_depth
@@ -259,9 +260,10 @@ class _Transport:
         gap = torch.zeros(n0, dtype=torch.long, device=device)  # host gap: 0 under the coating, L above the base
         pid = torch.arange(n0, device=device)
         keep = self.beta0[pair] > 0
-        state = [t[keep] for t in (beta, d, gap, pid, pair)]
+        reflected = torch.zeros(n0, dtype=torch.bool, device=device)  # any layer/base reflection yet
+        state = [t[keep] for t in (beta, d, gap, pid, pair, reflected)]
         for depth in range(self.max_depth):
-            beta, d, gap, pid, pair = state
+            beta, d, gap, pid, pair, reflected = state
             n = pid.numel()
             if n == 0:
                 break
@@ -273,18 +275,21 @@ class _Transport:
             layer_of = torch.where(down, gap, gap - 1)  # the layer met (valid unless base / top)
             alive = torch.ones(n, dtype=torch.bool, device=device)
             new_beta, new_d, new_gap = beta.clone(), d.clone(), gap.clone()
+            was_down = down.clone()
 
             # next-event estimation on every downward hit
             nee = down & (gap < L) if self.rho == 0 else down
+            if self.multiple:  # only paths that already reflected: their NEE adds a 2nd reflection
+                nee = nee & reflected
             out = self._way_out(torch.nonzero(nee).squeeze(-1), gap, pair, u)
             for l, lay in enumerate(self.layers):
-                idx = torch.nonzero(down & (gap == l)).squeeze(-1)
+                idx = torch.nonzero(nee & (gap == l)).squeeze(-1)
                 if idx.numel():
                     p = pair[idx]
                     f = microfacet_brdf(-d[idx], self.wo_in[p], lay.alpha, lay.reflectance)
                     acc.index_add_(0, pid[idx], beta[idx] * f * out[idx])
             if self.rho > 0:
-                idx = torch.nonzero(at_base).squeeze(-1)
+                idx = torch.nonzero(at_base & nee).squeeze(-1)
                 if idx.numel():
                     acc.index_add_(0, pid[idx], beta[idx] * (self.rho / math.pi) * out[idx])
 
@@ -320,7 +325,10 @@ class _Transport:
                 alive &= survive
                 new_beta = new_beta / torch.where(survive, q, torch.ones_like(q)).unsqueeze(-1)
             alive &= new_beta.amax(-1) > 0
-            state = [t[alive] for t in (new_beta, new_d, new_gap, pid, pair)]
+            # a reflection (layer or base) turned a downward path up, or an upward one down at a layer
+            turned = (new_d[:, 2] < 0) != was_down
+            new_reflected = reflected | (turned & ~at_top)
+            state = [t[alive] for t in (new_beta, new_d, new_gap, pid, pair, new_reflected)]
         return acc
 
     def _way_out(self, idx, gap, pair, u) -> torch.Tensor:
@@ -428,6 +436,7 @@ def montecarlo_brdf(
     samples: int = 1024,
     seed: int = 0,
     single_reflection: bool = False,
+    multiple_reflection: bool = False,
     transmission: str = "filter",
     max_depth: int = 100,
     rr_depth: int = 3,
@@ -454,6 +463,10 @@ def montecarlo_brdf(
         seed: seed of the :class:`torch.Generator` driving every random number.
         single_reflection: only paths with exactly one reflection (the paper's "SR sim.");
             converges to the single-reflection BRDF of eq. 34.
+        multiple_reflection: only paths with two or more reflections (on layers or the base):
+            everything eq. 34 leaves out. Full transport = single + multiple, so a low-noise
+            full reference is ``single_reflection_brdf`` (exact eq. 34) plus this estimate
+            (its noise is that of the multiple-reflection part only).
         transmission: ``"filter"`` — p_trans and weight of eq. 31/33 with the integrated
             transmissivity τ (eq. 28; the paper's optimized simulation); or
             ``"microfacet"`` — sample the microfacet normal first, then reflect or transmit,
@@ -504,6 +517,11 @@ def montecarlo_brdf(
     theta_d_cells = _check_int(theta_d_cells, "theta_d_cells", 2)
     if not isinstance(single_reflection, bool):
         raise ValueError(f"single_reflection must be a bool; got {single_reflection!r}")
+    if not isinstance(multiple_reflection, bool):
+        raise ValueError(f"multiple_reflection must be a bool; got {multiple_reflection!r}")
+    if single_reflection and multiple_reflection:
+        raise ValueError("single_reflection and multiple_reflection exclude each other "
+                         "(full transport = single + multiple: leave both False)")
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
     i = _directions(wi, "wi", dtype, device)
     o = _directions(wo, "wo", dtype, device)
@@ -516,7 +534,7 @@ def montecarlo_brdf(
     with torch.no_grad():
         tr = _Transport(structure, i, o, lam, single=single_reflection, mode=transmission,
                         tau_angles=transmissivity_angles, tau_cells=theta_d_cells,
-                        max_depth=max_depth, rr_depth=rr_depth)
+                        max_depth=max_depth, rr_depth=rr_depth, multiple=multiple_reflection)
         gen = torch.Generator(device=device)
         gen.manual_seed(seed)
         total = P * samples
