@@ -31,6 +31,9 @@ class RoughBraggLayer:
         d1, d2: thicknesses in nm (> 0).
         cells: number of (n2, n1) cells N ≥ 1.
         alpha: GGX roughness of the mirror orientations, > 0.
+        n_host: index of the medium around the mirrors, real > 0; ``None`` (default) means
+            ``n1`` (eq. 2–10). Otherwise each mirror is ``n_host | (n2, d2), (n1, d1) × N | n1``
+            with Fourneau's appendix D reflectance (e.g. the jewel-beetle cuticle in air).
     """
 
     n1: float
@@ -39,6 +42,7 @@ class RoughBraggLayer:
     d2: float
     cells: int
     alpha: float
+    n_host: float | None = None
 
     def __post_init__(self):
         for name in ("n1", "d1", "d2", "alpha"):
@@ -50,14 +54,24 @@ class RoughBraggLayer:
             raise ValueError(f"n2 must be a refractive index with real part > 0; got {n2!r}")
         if isinstance(n2, complex) and n2.imag < 0:
             raise ValueError(f"n2 must have Im(n2) >= 0 (absorption); got {n2!r}")
+        nh = self.n_host
+        if nh is not None and (isinstance(nh, bool) or not isinstance(nh, (int, float)) or not nh > 0):
+            raise ValueError(f"n_host must be None or a real number > 0; got {nh!r}")
         if isinstance(self.cells, bool) or not isinstance(self.cells, int) or self.cells < 1:
             raise ValueError(f"cells must be an integer >= 1; got {self.cells!r}")
 
+    @property
+    def host(self) -> float:
+        """The index of the medium around the mirrors (``n_host``, or ``n1`` when None)."""
+        return self.n1 if self.n_host is None else self.n_host
+
     def reflectance(self, wavelength, cos_theta) -> torch.Tensor:
         """Unpolarized Yeh reflectance R_λ of one mirror lit from the host at ``cos_theta``
-        (the cosine in the host medium n1; broadcast with ``wavelength`` in nm)."""
+        (the cosine in the host medium; broadcast with ``wavelength`` in nm)."""
+        nh = None if self.n_host is None or self.n_host == self.n1 else self.n_host
         return bragg_reflectance(
-            wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, polarization="unpolarized"
+            wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, n_host=nh,
+            polarization="unpolarized",
         )
 
 
@@ -69,7 +83,7 @@ class LayeredBragg:
         layers: the rough Bragg layers, top first (at least one). All share the host ``n1``.
         base_albedo: Lambertian albedo ρd ∈ [0, 1] of the base (0: a black, absorbing base).
 
-    The coating is implied by the host index: ``n_host == 1`` means no coating (f_r,0 = 0,
+    The coating is implied by the host index (``n1``, or the layers' ``n_host``): 1 means no coating (f_r,0 = 0,
     f_t,0 = 1 in eq. 34); otherwise a smooth air | n_host interface sits on top.
     """
 
@@ -80,9 +94,9 @@ class LayeredBragg:
         layers = tuple(self.layers)
         if not layers or not all(isinstance(layer, RoughBraggLayer) for layer in layers):
             raise ValueError("layers must be a non-empty sequence of RoughBraggLayer")
-        hosts = {layer.n1 for layer in layers}
+        hosts = {layer.host for layer in layers}
         if len(hosts) != 1:
-            raise ValueError(f"layers must share one host index n1 (the coating medium); got {sorted(hosts)}")
+            raise ValueError(f"layers must share one host index n1 / n_host (the coating medium); got {sorted(hosts)}")
         rho = self.base_albedo
         if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not 0.0 <= rho <= 1.0:
             raise ValueError(f"base_albedo must lie in [0, 1]; got {rho!r}")
@@ -90,8 +104,8 @@ class LayeredBragg:
 
     @property
     def n_host(self) -> float:
-        """The host index n1 shared by all layers (the coating's index)."""
-        return self.layers[0].n1
+        """The host index shared by all layers (the coating's index)."""
+        return self.layers[0].host
 
     @property
     def coated(self) -> bool:
