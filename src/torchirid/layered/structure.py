@@ -34,6 +34,13 @@ class RoughBraggLayer:
         n_host: index of the medium around the mirrors, real > 0; ``None`` (default) means
             ``n1`` (eq. 2–10). Otherwise each mirror is ``n_host | (n2, d2), (n1, d1) × N | n1``
             with Fourneau's appendix D reflectance (e.g. the jewel-beetle cuticle in air).
+
+    ``n1``, ``n2``, ``d1``, ``d2`` and ``alpha`` may also be 0-dim floating tensors (``n2``
+    also complex), e.g. with ``requires_grad`` for fitting: the same ranges are checked on
+    their values, and gradients flow through the mirrors' reflectance and the GGX shading of
+    :func:`~torchirid.layered.single_reflection.single_reflection_brdf`. Not through the
+    integrated transmissivity's filter weights, which are tabulated per ``float(alpha)``
+    (τ still depends on ``n1, n2, d1, d2``). ``cells`` stays a Python int, ``n_host`` a number.
     """
 
     n1: float
@@ -47,18 +54,40 @@ class RoughBraggLayer:
     def __post_init__(self):
         for name in ("n1", "d1", "d2", "alpha"):
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise ValueError(f"{name} must be a real number > 0; got {v!r}")
+            if isinstance(v, torch.Tensor):
+                ok = v.dim() == 0 and v.dtype.is_floating_point and bool(v.detach() > 0)
+            else:
+                ok = not isinstance(v, bool) and isinstance(v, (int, float)) and v > 0
+            if not ok:
+                raise ValueError(f"{name} must be a real number > 0 (or a 0-dim floating tensor); got {v!r}")
         n2 = self.n2
+        if isinstance(n2, torch.Tensor):
+            if n2.dim() != 0 or not (n2.dtype.is_floating_point or n2.dtype.is_complex):
+                raise ValueError(f"n2 must be a refractive index (a number or a 0-dim float/complex tensor); got {n2!r}")
+            n2 = complex(n2.detach()) if n2.dtype.is_complex else float(n2.detach())
         if isinstance(n2, bool) or not isinstance(n2, (int, float, complex)) or not n2.real > 0:
-            raise ValueError(f"n2 must be a refractive index with real part > 0; got {n2!r}")
+            raise ValueError(f"n2 must be a refractive index with real part > 0; got {self.n2!r}")
         if isinstance(n2, complex) and n2.imag < 0:
-            raise ValueError(f"n2 must have Im(n2) >= 0 (absorption); got {n2!r}")
+            raise ValueError(f"n2 must have Im(n2) >= 0 (absorption); got {self.n2!r}")
         nh = self.n_host
         if nh is not None and (isinstance(nh, bool) or not isinstance(nh, (int, float)) or not nh > 0):
             raise ValueError(f"n_host must be None or a real number > 0; got {nh!r}")
         if isinstance(self.cells, bool) or not isinstance(self.cells, int) or self.cells < 1:
             raise ValueError(f"cells must be an integer >= 1; got {self.cells!r}")
+
+    def numbers(self) -> dict:
+        """The parameters as plain Python numbers (tensors detached): JSON-ready metadata.
+
+        >>> RoughBraggLayer(1.0, 1.5, 100.0, 80.0, 10, 0.1).numbers()["d2"]
+        80.0
+        """
+        def plain(v):
+            if isinstance(v, torch.Tensor):
+                v = v.detach()
+                return complex(v) if v.dtype.is_complex else float(v)
+            return v
+
+        return {name: plain(getattr(self, name)) for name in ("n1", "n2", "d1", "d2", "cells", "alpha", "n_host")}
 
     @property
     def host(self) -> float:
@@ -94,7 +123,7 @@ class LayeredBragg:
         layers = tuple(self.layers)
         if not layers or not all(isinstance(layer, RoughBraggLayer) for layer in layers):
             raise ValueError("layers must be a non-empty sequence of RoughBraggLayer")
-        hosts = {layer.host for layer in layers}
+        hosts = {float(layer.host) for layer in layers}  # by value: tensor parameters hash by id
         if len(hosts) != 1:
             raise ValueError(f"layers must share one host index n1 / n_host (the coating medium); got {sorted(hosts)}")
         rho = self.base_albedo

@@ -80,7 +80,7 @@ def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int)
     :func:`~torchirid.layered.filter._quadrature_cos`) and the value is recomputed at the exact
     cosine (a second, gradient-free pass, only when such lanes exist).
     """
-    a = torch.full_like(c, float(layer.alpha))
+    a = torch.full_like(c, layer.numbers()["alpha"])
     tau = _tau_rule(layer, *_quadrature_cos(c, a, nodes, True), lam)
     near = c > _normal_cap(c, a)
     with torch.no_grad():
@@ -223,7 +223,8 @@ def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
     if lam.dim() != 1 or lam.numel() < 1:
         raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
     _checks.check_positive(lam, "wavelength")
-    cos, grid, weights = _lut_weights(float(layer.alpha), angles, theta_d_cells, dtype, str(device))
+    plain = layer.numbers()  # tensor parameters (fitting) → numbers for the weights' cache and the metadata
+    cos, grid, weights = _lut_weights(plain["alpha"], angles, theta_d_cells, dtype, str(device))
     t = 1.0 - layer.reflectance(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
     values = weights @ t  # (angles, W)
     return LUT(
@@ -231,8 +232,8 @@ def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
         {"cos_theta": cos},
         builder=_LUT_BUILDER,
         parameters={
-            "n1": layer.n1, "n2": str(layer.n2), "d1": layer.d1, "d2": layer.d2, "cells": layer.cells,
-            "alpha": layer.alpha, "angles": angles, "theta_d_cells": theta_d_cells,
+            "n1": plain["n1"], "n2": str(plain["n2"]), "d1": plain["d1"], "d2": plain["d2"], "cells": layer.cells,
+            "alpha": plain["alpha"], "angles": angles, "theta_d_cells": theta_d_cells,
             "wavelength_nm": [float(x) for x in lam.tolist()],
         },
         units={"cos_theta": "1", "values": "1 (tau = f_t cos theta), channels = wavelengths"},
