@@ -194,3 +194,20 @@ def test_validation():
         RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.0)
     with pytest.raises(ValueError, match="base_albedo"):
         LayeredBragg([A], base_albedo=1.5)
+
+
+def test_layer_with_another_host_uses_appendix_d():
+    # mirrors (n2 | n1) × N standing in air (n_host = 1 ≠ n1): the layer's R is appendix D's
+    layer = RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_host=1.0)
+    s = LayeredBragg([layer])
+    assert not s.coated and s.n_host == 1.0
+    wi, wo = _pairs()
+    h = wi + wo
+    h = h / h.norm(dim=-1, keepdim=True)
+    R = bragg_reflectance(LAM, (wi * h).sum(-1, keepdim=True), 1.56, 1.68, 120.0, 110.0, 12, n_host=1.0)
+    D = _paper_d(h[..., 2], 0.05)
+    G = _paper_g1(wi[..., 2], 0.05) * _paper_g1(wo[..., 2], 0.05)
+    ref = (D * G / (4 * wi[..., 2] * wo[..., 2])).unsqueeze(-1) * R
+    torch.testing.assert_close(single_reflection_brdf(s, wi, wo, LAM), ref, rtol=1e-10, atol=0)
+    with pytest.raises(ValueError, match="n_host"):
+        RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_host=-1.0)
