@@ -1,4 +1,4 @@
-"""Products as images and arrays: reflectance maps and gradient atlases → PNG + ``.npz``.
+"""Products as images and arrays: reflectance maps, gradient atlases and scatterograms → PNG + ``.npz``.
 
 The library behind the ``torchirid`` command (:mod:`torchirid.cli`): each product has a
 function that computes its data (a frozen dataclass of numpy arrays and a JSON-ready
@@ -17,6 +17,19 @@ from .gradients import (
     save_gradient_atlas_npz,
     save_gradient_atlas_png,
 )
+from .scatterogram import (
+    CIRCLES_DEG,
+    PROJECTIONS,
+    Scatterogram,
+    plot_scatterograms,
+    projection_radius,
+    projection_theta,
+    save_scatterograms_npz,
+    save_scatterograms_png,
+    scatterogram,
+    scatterogram_directions,
+    scatterogram_srgb,
+)
 from .spectrum import (
     ReflectanceMap,
     bragg_reflectance_map,
@@ -27,6 +40,17 @@ from .spectrum import (
 )
 
 __all__ = [
+    "CIRCLES_DEG",
+    "PROJECTIONS",
+    "Scatterogram",
+    "plot_scatterograms",
+    "projection_radius",
+    "projection_theta",
+    "save_scatterograms_npz",
+    "save_scatterograms_png",
+    "scatterogram",
+    "scatterogram_directions",
+    "scatterogram_srgb",
     "CURVE_WAVELENGTHS_NM",
     "GRADIENT_ATLAS_STEPS",
     "GRADIENT_METHODS",
