@@ -90,6 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
             "  torchirid spectrum                       # Fourneau et al. 2024, Fig. 1 Bragg mirror\n"
             "  torchirid spectrum --kind thin-film --n-film 1.33 --thickness 400\n"
             "  torchirid gradients                      # Fourneau et al. 2024, Fig. 4 atlas\n"
+            "  torchirid scatterogram                   # jewel-beetle scatterograms, Fig. 9\n"
             "  torchirid spectrum --help                # all options"
         ),
     )
@@ -171,6 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--name", default="spectrum", metavar="STEM", help="file stem: writes STEM.npz and STEM.png")
     sp.set_defaults(func=_cmd_spectrum, parser=sp)
     _add_gradients_parser(sub)
+    _add_scatterogram_parser(sub)
     return parser
 
 
@@ -363,6 +365,139 @@ def _cmd_gradients(args: argparse.Namespace) -> int:
     finally:
         bar.close()
 
+    print(png_path)
+    print(npz_path)
+    return 0
+
+
+# ----------------------------------------------------------------------------------------
+# torchirid scatterogram: imaging-scatterometer views of layered Bragg structures (Fig. 9)
+# ----------------------------------------------------------------------------------------
+SCATTEROGRAM_PRESETS = ("green", "red", "purple")  # torchirid.layered.presets.JEWEL_BEETLE_NAMES
+SCATTEROGRAM_PROJECTIONS = ("equidistant", "orthographic", "equal-area")  # render.scatterogram.PROJECTIONS
+
+
+def _exposure(text: str):
+    if text == "auto":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected 'auto' or a number > 0, got {text!r}")
+    return value
+
+
+def _add_scatterogram_parser(sub) -> None:
+    sp = sub.add_parser(
+        "scatterogram",
+        formatter_class=_HelpFormatter,
+        help="scatterograms of rough Bragg layers, e.g. the jewel beetle (Fourneau et al. 2024, Fig. 9) → .png + .npz",
+        description=(
+            "Render scatterograms — the hemisphere of reflected directions as an imaging\n"
+            "scatterometer sees it, the normal at the centre and the horizon on the rim — of\n"
+            "layered Bragg structures with the single-reflection BRDF (Fourneau et al. 2024,\n"
+            "eq. 34), spectrally (D65, CIE 1931 2°) → sRGB, with the 5°, 30°, 60° and 90°\n"
+            "circles in red as in Fig. 9. One column per structure, one row per illumination:\n"
+            "  white          a uniform white (D65) environment, as in Fig. 9: each pixel is\n"
+            "                 the directional albedo ∫ f_r cos θi dωi\n"
+            "  beam θ φ       a narrow beam from polar angle θ, azimuth φ (degrees): each\n"
+            "                 pixel is f_r cos θi; the specular spot sits at φ + 180°\n\n"
+            "Structures: the jewel-beetle presets of Table 3 (green/blue, red, purple: one\n"
+            "rough Bragg layer, α = 0.05, in air over an absorbing base; δ read as the fraction\n"
+            "of Λ in the n2 layer), or 'custom' built from the --n1 ... --base-albedo options.\n\n"
+            "Writes <out>/<name>.png and <out>/<name>.npz: xyz (rows, cols, H, W, 3), mask\n"
+            "(H, W), wavelength_nm, titles and params (a JSON string)."
+        ),
+        epilog=(
+            "examples:\n"
+            "  torchirid scatterogram                                 # the three presets, white + beam at 0°\n"
+            "  torchirid scatterogram --beam 0 0 --beam 45 0 --resolution 128\n"
+            "  torchirid scatterogram --preset custom --n1 1.0 --n2 1.5 --d1 250 --d2 250 --cells 10 --alpha 0.1"
+        ),
+    )
+    g = sp.add_argument_group("structures")
+    g.add_argument("--preset", nargs="+", choices=(*SCATTEROGRAM_PRESETS, "custom"), default=list(SCATTEROGRAM_PRESETS),
+                   metavar="NAME", help=f"one column each: {', '.join(SCATTEROGRAM_PRESETS)} or custom")
+    g.add_argument("--n1", type=_positive, default=1.59, metavar="N", help="custom: index n1 (low)")
+    g.add_argument("--n2", type=_positive, default=1.67, metavar="N", help="custom: index n2 (high)")
+    g.add_argument("--d1", type=_positive, default=78.4, metavar="NM", help="custom: thickness d1 in nm")
+    g.add_argument("--d2", type=_positive, default=81.6, metavar="NM", help="custom: thickness d2 in nm")
+    g.add_argument("--cells", type=_count, default=8, metavar="COUNT", help="custom: number N of cells")
+    g.add_argument("--alpha", type=_positive, default=0.05, metavar="A", help="custom: GGX roughness α")
+    g.add_argument("--n-host", type=_positive, default=1.0, metavar="N",
+                   help="custom: index of the medium around the mirrors (1: air, no coating; else a smooth coating)")
+    g.add_argument("--base-albedo", type=_float, default=0.0, metavar="RHO", help="custom: Lambertian base albedo in [0, 1]")
+    g = sp.add_argument_group("illumination")
+    g.add_argument("--no-white", dest="white", action="store_false", help="leave out the white-environment row")
+    g.add_argument("--beam", nargs=2, type=_float, action="append", metavar=("THETA", "PHI"),
+                   help="add a narrow-beam row lit from (θ, φ) in degrees; repeatable (default: one beam at 0 0)")
+    g = sp.add_argument_group("image and output")
+    g.add_argument("--resolution", type=_count, default=160, metavar="PIXELS", help="pixels per side of each image")
+    g.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "81"],
+                   help="wavelength grid in nm: COUNT evenly spaced values from MIN to MAX inclusive")
+    g.add_argument("--projection", choices=SCATTEROGRAM_PROJECTIONS, default="equidistant",
+                   help="angular mapping: radius ∝ θ (equidistant), sin θ (orthographic) or sin(θ/2) (equal-area)")
+    g.add_argument("--exposure", type=_exposure, default="auto", metavar="X",
+                   help="display gain on XYZ, or 'auto' (each image's brightest pixel to Y = 1)")
+    g.add_argument("--lut", action="store_true", help="tabulate the mirrors' reflectance over the angle (faster)")
+    g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
+    g.add_argument("--name", default="scatterogram", metavar="STEM", help="file stem: writes STEM.png and STEM.npz")
+    g.add_argument("--dpi", type=_count, default=150, metavar="DPI", help="resolution of the PNG")
+    sp.set_defaults(func=_cmd_scatterogram, parser=sp)
+
+
+def _cmd_scatterogram(args: argparse.Namespace) -> int:
+    parser: argparse.ArgumentParser = args.parser
+    _check_name(parser, args.name)
+    wl_min, wl_max, wl_count = _parse_wavelengths(parser, args.wavelengths)
+    if wl_count < 2 or wl_max <= wl_min:
+        parser.error("--wavelengths: a spectrum needs MIN < MAX and COUNT >= 2")
+    beams = args.beam if args.beam is not None else [[0.0, 0.0]]
+    if not args.white and not beams:
+        parser.error("nothing to render: --no-white needs at least one --beam")
+    for theta, _ in beams:
+        if not 0.0 <= theta <= 90.0:
+            parser.error(f"--beam THETA must lie in [0, 90] degrees; got {theta:g}")
+
+    import torch
+
+    from torchirid import render
+    from torchirid.layered import LayeredBragg, RoughBraggLayer
+    from torchirid.layered.presets import JEWEL_BEETLE, jewel_beetle
+
+    try:
+        structures = []
+        for name in args.preset:
+            if name == "custom":
+                layer = RoughBraggLayer(args.n1, args.n2, args.d1, args.d2, args.cells, args.alpha, n_host=args.n_host)
+                structures.append((f"custom Λ={args.d1 + args.d2:g} nm", LayeredBragg([layer], args.base_albedo)))
+            else:
+                row = JEWEL_BEETLE[name]
+                structures.append((f"{row['label']}: Λ={row['period']:g} nm, N={row['cells']}", jewel_beetle(name)))
+        lam = torch.linspace(wl_min, wl_max, wl_count, dtype=torch.float64)
+        rows, labels = [], []
+        kw = dict(resolution=args.resolution, wavelength=lam, projection=args.projection, lut=args.lut)
+        if args.white:
+            rows.append([render.scatterogram(s, title=t, **kw) for t, s in structures])
+            labels.append("white environment")
+        for theta, phi in beams:
+            rows.append([render.scatterogram(s, incident=(theta, phi), title=t, **kw) for t, s in structures])
+            labels.append(f"beam θi={theta:g}°, φi={phi:g}°")
+    except ValueError as e:  # the library names the bad parameter; report it like a usage error
+        parser.error(str(e))
+
+    out = Path(args.out)
+    png_path = out / f"{args.name}.png"
+    npz_path = out / f"{args.name}.npz"
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        render.save_scatterograms_png(rows, png_path, dpi=args.dpi, exposure=args.exposure, row_labels=labels)
+        render.save_scatterograms_npz(rows, npz_path)
+    except OSError as e:
+        print(f"{PROG}: error: cannot write to {out}: {e}", file=sys.stderr)
+        return 1
     print(png_path)
     print(npz_path)
     return 0
