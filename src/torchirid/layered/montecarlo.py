@@ -84,6 +84,7 @@ import sys
 import torch
 
 from .. import _checks
+from . import _geometry
 from ..microfacet.brdf import microfacet_brdf
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
@@ -111,53 +112,9 @@ def _check_int(v, name: str, low: int) -> int:
     return int(v)
 
 
-def _directions(w, name, dtype, device) -> torch.Tensor:
-    t = _checks.as_real(w, name, dtype, device)
-    if t.dim() == 0 or t.shape[-1] != 3:
-        raise ValueError(f"{name} must have shape (*, 3) (unit vectors, z = surface normal); got {tuple(t.shape)}")
-    with torch.no_grad():
-        if bool((t[..., 2] <= 0).any()):
-            raise ValueError(f"{name} must point into the upper hemisphere ({name}[..., 2] > 0)")
-        norm = torch.linalg.vector_norm(t, dim=-1)
-        if bool(((norm - 1).abs() > 1e-3).any()):
-            raise ValueError(f"{name} must hold unit vectors (|{name}| = 1 within 1e-3)")
-    return t / torch.linalg.vector_norm(t, dim=-1, keepdim=True)
-
-
-def _wavelengths(wavelength, dtype, device) -> torch.Tensor:
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    if lam.dim() != 1 or lam.numel() == 0:
-        raise ValueError(f"wavelength must be a non-empty 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
-    _checks.check_positive(lam, "wavelength")
-    return lam
-
-
 # ----------------------------------------------------------------------------------------
-# coating geometry (a smooth air | n1 interface)
+# coating geometry (a smooth air | n1 interface; shared parts in _geometry)
 # ----------------------------------------------------------------------------------------
-def _refract_in(w: torch.Tensor, n1: float):
-    """``w`` (*, 3) above the coating → (direction in the host, exists?). For n1 < 1 part of
-    the outer hemisphere is totally reflected and has no host direction (``exists = False``,
-    direction replaced by the normal)."""
-    if n1 == 1.0:
-        return w, torch.ones_like(w[..., 0], dtype=torch.bool)
-    t = w[..., :2] / n1
-    s2 = (t * t).sum(-1)
-    ok = s2 < 1.0
-    z = torch.sqrt((1.0 - s2).clamp_min(0.0))
-    v = torch.cat([t, z.unsqueeze(-1)], -1)
-    n = torch.zeros_like(v)
-    n[..., 2] = 1.0
-    return torch.where(ok.unsqueeze(-1), v, n), ok
-
-
-def _coating_t(cos_outer: torch.Tensor, n1: float) -> torch.Tensor:
-    """Unpolarized Fresnel transmittance of the coating seen from the air, 1 − F(θ, 1 → n1)."""
-    if n1 == 1.0:
-        return torch.ones_like(cos_outer)
-    return 1.0 - fresnel_reflectance(cos_outer.clamp(0.0, 1.0), 1.0, n1)
-
-
 def _coating_r_inside(cos_inner: torch.Tensor, n1: float) -> torch.Tensor:
     """Unpolarized Fresnel reflectance of the coating seen from the host, F(θ', n1 → 1)
     (1 beyond the critical angle: total internal reflection)."""
@@ -228,12 +185,12 @@ class _Transport:
         dtype, device = lam.dtype, lam.device
         self.dtype, self.device = dtype, device
 
-        wi_in, ok_i = _refract_in(wi, self.n1)
-        wo_in, ok_o = _refract_in(wo, self.n1)
+        wi_in, ok_i = _geometry.refract_in(wi, self.n1)
+        wo_in, ok_o = _geometry.refract_in(wo, self.n1)
         self.d0 = -wi_in  # light travels down along −i'
-        self.beta0 = torch.where(ok_i, _coating_t(wi[:, 2], self.n1), torch.zeros_like(wi[:, 2]))
+        self.beta0 = torch.where(ok_i, _geometry.coating_transmittance(wi[:, 2], self.n1), torch.zeros_like(wi[:, 2]))
         self.wo_in = wo_in
-        exit_ = torch.where(ok_o, _coating_t(wo[:, 2], self.n1), torch.zeros_like(wo[:, 2])) / (self.n1 * self.n1)
+        exit_ = torch.where(ok_o, _geometry.coating_transmittance(wo[:, 2], self.n1), torch.zeros_like(wo[:, 2])) / (self.n1 * self.n1)
         # chain[p, l]: the way out from layer l (l = L: the base) towards o, T_c(o)/n1² times
         #   "filter":     Π_{k<l} τ_k(o')            (eq. 28, deterministic)
         #   "microfacet": Π_{k<l} G1_k(o')           (× T_k(o'·m_k), m_k ~ VNDF, sampled at each NEE)
@@ -523,9 +480,9 @@ def montecarlo_brdf(
         raise ValueError("single_reflection and multiple_reflection exclude each other "
                          "(full transport = single + multiple: leave both False)")
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    i = _directions(wi, "wi", dtype, device)
-    o = _directions(wo, "wo", dtype, device)
-    lam = _wavelengths(wavelength, dtype, device)
+    i = _geometry.directions(wi, "wi", dtype, device, grazing=False)
+    o = _geometry.directions(wo, "wo", dtype, device, grazing=False)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     i, o = torch.broadcast_tensors(i, o)
     batch = i.shape[:-1]
     i, o = i.reshape(-1, 3), o.reshape(-1, 3)

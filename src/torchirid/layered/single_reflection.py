@@ -36,6 +36,7 @@ import math
 import torch
 
 from .. import _checks
+from . import _geometry
 from ..lut import LUT
 from ..microfacet.ggx import ggx_d, reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
@@ -69,27 +70,6 @@ BASE_REFLECTANCE_ANGLES = 4097
 # ----------------------------------------------------------------------------------------
 # inputs
 # ----------------------------------------------------------------------------------------
-def _directions(w, name, dtype, device) -> torch.Tensor:
-    t = _checks.as_real(w, name, dtype, device)
-    if t.dim() == 0 or t.shape[-1] != 3:
-        raise ValueError(f"{name} must have shape (*, 3) (unit vectors, z = surface normal); got {tuple(t.shape)}")
-    with torch.no_grad():
-        if bool((t[..., 2] < 0).any()):
-            raise ValueError(f"{name} must point into the upper hemisphere (z >= 0)")
-        norm = torch.linalg.vector_norm(t, dim=-1)
-        if bool(((norm - 1).abs() > 1e-3).any()):
-            raise ValueError(f"{name} must hold unit vectors; got a norm of {norm.flatten()[((norm - 1).abs() > 1e-3).flatten()][0].item():g}")
-    return t
-
-
-def _wavelengths(wavelength, dtype, device) -> torch.Tensor:
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    if lam.dim() != 1:
-        raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
-    _checks.check_positive(lam, "wavelength")
-    return lam
-
-
 def _check_structure(structure):
     if isinstance(structure, RoughBraggLayer):
         return LayeredBragg([structure])
@@ -105,31 +85,15 @@ def refract_into_host(w: torch.Tensor, n_host: float) -> torch.Tensor:
     """Direction ``w`` (*, 3) above a smooth air | ``n_host`` interface, refracted into the host.
 
     Snell: the tangential part scales by ``1/n_host``; ``z' = sqrt(1 − |t|²/n²)``. For
-    ``n_host = 1`` the input is returned unchanged.
+    ``n_host = 1`` the input is returned unchanged (for ``n_host < 1``, directions beyond
+    the critical angle have no host direction and become the normal; their coating
+    transmittance is 0).
     """
-    if n_host == 1.0:
-        return w
-    t = w[..., :2] / n_host
-    z = torch.sqrt((1.0 - (t * t).sum(-1)).clamp_min(0.0))
-    return torch.cat([t, z.unsqueeze(-1)], dim=-1)
+    return _geometry.refract_in(w, n_host)[0]
 
 
-def _refract_out(w_in: torch.Tensor, n_host: float):
-    """Host direction ``w_in`` (z > 0) leaving through the coating: (outer direction, exits?)."""
-    if n_host == 1.0:
-        return w_in, torch.ones_like(w_in[..., 0], dtype=torch.bool)
-    t = w_in[..., :2] * n_host
-    s2 = (t * t).sum(-1)
-    exits = s2 < 1.0  # beyond the critical angle: total internal reflection, no exit
-    z = torch.sqrt((1.0 - s2).clamp_min(0.0))
-    return torch.cat([t, z.unsqueeze(-1)], dim=-1), exits
-
-
-def coating_transmittance(cos_theta: torch.Tensor, n_host: float) -> torch.Tensor:
-    """Unpolarized Fresnel transmittance ``T_c = 1 − F`` of the smooth air | n1 coating."""
-    if n_host == 1.0:
-        return torch.ones_like(cos_theta)
-    return 1.0 - fresnel_reflectance(cos_theta.clamp(0.0, 1.0), 1.0, n_host)
+_refract_out = _geometry.refract_out
+coating_transmittance = _geometry.coating_transmittance
 
 
 def coating_reflectance(cos_theta, n_host) -> torch.Tensor:
@@ -158,7 +122,7 @@ def reflectance_lut(layer: RoughBraggLayer, wavelength, *, angles: int = REFLECT
     if isinstance(angles, bool) or not isinstance(angles, int) or angles < 2:
         raise ValueError(f"angles must be an integer >= 2; got {angles!r}")
     dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _wavelengths(wavelength, dtype, device)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device)
     cos = torch.cos(theta).clamp(0.0, 1.0)
     R = layer.reflectance(lam, cos.unsqueeze(-1))  # (angles, W)
@@ -247,9 +211,9 @@ def single_reflection_brdf(
     """
     structure = _check_structure(structure)
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    wi = _directions(wi, "wi", dtype, device)
-    wo = _directions(wo, "wo", dtype, device)
-    lam = _wavelengths(wavelength, dtype, device)
+    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
+    wo = _geometry.directions(wo, "wo", dtype, device, grazing=True)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     wi, wo = torch.broadcast_tensors(wi, wo)
     if not isinstance(base_interreflection, bool):
         raise ValueError(f"base_interreflection must be a bool; got {base_interreflection!r}")
@@ -406,7 +370,7 @@ def base_return_fraction(
         if isinstance(v, bool) or not isinstance(v, int) or v < low:
             raise ValueError(f"{name} must be an integer >= {low}; got {v!r}")
     dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _wavelengths(wavelength, dtype, device)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     return _base_return(structure, tables, lam, mu_nodes=mu_nodes, radius_nodes=radius_nodes,
                         azimuth_nodes=azimuth_nodes, reflectance_angles=reflectance_angles)
@@ -487,7 +451,7 @@ def layer_reflection_probabilities(structure, cos_theta, wavelength, *, transmis
     dtype, device = _checks.resolve_dtype_device(cos_theta, wavelength)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     _checks.check_cosine(c)
-    lam = _wavelengths(wavelength, dtype, device)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     return _reflection_probabilities(structure, tables, c)
 
@@ -529,8 +493,8 @@ def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_ang
     """
     structure = _check_structure(structure)
     dtype, device = _checks.resolve_dtype_device(wi, wavelength, u)
-    wi = _directions(wi, "wi", dtype, device)
-    lam = _wavelengths(wavelength, dtype, device)
+    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     u = _checks.as_real(u, "u", dtype, device)
     if u.dim() == 0 or u.shape[-1] != 3:
         raise ValueError(f"u must have shape (*, 3) (uniforms in [0, 1)); got {tuple(u.shape)}")
@@ -563,9 +527,9 @@ def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angle
     """Solid-angle density (sr⁻¹, in the outer medium) of :func:`sample_single_reflection`."""
     structure = _check_structure(structure)
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    wi = _directions(wi, "wi", dtype, device)
-    wo = _directions(wo, "wo", dtype, device)
-    lam = _wavelengths(wavelength, dtype, device)
+    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
+    wo = _geometry.directions(wo, "wo", dtype, device, grazing=True)
+    lam = _geometry.wavelengths(wavelength, dtype, device)
     wi, wo = torch.broadcast_tensors(wi, wo)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_host)[..., 2])
