@@ -148,9 +148,9 @@ def scatterogram_directions(resolution: int, *, projection: str = "equidistant",
         ``(directions (H, W, 3), mask (H, W))``: unit vectors (z = the surface normal) for
         valid pixels, NaN outside; ``mask`` is True on valid pixels.
 
-    >>> d, m = scatterogram_directions(3)
-    >>> d[1, 1].tolist(), int(m.sum())
-    ([0.0, 0.0, 1.0], 5)
+    >>> d, m = scatterogram_directions(4)  # the four corner pixels lie outside the disc
+    >>> int(m.sum()), [round(v, 4) for v in d[1, 2].tolist()]
+    (12, [0.3728, 0.3728, 0.8497])
     """
     if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1:
         raise ValueError(f"resolution must be an integer >= 1 (pixels per side); got {resolution!r}")
@@ -424,8 +424,8 @@ def scatterogram(
         >>> from torchirid.layered.presets import jewel_beetle
         >>> sg = scatterogram(jewel_beetle("green"), incident=(0.0, 0.0), resolution=9)
         >>> x, y, z = sg.xyz[4, 4].tolist()
-        >>> y > x > z
-        True
+        >>> [round(v, 2) for v in (x, y, z)], y > max(x, z)
+        ([2.44, 4.7, 2.45], True)
     """
     structure = _structure(structure)
     if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1:
