@@ -131,7 +131,7 @@ def reflectance_lut(layer: RoughBraggLayer, wavelength, *, angles: int = REFLECT
         {"theta": theta},
         builder="torchirid.layered.single_reflection.reflectance_lut",
         parameters={
-            "n1": layer.n1, "n2": str(layer.n2), "d1": layer.d1, "d2": layer.d2, "cells": layer.cells,
+            **{k: (str(v) if isinstance(v, complex) else v) for k, v in layer.numbers().items()},
             "angles": angles, "wavelength_nm": [float(x) for x in lam.tolist()],
         },
         units={"theta": "rad", "values": "reflectance (unpolarized), channels = wavelengths"},
@@ -139,13 +139,21 @@ def reflectance_lut(layer: RoughBraggLayer, wavelength, *, angles: int = REFLECT
 
 
 class _LayerTables:
-    """Per-call 1-D tables of one layer at the call's wavelengths: τ(θ) always, R(θ) when asked."""
+    """Per-call 1-D tables of one layer at the call's wavelengths: τ(θ) when first needed
+    (a last layer over a black base never needs it), R(θ) when asked."""
 
     def __init__(self, layer, lam, transmissivity_angles, reflectance_angles, use_reflectance_lut):
         self.layer = layer
         self.lam = lam
-        self.tau = transmissivity_lut(layer, lam, angles=transmissivity_angles)
+        self._angles = transmissivity_angles
+        self._tau = None
         self.R = reflectance_lut(layer, lam, angles=reflectance_angles) if use_reflectance_lut else None
+
+    @property
+    def tau(self):
+        if self._tau is None:
+            self._tau = transmissivity_lut(self.layer, self.lam, angles=self._angles)
+        return self._tau
 
     def transmissivity(self, cos_theta: torch.Tensor) -> torch.Tensor:
         return self.tau(cos_theta)
@@ -241,13 +249,15 @@ def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torc
 
     total = None
     through = None  # Π τ_k(i') τ_k(o') over the layers above the current one
-    for tab in tables:
+    for l, tab in enumerate(tables):
         a = tab.layer.alpha
         shading = ggx_d(cos_h, a) * smith_g1(zi_s, a) * smith_g1(zo_s, a) / (4.0 * zi_s * zo_s)
         f_l = shading.unsqueeze(-1) * tab.reflectance(cos_d)
         if through is not None:
             f_l = f_l * through
         total = f_l if total is None else total + f_l
+        if l == len(tables) - 1 and not structure.base_albedo > 0:
+            break  # nothing below the last layer reflects: its τ is never needed
         tt = tab.transmissivity(zi) * tab.transmissivity(zo)
         through = tt if through is None else through * tt
     if structure.base_albedo > 0:
