@@ -4,9 +4,12 @@ from .scatterogram import (
     DEFAULT_CELLS,
     DEFAULT_INIT,
     ScatterogramFit,
+    ScatterogramImage,
     bragg_structure,
+    load_scatterogram,
     match_scatterogram,
     render_targets,
+    save_scatterogram_png,
     scatterogram_loss,
 )
 
@@ -14,8 +17,11 @@ __all__ = [
     "DEFAULT_CELLS",
     "DEFAULT_INIT",
     "ScatterogramFit",
+    "ScatterogramImage",
     "bragg_structure",
+    "load_scatterogram",
     "match_scatterogram",
     "render_targets",
+    "save_scatterogram_png",
     "scatterogram_loss",
 ]
