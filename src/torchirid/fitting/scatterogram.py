@@ -57,7 +57,6 @@ from ..layered.structure import LayeredBragg, RoughBraggLayer
 from ..render.scatterogram import (
     PROJECTIONS,
     projection_radius,
-    projection_theta,
     scatterogram,
     scatterogram_directions,
 )
@@ -383,9 +382,11 @@ def match_scatterogram(
     if target.dim() == 3:
         target = target.unsqueeze(0)
     if target.dim() != 4 or target.shape[-1] != 3 or target.shape[1] != target.shape[2]:
-        raise ValueError(f"target_xyz must have shape (K, H, H, 3) or (H, H, 3); got {tuple(torch.as_tensor(target_xyz).shape)}")
+        raise ValueError("target_xyz must have shape (K, H, H, 3) or (H, H, 3); got "
+                         f"{tuple(torch.as_tensor(target_xyz).shape)}")
     if target.shape[0] != len(incs):
-        raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident names {len(incs)} illuminations")
+        raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident names {len(incs)} "
+                         "illuminations")
     if projection not in PROJECTIONS:
         raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
     if loss not in _LOSSES:
@@ -450,7 +451,8 @@ def match_scatterogram(
                 values.append(float(prob.loss(model)))
         values = np.asarray(values)
         order = np.argsort(values)
-        local = [i for i in order if (i == 0 or values[i] <= values[i - 1]) and (i == len(values) - 1 or values[i] <= values[i + 1])]
+        local = [i for i in order if (i == 0 or values[i] <= values[i - 1])
+                 and (i == len(values) - 1 or values[i] <= values[i + 1])]
         seeds = []
         for i in local:
             if all(abs(grid[i] - s) >= 15.0 for s in seeds):
