@@ -7,7 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
-from . import color, layered, lut, microfacet, optics, spectral
+from . import color, fitting, layered, lut, microfacet, optics, render, spectral
 from ._compile import compile_enabled, set_compile
 from .color import (
     DELTA_E_METHODS,
@@ -43,7 +43,9 @@ from .layered import (
     transmission_weight,
     transmissivity_lut,
 )
+from .fitting import load_scatterogram, match_scatterogram
 from .lut import LUT
+from .render import scatterogram
 from .microfacet import (
     MicrofacetBRDF,
     ggx_d,
@@ -121,4 +123,7 @@ __all__ = [
     "transmission_probability",
     "transmission_weight",
     "transmissivity_lut",
+    "load_scatterogram",
+    "match_scatterogram",
+    "scatterogram",
 ]
