@@ -1,5 +1,5 @@
 """torchirid.fitting.scatterogram: the exposure-robust loss, recovering Λ by autograd, and the
-PNG reading/writing of measured scatterograms."""
+PNG / OpenEXR reading and writing of measured scatterograms."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from torchirid.fitting import (
     load_scatterogram,
     match_scatterogram,
     render_targets,
+    save_scatterogram_exr,
     save_scatterogram_png,
     scatterogram_loss,
 )
@@ -185,8 +186,12 @@ def test_png_other_projection_resamples(tmp_path):
 
 
 def test_load_value_errors(tmp_path):
-    with pytest.raises(ValueError, match="OpenEXR"):
+    with pytest.raises(FileNotFoundError):
         load_scatterogram(tmp_path / "scan.exr")
+    not_exr = tmp_path / "fake.exr"
+    not_exr.write_bytes(b"not an exr file")
+    with pytest.raises(ValueError, match="OpenEXR"):
+        load_scatterogram(not_exr)
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png at all")
     with pytest.raises(ValueError, match="PNG"):
@@ -202,7 +207,85 @@ def test_load_value_errors(tmp_path):
         load_scatterogram(good, center=(1.0,))
     with pytest.raises(ValueError, match="resolution"):
         load_scatterogram(good, resolution=0)
+    with pytest.raises(ValueError, match="saturation"):
+        load_scatterogram(good, saturation=1.0)
     with pytest.raises(ValueError, match="bits"):
         save_scatterogram_png(_in_gamut_xyz(4), tmp_path / "h.png", bits=12)
     with pytest.raises(FileNotFoundError):
         load_scatterogram(tmp_path / "missing.png")
+
+
+# ---------------------------------------------------------------------------- OpenEXR
+def test_exr_round_trip(tmp_path):
+    """Linear float32 RGB: the same resolution comes back to float32 rounding."""
+    pytest.importorskip("OpenEXR")
+    _, disc = scatterogram_directions(16)
+    xyz = torch.where(disc[..., None], _in_gamut_xyz(16, seed=2), torch.zeros(()))
+    path = save_scatterogram_exr(xyz, tmp_path / "sg.exr", exposure=0.5, mask=disc)
+    image = load_scatterogram(path, exposure=2.0)
+    assert image.xyz.shape == (16, 16, 3) and image.params["format"] == "exr"
+    assert bool((image.mask == disc).all())  # black off the disc is valid, but off the grid's disc
+    torch.testing.assert_close(image.xyz, xyz, rtol=1e-6, atol=1e-9)
+
+
+def test_exr_round_trip_rendered_unclipped(tmp_path):
+    """A rendered scatterogram, out-of-gamut colours and values above 1 included: nothing is clipped."""
+    pytest.importorskip("OpenEXR")
+    from torchirid.color import xyz_to_linear_srgb
+
+    sg = scatterogram(jewel_beetle("green"), incident=(0.0, 0.0), resolution=16, wavelength=LAM)
+    e = 3.0 / float(sg.xyz[..., 1].max())
+    image = load_scatterogram(save_scatterogram_exr(sg, tmp_path / "green.exr", exposure=e), exposure=1 / e)
+    rgb = xyz_to_linear_srgb(sg.xyz * e)[sg.mask]
+    assert bool((rgb < 0).any()) and bool((rgb > 1).any())  # the test covers both
+    assert bool((image.mask == sg.mask).all())
+    scale = float(sg.xyz[sg.mask].abs().max())
+    torch.testing.assert_close(image.xyz[sg.mask], sg.xyz[sg.mask], rtol=1e-6, atol=1e-6 * scale)
+
+
+def test_exr_invalid_pixels_leave_mask(tmp_path):
+    """NaN / infinite colours, transparent or NaN alpha, and (optionally) saturated pixels are invalid;
+    a half-float file with alpha is read."""
+    OpenEXR = pytest.importorskip("OpenEXR")
+    res = 16
+    _, disc = scatterogram_directions(res)
+    from torchirid.color import xyz_to_linear_srgb
+
+    rgb = xyz_to_linear_srgb(_in_gamut_xyz(res, seed=3)).numpy().astype(np.float32)
+    alpha = np.ones((res, res), np.float32)
+    rgb[3, 7, 0] = np.nan
+    rgb[8, 8, 2] = np.inf
+    alpha[9, 4] = 0.0
+    alpha[10, 10] = np.nan
+    rgb[6, 6] = 50.0  # bright, kept unless a saturation level is given
+    channels = {c: np.ascontiguousarray(rgb[..., i]).astype(np.float16 if c == "G" else np.float32)
+                for i, c in enumerate("RGB")}
+    channels["A"] = alpha.astype(np.float16)
+    path = tmp_path / "holes.exr"
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    OpenEXR.File(header, dict(channels)).write(str(path))  # (the binding turns the dict's arrays into Channels)
+    bad = {(3, 7), (8, 8), (9, 4), (10, 10)}
+    assert all(disc[p] for p in bad | {(6, 6)})
+    image = load_scatterogram(path)
+    assert {tuple(p) for p in (disc & ~image.mask).nonzero().tolist()} == bad
+    assert bool(torch.isfinite(image.xyz).all())
+    image = load_scatterogram(path, saturation=10.0)
+    assert {tuple(p) for p in (disc & ~image.mask).nonzero().tolist()} == bad | {(6, 6)}
+    assert image.params["saturation"] == 10.0
+    # the half-float G channel is read as stored
+    lin = torch.as_tensor(np.stack([channels[c].astype(np.float64) for c in "RGB"], -1))
+    expect = lin @ _rgb_to_xyz_matrix(F64).T
+    ok = image.mask
+    torch.testing.assert_close(image.xyz[ok], expect[ok], rtol=1e-6, atol=1e-9)
+
+
+def test_exr_without_openexr_says_pip_install(tmp_path, monkeypatch):
+    import sys
+
+    path = tmp_path / "scan.exr"
+    path.write_bytes(b"\x76\x2f\x31\x01" + bytes(60))  # the OpenEXR magic number
+    monkeypatch.setitem(sys.modules, "OpenEXR", None)  # import OpenEXR raises ImportError
+    with pytest.raises(ImportError, match="pip install openexr"):
+        load_scatterogram(path)
+    with pytest.raises(ImportError, match="pip install openexr"):
+        save_scatterogram_exr(_in_gamut_xyz(4), tmp_path / "out.exr")

@@ -9,6 +9,7 @@ from .scatterogram import (
     load_scatterogram,
     match_scatterogram,
     render_targets,
+    save_scatterogram_exr,
     save_scatterogram_png,
     scatterogram_loss,
 )
@@ -22,6 +23,7 @@ __all__ = [
     "load_scatterogram",
     "match_scatterogram",
     "render_targets",
+    "save_scatterogram_exr",
     "save_scatterogram_png",
     "scatterogram_loss",
 ]

@@ -32,9 +32,11 @@ n2 − n1, α and s through logarithms.
 :func:`load_scatterogram` reads a measured scatterogram from a PNG file (8 or 16 bit,
 sRGB-encoded, the disc's centre, radius and angular mapping given as parameters) and
 resamples it onto the library's scatterogram grid; :func:`save_scatterogram_png` writes
-one (16 bit by default), so a rendered target round-trips. OpenEXR is not supported: no
-OpenEXR reader is a dependency of torchirid, and ``load_scatterogram`` says so for an
-``.exr`` path.
+one (16 bit by default), so a rendered target round-trips. It also reads OpenEXR (``.exr``)
+files — scene-linear R, G, B (optionally A) in half or float, taken as linear sRGB
+primaries — through the optional ``openexr`` package (``pip install openexr``, or the
+``torchirid[exr]`` extra); :func:`save_scatterogram_exr` writes linear float32 RGB, so an
+unclipped, unquantised round trip is possible.
 """
 
 from __future__ import annotations
@@ -42,7 +44,9 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import shutil
 import struct
+import tempfile
 import time
 import zlib
 from dataclasses import dataclass, field
@@ -627,7 +631,8 @@ class ScatterogramImage:
 
     Attributes:
         xyz: ``(R, R, 3)`` float64 CIE XYZ (D65) × ``exposure``; 0 where ``mask`` is False.
-        mask: ``(R, R)`` bool — on the disc, inside the image, not saturated, not transparent.
+        mask: ``(R, R)`` bool — on the disc, inside the image, not saturated, not transparent,
+            finite (OpenEXR).
         directions: ``(R, R, 3)`` the reflected direction of each pixel (NaN off the disc).
         projection: the angular mapping of the grid.
         params: the reading parameters (JSON-ready).
@@ -640,13 +645,65 @@ class ScatterogramImage:
     params: dict = field(default_factory=dict, repr=False)
 
 
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def _import_openexr():
+    try:
+        import OpenEXR
+    except ImportError as exc:
+        raise ImportError("reading or writing OpenEXR (.exr) scatterograms needs the optional 'openexr' package: "
+                          "pip install openexr (or pip install 'torchirid[exr]')") from exc
+    return OpenEXR
+
+
+def _read_exr(path, saturation=None) -> tuple[np.ndarray, np.ndarray]:
+    """An OpenEXR file's first part as (linear RGB (H, W, 3) float64, valid (H, W) bool).
+
+    Channels R, G, B (or Y alone, as grey) in half or float, with an optional A; the values
+    are scene-linear and are not decoded. ``valid`` is False where a colour channel is not
+    finite, where A is not finite or ≤ 0, and (with ``saturation``) where a channel is ≥
+    ``saturation``."""
+    with open(path, "rb") as f:  # FileNotFoundError / OSError as for a PNG
+        magic = f.read(4)
+    if magic != _EXR_MAGIC:
+        raise ValueError(f"path {os.fspath(path)!r} is not an OpenEXR file")
+    OpenEXR = _import_openexr()
+    try:
+        exr = OpenEXR.File(os.fspath(path), separate_channels=True)
+    except Exception as exc:  # the binding raises RuntimeError for a corrupt file
+        raise ValueError(f"path {os.fspath(path)!r}: cannot read the OpenEXR file ({exc})") from exc
+    channels = {name: np.asarray(ch.pixels) for name, ch in exr.parts[0].channels.items()}
+    if all(k in channels for k in "RGB"):
+        names = ["R", "G", "B"]
+    elif "Y" in channels:
+        names = ["Y"] * 3
+    else:
+        raise ValueError(f"path {os.fspath(path)!r}: the OpenEXR file has no R, G, B (or Y) channels; "
+                         f"it has {sorted(channels)}")
+    for name in set(names) | ({"A"} & set(channels)):
+        if channels[name].dtype.kind != "f" or channels[name].ndim != 2:
+            raise ValueError(f"path {os.fspath(path)!r}: OpenEXR channel {name!r} must be a 2-D half or float "
+                             f"image; got {channels[name].dtype} {channels[name].shape}")
+    rgb = np.stack([channels[n].astype(np.float64) for n in names], -1)
+    valid = np.isfinite(rgb).all(-1)
+    if "A" in channels:
+        alpha = channels["A"].astype(np.float64)
+        valid &= np.isfinite(alpha) & (alpha > 0)
+    if saturation is not None:
+        valid &= (rgb < saturation).all(-1)
+    rgb = np.where(valid[..., None], rgb, 0.0)  # NaN/inf would poison the bilinear neighbours
+    return rgb, valid
+
+
 def load_scatterogram(path, *, projection: str = "equidistant", center=None, radius_px=None, resolution=None,
                       grid_projection: str | None = None, rotation_deg: float = 0.0,
-                      exposure: float = 1.0) -> ScatterogramImage:
-    r"""Read a measured scatterogram from a PNG and resample it onto the scatterogram grid.
+                      exposure: float = 1.0, saturation: float | None = None) -> ScatterogramImage:
+    r"""Read a measured scatterogram from a PNG or OpenEXR file and resample it onto the scatterogram grid.
 
     The file holds the disc of reflected directions as an imaging scatterometer records it:
-    sRGB-encoded (8 or 16 bit; greyscale, RGB, with or without alpha, or palette), with
+    a PNG sRGB-encoded (8 or 16 bit; greyscale, RGB, with or without alpha, or palette), or
+    an OpenEXR (``.exr``) file with scene-linear R, G, B (or Y) and optional A channels, with
     the polar angle θ mapped to the distance from ``center`` by ``projection`` (ρ(θ) ·
     ``radius_px`` pixels; ρ = 1 on the horizon) and the azimuth φ counter-clockwise from the
     image's +x (right) axis plus ``rotation_deg`` — the convention of
@@ -657,12 +714,16 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     :func:`save_scatterogram_png` at the same resolution comes back unchanged up to
     quantisation.
 
-    **OpenEXR** is not supported: torchirid depends on no OpenEXR reader, and an ``.exr``
-    path raises ``ValueError`` saying so (convert to a 16-bit PNG, or read the file yourself
-    and build the XYZ array for :func:`match_scatterogram`).
+    **OpenEXR** (a path ending in ``.exr``) needs the optional ``openexr`` package
+    (``pip install openexr``; ``ImportError`` saying so otherwise). Its values are linear
+    sRGB primaries — no transfer function is decoded — converted to XYZ by the same matrix;
+    the first part is read. A pixel is invalid (out of ``mask``) where a colour channel is
+    NaN or infinite, where alpha is ≤ 0 or not finite, or, if ``saturation`` is given, where
+    a channel reaches it. A file written by :func:`save_scatterogram_exr` comes back
+    unchanged up to float32 rounding (out-of-gamut colours included).
 
     Args:
-        path: the PNG file.
+        path: the PNG or ``.exr`` file.
         projection: the angular mapping of the file, one of
             :data:`~torchirid.render.scatterogram.PROJECTIONS`.
         center: ``(x, y)`` of the disc's centre in pixels (x = column, y = row, pixel
@@ -672,17 +733,24 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
         grid_projection: the output grid's mapping (default ``projection``).
         rotation_deg: azimuth (degrees) of the file's +x axis in the scatterogram's frame.
         exposure: multiplies the decoded XYZ (e.g. 1 / the exposure used to write the file).
+        saturation: OpenEXR only: the clipping level of the file's linear values (before
+            ``exposure``); a pixel with a channel ≥ it is invalid. Default none. (A PNG's
+            saturation is its maximum code; passing this for a PNG raises ``ValueError``.)
 
     Returns:
         a :class:`ScatterogramImage`; ``xyz`` and ``mask`` go to :func:`match_scatterogram`.
 
     Raises:
-        ValueError: a bad argument, a non-PNG / unsupported file, or an ``.exr`` path.
+        ValueError: a bad argument, or a non-PNG / non-EXR / unsupported file.
+        ImportError: an ``.exr`` path without the ``openexr`` package.
         OSError: the file cannot be read.
     """
-    if os.fspath(path).lower().endswith(".exr"):
-        raise ValueError("load_scatterogram reads PNG only: OpenEXR (.exr) needs an OpenEXR reader, which torchirid "
-                         "does not depend on; convert the image to a 16-bit PNG (sRGB-encoded)")
+    is_exr = os.fspath(path).lower().endswith(".exr")
+    if saturation is not None:
+        if not is_exr:
+            raise ValueError("saturation applies to OpenEXR files only (a PNG saturates at its maximum code)")
+        if isinstance(saturation, bool) or not isinstance(saturation, numbers.Real) or not saturation > 0:
+            raise ValueError(f"saturation must be None or a number > 0; got {saturation!r}")
     if projection not in PROJECTIONS:
         raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
     grid_projection = projection if grid_projection is None else grid_projection
@@ -699,14 +767,29 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     if resolution is not None and (isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1):
         raise ValueError(f"resolution must be None or an integer >= 1; got {resolution!r}")
 
-    rgb, valid, depth = _read_png(path)
+    f64 = torch.float64
+    if is_exr:
+        rgb, valid = _read_exr(path, saturation)
+        linear, file_params = torch.as_tensor(rgb, dtype=f64), {"format": "exr"}
+        if saturation is not None:
+            file_params["saturation"] = float(saturation)
+    else:
+        rgb, valid, depth = _read_png(path)
+        linear, file_params = _srgb_decode(torch.as_tensor(rgb, dtype=f64)), {"format": "png", "bits": depth}
+    xyz_img = linear @ _rgb_to_xyz_matrix(f64).T * float(exposure)  # (H, W, 3)
+    return _resample(xyz_img, valid, path=path, projection=projection, center=center, radius_px=radius_px,
+                     resolution=resolution, grid_projection=grid_projection, rotation_deg=rotation_deg,
+                     exposure=exposure, file_params=file_params)
+
+
+def _resample(xyz_img, valid, *, path, projection, center, radius_px, resolution, grid_projection, rotation_deg,
+              exposure, file_params) -> ScatterogramImage:
+    """Bilinearly resample an image's XYZ (H, W, 3) float64 and validity onto the scatterogram grid."""
+    f64 = torch.float64
     h, w = valid.shape
     cx, cy = ((w - 1) / 2.0, (h - 1) / 2.0) if center is None else (float(center[0]), float(center[1]))
     radius = min(w, h) / 2.0 if radius_px is None else float(radius_px)
     res = max(1, int(round(2 * radius))) if resolution is None else resolution
-    f64 = torch.float64
-    linear = _srgb_decode(torch.as_tensor(rgb, dtype=f64))
-    xyz_img = linear @ _rgb_to_xyz_matrix(f64).T * float(exposure)  # (H, W, 3)
 
     directions, disc = scatterogram_directions(res, projection=grid_projection, dtype=f64)
     d = torch.where(disc.unsqueeze(-1), directions, torch.zeros_like(directions))
@@ -724,7 +807,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
                                               align_corners=True)[0].permute(1, 2, 0)
     mask = disc & inside & (sampled[..., 3] > 1.0 - 1e-6)  # every contributing file pixel valid
     xyz = torch.where(mask.unsqueeze(-1), sampled[..., :3], torch.zeros_like(sampled[..., :3]))
-    params = {"path": os.fspath(path), "bits": depth, "size": [w, h], "projection": projection,
+    params = {"path": os.fspath(path), **file_params, "size": [w, h], "projection": projection,
               "grid_projection": grid_projection, "center": [cx, cy], "radius_px": radius, "resolution": res,
               "rotation_deg": float(rotation_deg), "exposure": float(exposure)}
     return ScatterogramImage(xyz, mask, directions, grid_projection, params)
@@ -776,3 +859,48 @@ def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, b
     top = 65535 if bits == 16 else 255
     pixels = np.rint(rgb.numpy() * top).astype(np.uint16 if bits == 16 else np.uint8)
     return _write_png(path, pixels)
+
+
+def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, mask=None):
+    """Write a scatterogram as an OpenEXR file of scene-linear float32 R, G, B (linear sRGB
+    primaries, black off the disc): the counterpart of :func:`load_scatterogram` for
+    ``.exr`` (read it back with ``exposure=1/exposure``). Nothing is clipped: colours outside
+    the sRGB gamut keep their negative components, and values above 1 are kept.
+
+    Needs the optional ``openexr`` package (``pip install openexr``).
+
+    Args:
+        scatterogram_or_xyz: a :class:`~torchirid.render.scatterogram.Scatterogram` (or
+            :class:`ScatterogramImage`), or an ``(H, W, 3)`` XYZ array.
+        exposure: multiplies the XYZ before conversion.
+        mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).
+
+    Returns the path (a ``Path``); written atomically (a temporary file renamed over ``path``).
+    """
+    if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not exposure > 0:
+        raise ValueError(f"exposure must be a number > 0; got {exposure!r}")
+    obj = scatterogram_or_xyz
+    xyz = obj.xyz if hasattr(obj, "xyz") else obj
+    if mask is None and hasattr(obj, "mask"):
+        mask = obj.mask
+    xyz = torch.as_tensor(xyz).detach().to(torch.float64)
+    if xyz.dim() != 3 or xyz.shape[-1] != 3:
+        raise ValueError(f"xyz must have shape (H, W, 3); got {tuple(xyz.shape)}")
+    rgb = xyz_to_linear_srgb(xyz * float(exposure))
+    if mask is not None:
+        rgb = torch.where(torch.as_tensor(mask, dtype=torch.bool).unsqueeze(-1), rgb, torch.zeros_like(rgb))
+    pixels = rgb.numpy().astype(np.float32)
+    OpenEXR = _import_openexr()
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    exr = OpenEXR.File(header, {c: np.ascontiguousarray(pixels[..., i]) for i, c in enumerate("RGB")})
+
+    def write(f):
+        # the binding writes to a file name: encode into a private temporary file, then copy its
+        # bytes into atomic_write's (which is renamed over ``path`` once complete)
+        with tempfile.TemporaryDirectory() as tmp:
+            name = os.path.join(tmp, "scatterogram.exr")
+            exr.write(name)
+            with open(name, "rb") as src:
+                shutil.copyfileobj(src, f)
+
+    return atomic_write(path, write)
