@@ -51,7 +51,8 @@ def test_set_compile_validates():
 
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
-def test_compiled_piecewise_landmarks_match_eager(monkeypatch):
+def test_compiled_piecewise_matches_eager(monkeypatch):
+    # both compiled stages (landmarks + box layout, sub-boxes + table lookup), no eager fallback
     from torchirid import _compile
 
     monkeypatch.setattr(_compile, "MIN_POINTS", 0)  # a small batch, compiled all the same

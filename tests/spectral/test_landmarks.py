@@ -77,12 +77,29 @@ def test_batched_over_angles_equals_one_by_one():
 
 
 def test_default_iterations_are_accurate_enough():
-    # the default 13 halvings (between modes) + a secant step: landmarks within 1e-5 (relative) of converged
+    # the default 12 halvings (of the a-priori brackets) + a secant step: landmarks within 1e-5 (relative)
     A = torch.linspace(50, 900, 60, dtype=F64)
     B = torch.linspace(900, 60, 60, dtype=F64)
     d = torch.full_like(A, 0.08)
     ref = bragg_landmarks(W_MIN, W_MAX, A, B, d, iterations=60)
     got = bragg_landmarks(W_MIN, W_MAX, A, B, d)
     for k in ("airy", "edges_lo", "edges_hi"):
+        rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
+        assert rel.max() <= 1e-5
+
+
+def test_default_iterations_hold_at_grazing_and_large_contrast():
+    # worst cases of the bisection: grazing incidence (A → 0, δ → ∞ for s and p) and strong contrast
+    c = torch.cos(torch.deg2rad(torch.tensor([0.0, 60.0, 85.0, 89.0, 89.9, 89.99], dtype=F64)))
+    rows = []
+    for n2, period, f in ((1.5, 244.0, 0.1), (1.5, 988.0, 0.9), (2.4, 500.0, 0.05), (1.2, 1000.0, 0.5)):
+        for pol in ("s", "p"):
+            for ci in c.tolist():
+                rows.append(_setup(ci, 1.0, n2, f * period, (1 - f) * period, pol))
+    A, B, d = (t64([r[k] for r in rows]) for k in range(3))
+    ref = bragg_landmarks(W_MIN, W_MAX, A, B, d, iterations=60)
+    got = bragg_landmarks(W_MIN, W_MAX, A, B, d)
+    for k in ("airy", "edges_lo", "edges_hi"):
+        assert torch.equal(torch.isnan(got[k]), torch.isnan(ref[k]))
         rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
         assert rel.max() <= 1e-5
