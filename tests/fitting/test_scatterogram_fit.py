@@ -20,7 +20,7 @@ from torchirid.fitting import (
     save_scatterogram_png,
     scatterogram_loss,
 )
-from torchirid.fitting.scatterogram import _read_png, _rgb_to_xyz_matrix, _write_png
+from torchirid.fitting.measured import _read_png, _rgb_to_xyz_matrix, _write_png
 from torchirid.layered.presets import jewel_beetle
 from torchirid.render import scatterogram, scatterogram_directions
 
