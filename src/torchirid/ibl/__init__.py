@@ -1,0 +1,17 @@
+"""Image-based lighting of thin films: Belcour–Barla Fourier colour (Kneiphof et al. 2019)."""
+
+from .fourier import (  # noqa: F401
+    FOURIER_SENSITIVITY_BUILDER,
+    SENSITIVITY_MODES,
+    build_fourier_sensitivity,
+    build_prefiltered_sensitivity,
+    fourier_sensitivity,
+    fourier_sensitivity_exact,
+    fourier_sensitivity_lut,
+    fourier_sensitivity_path,
+    prefiltered_fourier_sensitivity,
+    thin_film_fourier_terms,
+    thin_film_xyz_fourier,
+)
+
+__all__ = [name for name in dir() if not name.startswith("_")]

@@ -1,0 +1,148 @@
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from torchirid import thin_film_reflectance
+from torchirid.color import spectrum_to_xyz, white_point_xyz
+from torchirid.ibl import (
+    build_fourier_sensitivity,
+    build_prefiltered_sensitivity,
+    fourier_sensitivity,
+    fourier_sensitivity_exact,
+    prefiltered_fourier_sensitivity,
+    thin_film_fourier_terms,
+    thin_film_xyz_fourier,
+)
+
+F64 = torch.float64
+OBSERVERS = ("CIE 1931 2", "Stiles & Burch 1959 10")
+
+
+@pytest.mark.parametrize("observer", OBSERVERS)
+def test_sensitivity_zero_is_white(observer):
+    s = fourier_sensitivity_exact(torch.tensor(0.0, dtype=F64), observer=observer)
+    assert s.imag.abs().max() < 1e-15
+    assert abs(s[1].real.item() - 1.0) < 1e-12
+    wl = torch.arange(300.0, 900.0, 0.5, dtype=F64)  # ∫ 1 · S x̄ on a fine grid = the white
+    ref = spectrum_to_xyz(torch.ones_like(wl), wl, observer=observer)
+    # up to the reference's half-cell ramp at the observer's first node (1.4e-5 on Stiles & Burch's 5 nm grid)
+    assert torch.allclose(s.real, ref, atol=2e-5)
+    assert torch.allclose(fourier_sensitivity(torch.tensor(0.0, dtype=F64), observer=observer).real, s.real,
+                          atol=1e-12)
+
+
+def test_sensitivity_equals_spectral_integral():
+    # Ŝ(D) = ∫ w(λ) e^{−2πiD/λ} dλ, checked against spectrum_to_xyz of cos and sin
+    wl = torch.arange(360.0, 830.001, 0.1, dtype=F64)
+    D = 3000.0
+    re = spectrum_to_xyz(torch.cos(2 * math.pi * D / wl), wl)
+    im = spectrum_to_xyz(-torch.sin(2 * math.pi * D / wl), wl)
+    s = fourier_sensitivity_exact(torch.tensor(D, dtype=F64))
+    assert torch.allclose(s, torch.complex(re, im), atol=2e-6)
+
+
+@pytest.mark.parametrize("observer", OBSERVERS)
+def test_lut_matches_exact(observer):
+    D = torch.linspace(-19999.0, 19999.0, 777, dtype=F64) + 0.37
+    err = (fourier_sensitivity(D, observer=observer) - fourier_sensitivity_exact(D, observer=observer)).abs()
+    assert err.max() < 1e-5
+    beyond = fourier_sensitivity(torch.tensor([20001.0, -3e4], dtype=F64), observer=observer)
+    assert beyond.abs().max() == 0
+    s32 = fourier_sensitivity(D.float(), observer=observer)
+    assert s32.dtype == torch.complex64 and (s32 - fourier_sensitivity_exact(D, observer=observer)).abs().max() < 1e-4
+
+
+def test_magnitude_phase_beats_real_imag():
+    lut = build_fourier_sensitivity(d_max=3000.0, step=5.0)
+    D = lut.axes["D"]
+    s = torch.polar(lut.values[..., 0], lut.values[..., 1])
+    mid = D[:-1] + 2.5
+    exact = fourier_sensitivity_exact(mid)
+    ri = torch.complex(0.5 * (s.real[1:] + s.real[:-1]), 0.5 * (s.imag[1:] + s.imag[:-1]))
+    mp = torch.polar(0.5 * (lut.values[1:, :, 0] + lut.values[:-1, :, 0]),
+                     0.5 * (lut.values[1:, :, 1] + lut.values[:-1, :, 1]))
+    assert (mp - exact).abs().max() * 20 < (ri - exact).abs().max()
+
+
+def test_prefiltered_is_gaussian_average():
+    mu, sigma = 2500.0, 120.0
+    x, w = np.polynomial.hermite_e.hermegauss(80)  # E over N(0,1)
+    D = torch.tensor(mu + sigma * x, dtype=F64)
+    avg = (fourier_sensitivity_exact(D) * torch.tensor(w / w.sum(), dtype=F64)[:, None]).sum(0)
+    got = prefiltered_fourier_sensitivity(torch.tensor(mu, dtype=F64), sigma**2)
+    assert (got - avg).abs().max() < 1e-10
+    zero = prefiltered_fourier_sensitivity(torch.tensor([mu], dtype=F64), 0.0)
+    assert torch.allclose(zero, fourier_sensitivity_exact(torch.tensor([mu], dtype=F64)), atol=1e-14)
+    lut = build_prefiltered_sensitivity(d_max=3000.0, sigma_max=200.0, sigma_nodes=11)
+    v = lut(mu=mu, sigma=sigma)
+    assert (torch.polar(v[:, 0], v[:, 1]) - got).abs().max() < 1e-4
+    with pytest.raises(ValueError, match="sigma2"):
+        prefiltered_fourier_sensitivity(torch.tensor(0.0), -1.0)
+
+
+CASES = [  # cos θ, film index, thickness, base
+    (1.0, 1.33, 300.0, 1.0),
+    (0.5, 1.5, 500.0, complex(0.2, 3.0)),
+    (0.2, 2.0, 150.0, 1.5),
+    (0.05, 1.2, 800.0, complex(0.2, 3.0)),
+]
+
+
+@pytest.mark.parametrize("case", CASES)
+def test_series_converges_to_spectral_integration(case):
+    c, nf, d, ns = case
+    wl = torch.arange(360.0, 830.001, 0.25, dtype=F64)
+    c = torch.tensor(c, dtype=F64)
+    ref = spectrum_to_xyz(thin_film_reflectance(wl, c, nf, d, ns), wl)
+    res = [(thin_film_xyz_fourier(c, nf, d, ns, terms=M, sensitivity="exact") - ref).abs().max().item()
+           for M in (1, 2, 4, 40)]
+    assert res[3] < 5e-7, res  # the reference's own 0.25 nm trapezoid error
+    assert res[0] >= res[1] >= res[2] >= res[3] or res[2] < 1e-5, res
+    lut = thin_film_xyz_fourier(c, nf, d, ns, terms=40)
+    assert (lut - ref).abs().max() < 1e-4
+
+
+def test_terms_match_paper_for_dielectric_film():
+    C0, a, K, D = thin_film_fourier_terms(torch.tensor([0.3, 1.0], dtype=F64), 1.5, 400.0, complex(0.2, 3.0))
+    assert K.imag.abs().max() < 1e-15  # real r12: K = R* − √(T12 T21)
+    assert C0.shape == (2, 2) and D.shape == (2,)
+    cos2 = math.sqrt(1 - (1 - 0.3**2) / 1.5**2)
+    assert abs(D[0].item() - 2 * 1.5 * 400 * cos2) < 1e-9
+    assert (a.abs() < 1).all()
+
+
+def test_broadcast_dtype_gradient_and_thin_limit():
+    c = torch.linspace(0.0, 1.0, 5, dtype=F64)[:, None, None].requires_grad_()
+    d = torch.tensor([0.0, 250.0, 900.0], dtype=F64)[None, :, None].requires_grad_()
+    nf = torch.tensor([1.3, 1.9], dtype=F64).requires_grad_()
+    xyz = thin_film_xyz_fourier(c, nf, d, complex(0.2, 3.0), terms=3)
+    assert xyz.shape == (5, 3, 2, 3) and xyz.dtype == F64
+    xyz.sum().backward()
+    assert all(torch.isfinite(t.grad).all() for t in (c, d, nf))
+    # d = 0: the bare outer/base Fresnel colour, for any M when summed to convergence
+    from torchirid.optics.fresnel import fresnel_reflectance
+    c0 = torch.tensor([0.2, 0.8], dtype=F64)
+    bare = fresnel_reflectance(c0, 1.0, 1.5)[:, None] * fourier_sensitivity_exact(torch.tensor(0.0, dtype=F64)).real
+    assert torch.allclose(thin_film_xyz_fourier(c0, 1.8, 0.0, 1.5, terms=60), bare, atol=1e-9)
+    x32 = thin_film_xyz_fourier(torch.rand(7), 1.5, 500.0, 1.5)
+    assert x32.dtype == torch.float32 and torch.isfinite(x32).all()
+
+
+def test_bad_input():
+    c = torch.tensor(0.5, dtype=F64)
+    with pytest.raises(ValueError, match="terms"):
+        thin_film_xyz_fourier(c, 1.5, 100.0, 1.5, terms=-1)
+    with pytest.raises(ValueError, match="sensitivity"):
+        thin_film_xyz_fourier(c, 1.5, 100.0, 1.5, sensitivity="gauss")
+    with pytest.raises(ValueError, match="n_film"):
+        thin_film_xyz_fourier(c, 0.9, 100.0, 1.5)
+    with pytest.raises(ValueError, match="thickness"):
+        thin_film_xyz_fourier(c, 1.5, -1.0, 1.5)
+    with pytest.raises(ValueError, match="cos_theta"):
+        thin_film_xyz_fourier(torch.tensor(1.5), 1.5, 1.0, 1.5)
+    with pytest.raises(ValueError, match="observer"):
+        fourier_sensitivity(torch.tensor(0.0), observer="nope")
+    with pytest.raises(ValueError, match="polarization"):
+        thin_film_xyz_fourier(c, 1.5, 100.0, 1.5, polarization="x")
