@@ -33,7 +33,8 @@ import time
 import numpy as np
 import torch
 
-from torchirid.layered.filter import transmission_filter, transmission_filter_lut
+from torchirid.layered.filter import transmission_filter
+from torchirid.layered.filter_lut import transmission_filter_lut
 
 HALF_PI = math.pi / 2
 ALPHAS = (0.025, 0.1, 0.4)

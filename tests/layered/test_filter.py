@@ -15,12 +15,8 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid.layered.filter import (
-    FilterLUT,
-    filter_quadrature,
-    transmission_filter,
-    transmission_filter_lut,
-)
+from torchirid.layered.filter import filter_quadrature, transmission_filter
+from torchirid.layered.filter_lut import FilterLUT, transmission_filter_lut
 from torchirid.layered.structure import RoughBraggLayer
 from torchirid.lut import LUT
 

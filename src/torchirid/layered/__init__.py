@@ -1,7 +1,8 @@
 """Rough layered Bragg structures (Fourneau et al. 2024 §4): the ballistic transmission
 filter F_α, integrated transmissivity, the single-reflection BRDF and a Monte Carlo reference."""
 
-from .filter import FilterLUT, filter_quadrature, transmission_filter, transmission_filter_lut
+from .filter import filter_quadrature, transmission_filter
+from .filter_lut import FilterLUT, transmission_filter_lut
 from .montecarlo import TRANSMISSION_MODES, montecarlo_brdf
 from .single_reflection import (
     coating_reflectance,
