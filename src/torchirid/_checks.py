@@ -232,3 +232,24 @@ def check_last_dim(t: torch.Tensor, name: str, size: int | None = None, at_least
 
 def names(seq: Sequence[str]) -> str:
     return ", ".join(repr(s) for s in seq)
+
+
+def broadcast_shapes(*shapes) -> torch.Size:
+    """``torch.broadcast_shapes`` in plain Python.
+
+    torch's version imports its symbolic-shape machinery (sympy) on first use, ~0.4 s once per
+    process — more than a whole small call costs. Raises RuntimeError on incompatible shapes
+    like torch does.
+    """
+    ndim = max((len(s) for s in shapes), default=0)
+    out = [1] * ndim
+    for s in shapes:
+        for i, size in enumerate(s, start=ndim - len(s)):
+            size = int(size)
+            if size == out[i] or size == 1:
+                continue
+            if out[i] == 1:
+                out[i] = size
+            else:
+                raise RuntimeError(f"Shape mismatch: objects cannot be broadcast to a single shape: {[tuple(x) for x in shapes]}")
+    return torch.Size(out)

@@ -401,7 +401,7 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_oute
         C0s.append(R12 + Rstar)
         As.append(a)
         Ks.append(Rstar + ratio * tt)
-    batch = torch.broadcast_shapes(c.shape, nf.shape, d.shape, ns.shape, n0.shape)
+    batch = _checks.broadcast_shapes(c.shape, nf.shape, d.shape, ns.shape, n0.shape)
     st = lambda xs: torch.stack([x.expand(batch) for x in xs])  # noqa: E731
     D = (2.0 * d * qf_real).expand(batch)
     return st(C0s), st(As), st(Ks), D

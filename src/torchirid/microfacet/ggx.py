@@ -194,7 +194,7 @@ def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
             raise ValueError("u must lie in [0, 1] (uniform random numbers)")
     a = a.unsqueeze(-1) if a.ndim > 0 else a
     # stretch to the α = 1 configuration
-    vh = torch.cat([a * v[..., :2], v[..., 2:].expand(*torch.broadcast_shapes(a.shape, v[..., 2:].shape))], -1)
+    vh = torch.cat([a * v[..., :2], v[..., 2:].expand(*_checks.broadcast_shapes(a.shape, v[..., 2:].shape))], -1)
     vh = vh / torch.linalg.vector_norm(vh, dim=-1, keepdim=True)  # |vh| ≥ vh.z > 0
     # orthonormal basis (T1, T2, vh); T1 = x at normal incidence (lensq = 0, guarded sqrt)
     lensq = vh[..., 0] ** 2 + vh[..., 1] ** 2

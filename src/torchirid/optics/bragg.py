@@ -238,7 +238,7 @@ def _yeh(P2, Q2, eps, N, safe, static=False):
     near = abs_eps < _EDGE_SERIES / (N * N)
     has_near = static or bool(near.any())
     # no autograd (and cells not broadcasting beyond the grid): temporaries may be overwritten
-    inplace = not (safe or static) and torch.broadcast_shapes(eps.shape, N.shape) == eps.shape
+    inplace = not (safe or static) and _checks.broadcast_shapes(eps.shape, N.shape) == eps.shape
     absW = abs_eps.mul_(2 - eps) if inplace else abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
     if safe and has_near:
         # guard: sqrt'(0) = inf at the edge itself, where the series is used instead
@@ -469,7 +469,7 @@ def bragg_reflectance(
     """
     _checks.check_polarization(polarization)
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells)
-    batch = torch.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
                                    () if nh is None else nh.shape)
     c = _checks.flush_grazing(c)
     general = _needs_general(c, n1, n2, nh)

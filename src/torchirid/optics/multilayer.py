@@ -42,7 +42,7 @@ def stack_admittances(q: torch.Tensor, n: torch.Tensor, polarization: str) -> to
 def align_polarization_axis(eta: torch.Tensor, other_batch) -> torch.Tensor:
     """Insert singleton axes after the leading polarization axis of ``eta[P, *B, M]`` so that
     its batch broadcasts against ``other_batch`` without meeting the polarization axis."""
-    batch = torch.broadcast_shapes(eta.shape[1:-1], other_batch)
+    batch = _checks.broadcast_shapes(eta.shape[1:-1], other_batch)
     pad = len(batch) - (eta.ndim - 2)
     return eta.reshape(eta.shape[0], *([1] * pad), *eta.shape[1:])
 
@@ -156,5 +156,5 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
         T = torch.where(absorbing_exit, torch.zeros_like(T), T)
     T = T.mean(0).clamp(0, 1)
     R, T = torch.broadcast_tensors(R, T)
-    batch = torch.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
     return R.expand(batch), T.expand(batch)

@@ -87,5 +87,5 @@ def thin_film_reflectance(
     e2 = torch.exp(2j * phi)[..., None]
     gamma, _ = recursion(stack_admittances(q, n, polarization), e2, e2, with_transmission=False)
     R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |r|² ≤ 1 up to an ulp
-    batch = torch.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
     return R.expand(batch)
