@@ -7,7 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
-from . import color, fitting, layered, lut, microfacet, optics, render, spectral
+from . import color, fitting, ibl, layered, lut, microfacet, optics, render, spectral
 from ._compile import compile_enabled, set_compile
 from .color import (
     DELTA_E_METHODS,
@@ -44,6 +44,7 @@ from .layered import (
     transmissivity_lut,
 )
 from .fitting import load_scatterogram, match_scatterogram
+from .ibl import thin_film_xyz_fourier
 from .lut import LUT
 from .render import scatterogram
 from .microfacet import (
@@ -126,4 +127,5 @@ __all__ = [
     "load_scatterogram",
     "match_scatterogram",
     "scatterogram",
+    "thin_film_xyz_fourier",
 ]
