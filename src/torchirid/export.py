@@ -1,0 +1,461 @@
+r"""Exports for renderers: LUTs as raw float32 / OpenEXR files with a JSON sidecar, and a
+thin-film material as glTF ``KHR_materials_iridescence`` / OpenPBR parameters.
+
+LUT exports (:func:`export_lut`, read back with :func:`load_exported_lut`)
+--------------------------------------------------------------------------
+``export_lut(lut, "out/dfg", format="raw")`` writes
+
+* ``out/dfg.bin``: the values as little-endian float32, C order, shape
+  ``(n_1, ..., n_k, *channels)`` (the :class:`~torchirid.lut.LUT` layout, no header);
+* ``out/dfg.json``: the sidecar (below).
+
+``format="exr"`` writes ``out/dfg.exr`` (float32 pixels, ZIP compression, lossless) plus the
+same sidecar.  The channels (flattened in C order) are the EXR channels ``R, G, B, A`` for up
+to four of them, ``ch00, ch01, ...`` beyond.  The image is an *atlas* of 2-D tiles: each tile
+spans the last two axes (rows = axis ``k-2``, columns = axis ``k-1``; a 1-D LUT is one
+``1 × n_1`` tile); the leading axes (flattened in C order into a tile index ``t``) pick the
+tile, placed at tile row ``t // tiles_x`` and tile column ``t % tiles_x`` with
+``tiles_x = ceil(sqrt(T))``; unused tiles are zero.  Pixel ``(y, x)`` (``y = 0`` the first
+scanline) of LUT index ``(i_1, ..., i_k)`` is ``y = (t // tiles_x) * n_{k-1} + i_{k-1}``,
+``x = (t % tiles_x) * n_k + i_k``.  A 2-D LUT is therefore a plain ``n_1 × n_2`` image.
+
+Sidecar keys: ``format`` (``"torchirid.lut-export"``), ``format_version``, ``container``
+(``"raw"``/``"exr"``), ``data_file`` (name, same directory), ``dtype`` (``"float32"``),
+``byte_order`` (``"little"``), ``shape``, ``channel_shape``, ``axes`` (list of ``{name,
+size, unit, values}``, the node values in the source dtype written as exact decimal
+doubles), ``channels`` (``names``, ``unit``), ``builder``, ``parameters``, ``units``,
+``torchirid_version`` (that built the LUT), ``exported_by`` (exporting torchirid version),
+``source_hash`` / ``source_dtype`` / ``source_format_version`` (the LUT's content hash,
+see :mod:`torchirid.lut`), ``data_sha256`` (SHA-256 of the float32 values in the LUT layout,
+little-endian C order, independent of the container) and, for EXR, ``exr_layout``.
+Both files are written atomically (data first, then the sidecar).
+
+Thin-film materials (:func:`thin_film_material`, :func:`write_thin_film_material`)
+---------------------------------------------------------------------------------
+A film of real index ``n_film`` and thickness ``d`` (nm, or a range) on a base, as glTF 2.0
+``KHR_materials_iridescence`` (``iridescenceIor``, ``iridescenceThicknessMinimum/Maximum`` in
+nm) and OpenPBR (``thin_film_thickness`` in µm, ``thin_film_ior``), with the list of the
+approximations those formats impose (returned under ``"approximations"``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import numbers
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ._io import atomic_write
+from .lut import LUT
+
+__all__ = ["export_lut", "load_exported_lut", "thin_film_material", "write_thin_film_material",
+           "EXPORT_FORMATS"]
+
+#: Containers of :func:`export_lut`.
+EXPORT_FORMATS = ("raw", "exr")
+_TAG = "torchirid.lut-export"
+_VERSION = 1
+_SUFFIX = {"raw": ".bin", "exr": ".exr"}
+_DTYPES = {"float16": torch.float16, "bfloat16": torch.bfloat16, "float32": torch.float32,
+           "float64": torch.float64}
+
+
+def _version() -> str:
+    from . import __version__  # noqa: PLC0415  (lazy: export is not imported by __init__)
+
+    return str(__version__)
+
+
+def _stem(path) -> Path:
+    p = Path(path)
+    if p.suffix.lower() in (".bin", ".exr", ".json"):
+        p = p.with_suffix("")
+    return p
+
+
+def _openexr():
+    from .fitting.measured import _import_openexr  # noqa: PLC0415  (optional dependency)
+
+    try:
+        return _import_openexr()
+    except ImportError as exc:
+        raise ImportError("exporting LUTs as OpenEXR needs the optional 'openexr' package: "
+                          "pip install openexr (or pip install 'torchirid[exr]')") from exc
+
+
+def _channel_names(n: int) -> list[str]:
+    if n <= 4:
+        return list("RGBA"[:n])
+    width = len(str(n - 1))
+    return [f"ch{i:0{max(width, 2)}d}" for i in range(n)]
+
+
+def _atlas_layout(axis_sizes: list[int]) -> dict:
+    if len(axis_sizes) == 1:
+        rows, cols, lead = 1, axis_sizes[0], []
+    else:
+        rows, cols, lead = axis_sizes[-2], axis_sizes[-1], axis_sizes[:-2]
+    n_tiles = math.prod(lead)
+    tiles_x = math.isqrt(n_tiles - 1) + 1 if n_tiles > 1 else 1
+    tiles_y = -(-n_tiles // tiles_x)
+    return {"tile_rows": rows, "tile_cols": cols, "n_tiles": n_tiles, "tiles_x": tiles_x,
+            "tiles_y": tiles_y, "width": tiles_x * cols, "height": tiles_y * rows}
+
+
+def _to_atlas(a: np.ndarray, lay: dict) -> np.ndarray:
+    """(n_1..n_k, C) float32 → (H, W, C) atlas."""
+    T, r, c, tx, ty = lay["n_tiles"], lay["tile_rows"], lay["tile_cols"], lay["tiles_x"], lay["tiles_y"]
+    t = a.reshape(T, r, c, a.shape[-1])
+    if tx * ty > T:
+        t = np.concatenate([t, np.zeros((tx * ty - T, r, c, a.shape[-1]), t.dtype)])
+    return t.reshape(ty, tx, r, c, -1).transpose(0, 2, 1, 3, 4).reshape(ty * r, tx * c, -1)
+
+
+def _from_atlas(img: np.ndarray, lay: dict) -> np.ndarray:
+    """(H, W, C) atlas → (T, rows, cols, C)."""
+    T, r, c, tx, ty = lay["n_tiles"], lay["tile_rows"], lay["tile_cols"], lay["tiles_x"], lay["tiles_y"]
+    t = img.reshape(ty, r, tx, c, -1).transpose(0, 2, 1, 3, 4).reshape(ty * tx, r, c, -1)
+    return t[:T]
+
+
+def _float32_values(lut: LUT) -> np.ndarray:
+    v = lut.values.detach().to("cpu")
+    finite = torch.isfinite(v)
+    v32 = v.to(torch.float32)
+    if bool((finite & ~torch.isfinite(v32)).any()):
+        raise ValueError("the LUT has finite values beyond the float32 range (|v| > 3.4e38); "
+                         "they would become infinite in the export: rescale the table first")
+    return np.ascontiguousarray(v32.numpy(), dtype="<f4")
+
+
+def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tuple[Path, Path]:
+    """Write ``lut`` for a renderer: a float32 data file plus a JSON sidecar (layout above).
+
+    Args:
+        lut: a :class:`~torchirid.lut.LUT` (any float dtype; values are written as float32).
+        path: the output stem; ``<path>.bin`` or ``<path>.exr`` and ``<path>.json`` are
+            written (a trailing ``.bin``/``.exr``/``.json`` on ``path`` is dropped).  The
+            directory must exist.
+        format: ``"raw"`` (little-endian float32 ``.bin``) or ``"exr"`` (OpenEXR float32
+            atlas; needs the optional ``openexr`` package).
+        channel_names: optional names of the flattened channels, recorded in the sidecar
+            (default: ``lut.parameters["channels"]`` when it is a list of that many strings).
+
+    Returns:
+        ``(data_path, sidecar_path)``.
+
+    Raises:
+        ValueError: unknown format, values overflowing float32, bad ``channel_names``.
+        ImportError: ``format="exr"`` without ``openexr``.
+    """
+    if not isinstance(lut, LUT):
+        raise ValueError(f"lut must be a torchirid.lut.LUT, got {type(lut).__name__}")
+    if format not in EXPORT_FORMATS:
+        raise ValueError(f"format must be one of {EXPORT_FORMATS}, got {format!r}")
+    stem = _stem(path)
+    data_path, side_path = stem.with_name(stem.name + _SUFFIX[format]), stem.with_name(stem.name + ".json")
+    values = _float32_values(lut)
+    sizes = [int(g.numel()) for g in lut.axes.values()]
+    n_ch = math.prod(lut.channel_shape)
+    if channel_names is None:
+        cand = lut.parameters.get("channels")
+        if isinstance(cand, list) and len(cand) == n_ch and all(isinstance(s, str) for s in cand):
+            channel_names = cand
+    elif (isinstance(channel_names, str) or len(list(channel_names)) != n_ch
+          or not all(isinstance(s, str) for s in channel_names)):
+        raise ValueError(f"channel_names must be {n_ch} strings (one per flattened channel of "
+                         f"channel shape {lut.channel_shape}), got {channel_names!r}")
+    units = lut.units
+    side = {
+        "format": _TAG, "format_version": _VERSION, "container": format,
+        "data_file": data_path.name, "dtype": "float32", "byte_order": "little",
+        "order": "C", "shape": list(values.shape), "channel_shape": list(lut.channel_shape),
+        "axes": [{"name": n, "size": int(g.numel()), "unit": units.get(n),
+                  "values": [float(x) for x in g.detach().to("cpu", torch.float64).tolist()]}
+                 for n, g in lut.axes.items()],
+        "channels": {"count": n_ch, "names": list(channel_names) if channel_names else None,
+                     "unit": units.get("values")},
+        "builder": lut.builder, "parameters": lut.parameters, "units": units,
+        "torchirid_version": lut.torchirid_version, "exported_by": _version(),
+        "source_hash": lut.hash, "source_dtype": str(lut.dtype).removeprefix("torch."),
+        "source_format_version": lut.meta["format_version"],
+        "data_sha256": hashlib.sha256(values.tobytes()).hexdigest(),
+    }
+    if format == "raw":
+        def write(f):
+            f.write(values.tobytes())
+    else:
+        OpenEXR = _openexr()
+        lay = _atlas_layout(sizes)
+        img = _to_atlas(values.reshape(*sizes, n_ch).astype(np.float32), lay)
+        names = _channel_names(n_ch)
+        side["exr_layout"] = dict(lay, channel_names=names, pixel_type="FLOAT",
+                                  compression="ZIP", tile_axes=list(lut.axis_names)[-2:],
+                                  tile_index_axes=list(lut.axis_names)[:-2], padding=0.0,
+                                  description="tile t (leading axes flattened in C order) at "
+                                  "tile row t // tiles_x, tile column t % tiles_x; rows of a "
+                                  "tile = axis k-1, columns = axis k (a 1-D LUT: one row); "
+                                  "y = 0 is the first scanline; channels flattened in C order")
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+        exr = OpenEXR.File(header, {c: np.ascontiguousarray(img[..., i]) for i, c in enumerate(names)})
+
+        def write(f):  # the binding writes to a name: encode privately, copy into atomic_write's file
+            with tempfile.TemporaryDirectory() as tmp:
+                name = os.path.join(tmp, "lut.exr")
+                exr.write(name)
+                with open(name, "rb") as src:
+                    shutil.copyfileobj(src, f)
+    atomic_write(data_path, write)
+    text = json.dumps(side, indent=1, allow_nan=False) + "\n"
+    atomic_write(side_path, lambda f: f.write(text.encode("utf-8")))
+    return data_path, side_path
+
+
+def load_exported_lut(path, *, dtype: torch.dtype | None = None) -> LUT:
+    """Rebuild the :class:`~torchirid.lut.LUT` written by :func:`export_lut` (for checks).
+
+    ``path`` is the stem or any of the files.  Values come back as the float32 data converted
+    to ``dtype`` (default: the source dtype; axes are exact).  The float32 data are checked
+    against the sidecar's ``data_sha256``; for a float16/bfloat16/float32 source the rebuilt
+    LUT's hash must also equal ``source_hash``.  ValueError on any mismatch or bad sidecar.
+    """
+    stem = _stem(path)
+    side_path = stem.with_name(stem.name + ".json")
+    if not side_path.exists():
+        raise FileNotFoundError(f"no export sidecar at {str(side_path)!r}")
+    try:
+        side = json.loads(side_path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as e:
+        raise ValueError(f"sidecar {str(side_path)!r} is not JSON: {e}") from None
+    if not isinstance(side, dict) or side.get("format") != _TAG:
+        raise ValueError(f"sidecar {str(side_path)!r} is not a torchirid LUT export")
+    if side.get("format_version") != _VERSION:
+        raise ValueError(f"sidecar {str(side_path)!r}: unsupported format_version "
+                         f"{side.get('format_version')!r} (expected {_VERSION})")
+    name = side["data_file"]
+    if not isinstance(name, str) or Path(name).name != name:
+        raise ValueError(f"sidecar data_file must be a bare file name, got {name!r}")
+    data_path = side_path.with_name(name)
+    shape = [int(s) for s in side["shape"]]
+    sizes = [a["size"] for a in side["axes"]]
+    if side["container"] == "raw":
+        raw = data_path.read_bytes()
+        if len(raw) != 4 * math.prod(shape):
+            raise ValueError(f"{str(data_path)!r} has {len(raw)} bytes, expected "
+                             f"{4 * math.prod(shape)} for float32 shape {shape}")
+        values = np.frombuffer(raw, dtype="<f4").reshape(shape)
+    elif side["container"] == "exr":
+        OpenEXR = _openexr()
+        lay = side["exr_layout"]
+        try:
+            exr = OpenEXR.File(os.fspath(data_path), separate_channels=True)
+            chans = exr.parts[0].channels
+            img = np.stack([np.asarray(chans[c].pixels, dtype=np.float32)
+                            for c in lay["channel_names"]], -1)
+        except (KeyError, RuntimeError, OSError) as e:
+            raise ValueError(f"cannot read the OpenEXR LUT {str(data_path)!r}: {e}") from None
+        if img.shape[:2] != (lay["height"], lay["width"]):
+            raise ValueError(f"{str(data_path)!r} is {img.shape[1]}x{img.shape[0]}, expected "
+                             f"{lay['width']}x{lay['height']}")
+        values = _from_atlas(img, lay).reshape(shape)
+    else:
+        raise ValueError(f"unknown container {side['container']!r} in {str(side_path)!r}")
+    values = np.ascontiguousarray(values, dtype="<f4")
+    if hashlib.sha256(values.tobytes()).hexdigest() != side["data_sha256"]:
+        raise ValueError(f"{str(data_path)!r} is corrupted: data_sha256 mismatch")
+    src = _DTYPES.get(side["source_dtype"], torch.float32)
+    axes = {a["name"]: torch.tensor(a["values"], dtype=torch.float64) for a in side["axes"]}
+    lut = LUT(torch.from_numpy(values.astype(np.float32)).to(src), axes, builder=side["builder"],
+              parameters=side["parameters"], units=side["units"],
+              torchirid_version=side["torchirid_version"])
+    if [int(g.numel()) for g in axes.values()] != sizes:
+        raise ValueError(f"sidecar {str(side_path)!r}: axis sizes disagree with their node lists")
+    if src != torch.float64 and lut.hash != side["source_hash"]:
+        raise ValueError(f"{str(data_path)!r}: rebuilt LUT hash differs from source_hash")
+    return lut.to(dtype=dtype) if dtype is not None else lut
+
+
+# ----------------------------------------------------------------------------- thin film
+def _real_number(x, name: str, lo: float) -> float:
+    if isinstance(x, bool) or not isinstance(x, numbers.Real):
+        if isinstance(x, numbers.Complex):
+            raise ValueError(f"{name} must be real (glTF and OpenPBR films are non-absorbing); "
+                             f"got {x!r}: pass its real part to drop the absorption knowingly")
+        raise ValueError(f"{name} must be a real number, got {x!r}")
+    x = float(x)
+    if not math.isfinite(x) or x < lo:
+        raise ValueError(f"{name} must be finite and >= {lo:g}, got {x!r}")
+    return x
+
+
+def _base(n_base):
+    """(kind, glTF/OpenPBR base fields, F0 triple) for n_base None / real / complex, scalar or RGB."""
+    vals = [1.5] if n_base is None else (list(n_base) if isinstance(n_base, (list, tuple, np.ndarray,
+                                                                             torch.Tensor)) else [n_base])
+    if isinstance(n_base, torch.Tensor):
+        vals = n_base.detach().cpu().reshape(-1).tolist()
+    if len(vals) not in (1, 3):
+        raise ValueError(f"n_base must be a number or 3 numbers (R, G, B), got {len(vals)}")
+    out = []
+    for v in vals:
+        if isinstance(v, bool) or not isinstance(v, numbers.Complex):
+            raise ValueError(f"n_base entries must be numbers, got {v!r}")
+        c = complex(v)
+        if not (math.isfinite(c.real) and math.isfinite(c.imag)) or c.real <= 0 or c.imag < 0:
+            raise ValueError(f"n_base must have a positive real part and k >= 0, got {v!r}")
+        out.append(c)
+    out = out * 3 if len(out) == 1 else out
+    f0 = [abs((c - 1) / (c + 1)) ** 2 for c in out]
+    metal = any(c.imag > 0 for c in out)
+    if not metal and len({c.real for c in out}) > 1:
+        raise ValueError("a dielectric n_base must be one real index (glTF/OpenPBR carry one ior)")
+    return metal, out, f0
+
+
+def thin_film_material(n_film, thickness_nm, *, n_base=None, roughness: float = 0.0,
+                       name: str = "torchirid_thin_film") -> dict:
+    r"""glTF ``KHR_materials_iridescence`` and OpenPBR parameters of a thin film on a base.
+
+    Args:
+        n_film: the film's real refractive index, ``>= 1`` (glTF requires
+            ``iridescenceIor >= 1``; a complex index is refused: both formats are non-absorbing).
+        thickness_nm: film thickness in nm (``>= 0``), or ``(min, max)`` for a thickness range
+            (glTF maps it through ``iridescenceThicknessTexture``; untextured, glTF uses max).
+        n_base: the base's index: ``None`` (glTF's default dielectric, 1.5), a real number
+            (dielectric, via ``KHR_materials_ior`` / ``specular_ior``), or a complex
+            ``n + ik`` (conductor, scalar or R, G, B), exported as a metal whose base colour is
+            the normal-incidence reflectance ``F0 = |(n-1)/(n+1)|²``.
+        roughness: the base's GGX roughness (glTF ``roughnessFactor``, OpenPBR
+            ``specular_roughness``), in [0, 1].
+        name: material name.
+
+    Returns:
+        ``{"gltf_material": {...}, "gltf_extensions_used": [...], "openpbr": {...},
+        "approximations": {"gltf": [...], "openpbr": [...]}, "source": {...}}``.
+
+    Example:
+        >>> m = thin_film_material(1.33, (250.0, 400.0))
+        >>> m["gltf_material"]["extensions"]["KHR_materials_iridescence"]["iridescenceThicknessMaximum"]
+        400.0
+        >>> m["openpbr"]["thin_film_thickness"]     # µm
+        0.4
+    """
+    n_film = _real_number(n_film, "n_film", 1.0)
+    if isinstance(thickness_nm, (tuple, list)):
+        if len(thickness_nm) != 2:
+            raise ValueError(f"thickness_nm must be a number or (min, max), got {thickness_nm!r}")
+        d_min = _real_number(thickness_nm[0], "thickness_nm[0] (min)", 0.0)
+        d_max = _real_number(thickness_nm[1], "thickness_nm[1] (max)", 0.0)
+        if d_min > d_max:
+            raise ValueError(f"thickness range must have min <= max, got {thickness_nm!r}")
+        ranged = True
+    else:
+        d_min = d_max = _real_number(thickness_nm, "thickness_nm", 0.0)
+        ranged = False
+    roughness = _real_number(roughness, "roughness", 0.0)
+    if roughness > 1:
+        raise ValueError(f"roughness must be in [0, 1], got {roughness}")
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    metal, nb, f0 = _base(n_base)
+
+    irid = {"iridescenceFactor": 1.0, "iridescenceIor": n_film,
+            "iridescenceThicknessMinimum": d_min, "iridescenceThicknessMaximum": d_max}
+    pbr = {"metallicFactor": 1.0 if metal else 0.0, "roughnessFactor": roughness,
+           "baseColorFactor": [*f0, 1.0] if metal else [0.0, 0.0, 0.0, 1.0]}
+    ext = {"KHR_materials_iridescence": irid}
+    if not metal:
+        ext["KHR_materials_ior"] = {"ior": nb[0].real}
+    gltf = {"name": name, "pbrMetallicRoughness": pbr, "extensions": ext}
+    openpbr = {"base_weight": 1.0, "base_color": list(f0) if metal else [0.0, 0.0, 0.0],
+               "base_metalness": 1.0 if metal else 0.0, "specular_weight": 1.0,
+               "specular_color": [1.0, 1.0, 1.0], "specular_roughness": roughness,
+               "specular_ior": 1.5 if metal else nb[0].real,
+               "thin_film_weight": 1.0, "thin_film_thickness": d_max / 1000.0,
+               "thin_film_ior": n_film}
+    approx_gltf = [
+        "film non-absorbing: iridescenceIor is real (no extinction coefficient)",
+        "single film between air (n = 1) and the base; no film stacks",
+        "iridescenceFactor = 1: the film covers the whole surface",
+        "renderers evaluate the Airy reflectance in RGB (Belcour–Barla-style, polarisation "
+        "averaged), not spectrally",
+        ("thickness range mapped linearly through the G channel of iridescenceThicknessTexture "
+         "between Minimum and Maximum; untextured, the thickness is iridescenceThicknessMaximum")
+        if ranged else "single thickness: Minimum = Maximum, no thickness texture",
+    ]
+    approx_pbr = [
+        "film non-absorbing: thin_film_ior is real",
+        "single film; thin_film_thickness is one value in µm (texture it for variation)",
+        "thin_film_weight = 1: the film covers the whole surface",
+    ]
+    if ranged:
+        approx_pbr.append("thickness range has no OpenPBR parameter: thin_film_thickness holds the "
+                          "maximum (as glTF's untextured value)")
+    if metal:
+        approx_gltf.append("conductor base reduced to F0 = |(n-1)/(n+1)|^2 as baseColorFactor "
+                           "(metallic 1); its complex index (and the film/metal phase shift) is "
+                           "re-derived from F0 by the renderer")
+        approx_pbr.append("conductor base reduced to F0 = base_color with F82-tint Fresnel "
+                          "(specular_color white); the complex index is not carried")
+    else:
+        approx_gltf.append("dielectric base: F0 from KHR_materials_ior "
+                           + ("(n_base not given: glTF default 1.5)" if n_base is None else "")
+                           + "; black diffuse base colour (specular reflection only)")
+        approx_pbr.append("dielectric base: specular_ior = n_base"
+                          + (" (not given: 1.5)" if n_base is None else "")
+                          + "; black base colour (specular reflection only)")
+    return {"gltf_material": gltf, "gltf_extensions_used": sorted(ext),
+            "openpbr": openpbr,
+            "approximations": {"gltf": approx_gltf, "openpbr": approx_pbr},
+            "source": {"n_film": n_film, "thickness_nm": [d_min, d_max] if ranged else d_max,
+                       "n_base": None if n_base is None else
+                       [[c.real, c.imag] for c in nb], "roughness": roughness,
+                       "torchirid_version": _version()}}
+
+
+def write_thin_film_material(path, n_film, thickness_nm, *, n_base=None, format: str | None = None,
+                             roughness: float = 0.0, name: str = "torchirid_thin_film") -> list[Path]:
+    """Write :func:`thin_film_material` as a minimal glTF 2.0 file and/or an OpenPBR JSON.
+
+    ``format``: ``"gltf"`` (``<stem>.gltf``: ``asset.version "2.0"``, one material carrying
+    the extensions, ``extensionsUsed``; the approximations under the material's ``extras``),
+    ``"openpbr"`` (``<stem>.openpbr.json``: ``{"openpbr": {...}, "approximations": [...],
+    "source": {...}}``), ``"both"``, or ``None`` to infer from the suffix (``.gltf`` → glTF,
+    ``.json`` → OpenPBR).  Written atomically; returns the written paths.
+    """
+    p = Path(path)
+    if format is None:
+        format = {".gltf": "gltf", ".json": "openpbr"}.get(p.suffix.lower())
+        if format is None:
+            raise ValueError(f"cannot infer the format from {str(p)!r}: use a .gltf or .json "
+                             f"suffix, or format='gltf'|'openpbr'|'both'")
+    if format not in ("gltf", "openpbr", "both"):
+        raise ValueError(f"format must be 'gltf', 'openpbr' or 'both', got {format!r}")
+    m = thin_film_material(n_film, thickness_nm, n_base=n_base, roughness=roughness, name=name)
+    stem = p.with_suffix("") if p.suffix.lower() in (".gltf", ".json") else p
+    if stem.suffix.lower() == ".openpbr":
+        stem = stem.with_suffix("")
+    out = []
+
+    def dump(target: Path, obj) -> None:
+        text = json.dumps(obj, indent=1, allow_nan=False, ensure_ascii=False) + "\n"
+        out.append(atomic_write(target, lambda f: f.write(text.encode("utf-8"))))
+
+    if format in ("gltf", "both"):
+        mat = dict(m["gltf_material"], extras={"torchirid": {
+            "approximations": m["approximations"]["gltf"], "source": m["source"]}})
+        dump(stem.with_name(stem.name + ".gltf"), {
+            "asset": {"version": "2.0", "generator": f"torchirid {_version()}"},
+            "extensionsUsed": m["gltf_extensions_used"], "materials": [mat]})
+    if format in ("openpbr", "both"):
+        dump(stem.with_name(stem.name + ".openpbr.json"), {
+            "openpbr": m["openpbr"], "approximations": m["approximations"]["openpbr"],
+            "source": m["source"]})
+    return out

@@ -1,0 +1,176 @@
+"""torchirid.export: LUT raw/EXR exports with JSON sidecar, thin-film glTF/OpenPBR materials."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from torchirid.export import (export_lut, load_exported_lut, thin_film_material,
+                              write_thin_film_material)
+from torchirid.lut import LUT
+
+
+def _lut(sizes, channels=(), dtype=torch.float64, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    axes = {f"a{i}": torch.linspace(0.0, 1.0 + i, n, dtype=torch.float64) ** 1.5
+            for i, n in enumerate(sizes)}
+    vals = torch.randn(*sizes, *channels, generator=g, dtype=torch.float64).to(dtype)
+    units = {"a0": "nm", "values": "1"}
+    return LUT(vals, axes, builder="tests/test_export.py", parameters={"n": 3, "tag": "x"},
+               units=units)
+
+
+def _check_round_trip(src, back):
+    assert back.axis_names == src.axis_names
+    for n in src.axis_names:
+        assert torch.equal(back.axes[n], src.axes[n])
+    assert back.dtype == src.dtype
+    torch.testing.assert_close(back.values, src.values.to(torch.float32).to(src.dtype),
+                               rtol=0, atol=0)
+    assert (back.builder, back.parameters, back.units, back.torchirid_version) == \
+        (src.builder, src.parameters, src.units, src.torchirid_version)
+
+
+@pytest.mark.parametrize("sizes,channels", [((5,), ()), ((4, 3), (3,)), ((3, 4, 2), (2, 3)),
+                                            ((2, 3, 4, 5), ())])
+@pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
+def test_raw_round_trip(tmp_path, sizes, channels, dtype):
+    src = _lut(sizes, channels, dtype)
+    data, side = export_lut(src, tmp_path / "t", format="raw")
+    assert (data.name, side.name) == ("t.bin", "t.json")
+    raw = np.fromfile(data, dtype="<f4").reshape(*sizes, *channels)
+    np.testing.assert_array_equal(raw, src.values.to(torch.float32).numpy())
+    back = load_exported_lut(tmp_path / "t.bin")
+    _check_round_trip(src, back)
+    if dtype == torch.float32:
+        assert back.hash == src.hash
+
+
+def test_sidecar_content(tmp_path):
+    src = _lut((4, 3), (3,))
+    _, side = export_lut(src, tmp_path / "s.bin", format="raw", channel_names=["X", "Y", "Z"])
+    meta = json.loads(side.read_text())
+    assert meta["format"] == "torchirid.lut-export" and meta["container"] == "raw"
+    assert meta["data_file"] == "s.bin" and meta["dtype"] == "float32"
+    assert meta["byte_order"] == "little" and meta["shape"] == [4, 3, 3]
+    assert [a["name"] for a in meta["axes"]] == ["a0", "a1"]
+    assert meta["axes"][0]["unit"] == "nm" and meta["axes"][1]["unit"] is None
+    assert meta["axes"][1]["values"] == src.axes["a1"].tolist()
+    assert meta["channels"] == {"count": 3, "names": ["X", "Y", "Z"], "unit": "1"}
+    assert meta["builder"] == src.builder and meta["parameters"] == {"n": 3, "tag": "x"}
+    assert meta["source_hash"] == src.hash and meta["source_dtype"] == "float64"
+    assert meta["torchirid_version"] == src.torchirid_version and meta["exported_by"]
+
+
+def test_corrupt_and_bad_args(tmp_path):
+    src = _lut((4, 3))
+    data, _ = export_lut(src, tmp_path / "c", format="raw")
+    b = bytearray(data.read_bytes())
+    b[5] ^= 0xFF
+    data.write_bytes(bytes(b))
+    with pytest.raises(ValueError, match="data_sha256"):
+        load_exported_lut(tmp_path / "c")
+    data.write_bytes(bytes(b[:-4]))
+    with pytest.raises(ValueError, match="bytes"):
+        load_exported_lut(tmp_path / "c")
+    with pytest.raises(ValueError, match="format must be"):
+        export_lut(src, tmp_path / "c", format="png")
+    with pytest.raises(ValueError, match="channel_names"):
+        export_lut(_lut((4, 3), (2,)), tmp_path / "c", channel_names=["a"])
+    with pytest.raises(ValueError, match="float32 range"):
+        export_lut(LUT(torch.full((2,), 1e300, dtype=torch.float64), {"x": [0.0, 1.0]},
+                       builder="t"), tmp_path / "c")
+    with pytest.raises(ValueError, match="LUT"):
+        export_lut(np.zeros(3), tmp_path / "c")
+
+
+@pytest.mark.parametrize("sizes,channels", [((6, 5), ()), ((6, 5), (4,)), ((4, 3), (7,)),
+                                            ((5,), (2,)), ((3, 4, 2), (3,)), ((2, 3, 4, 5), ())])
+def test_exr_round_trip(tmp_path, sizes, channels):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    src = _lut(sizes, channels)
+    data, side = export_lut(src, tmp_path / "e", format="exr")
+    assert data.name == "e.exr"
+    back = load_exported_lut(side)
+    _check_round_trip(src, back)
+    lay = json.loads(side.read_text())["exr_layout"]
+    img = OpenEXR.File(str(data), separate_channels=True)
+    chans = img.parts[0].channels
+    assert sorted(chans) == sorted(lay["channel_names"])
+    first = chans[lay["channel_names"][0]].pixels
+    assert first.dtype == np.float32 and first.shape == (lay["height"], lay["width"])
+    if len(sizes) == 2:  # a 2-D LUT is the plain image: rows = axis 0, columns = axis 1
+        v = src.values.to(torch.float32).reshape(*sizes, -1).numpy()
+        np.testing.assert_array_equal(first, v[..., 0])
+        n = v.shape[-1]
+        assert lay["channel_names"] == (list("RGBA"[:n]) if n <= 4 else [f"ch{i:02d}" for i in range(n)])
+
+
+def test_exr_atlas_layout(tmp_path):
+    OpenEXR = pytest.importorskip("OpenEXR")
+    src = _lut((5, 3, 4))  # 5 tiles of 3x4 → 3 tiles per row, 2 tile rows
+    data, side = export_lut(src, tmp_path / "a", format="exr")
+    lay = json.loads(side.read_text())["exr_layout"]
+    assert (lay["tiles_x"], lay["tiles_y"], lay["width"], lay["height"]) == (3, 2, 12, 6)
+    px = OpenEXR.File(str(data), separate_channels=True).parts[0].channels["R"].pixels
+    v = src.values.to(torch.float32).numpy()
+    t = 4  # tile row 1, column 1
+    np.testing.assert_array_equal(px[3:6, 4:8], v[t])
+    assert (px[3:6, 8:12] == 0).all()  # padding tile
+
+
+def test_thin_film_material_values():
+    m = thin_film_material(1.33, (250.0, 400.0), n_base=1.5, roughness=0.2)
+    ir = m["gltf_material"]["extensions"]["KHR_materials_iridescence"]
+    assert ir == {"iridescenceFactor": 1.0, "iridescenceIor": 1.33,
+                  "iridescenceThicknessMinimum": 250.0, "iridescenceThicknessMaximum": 400.0}
+    assert m["gltf_material"]["extensions"]["KHR_materials_ior"] == {"ior": 1.5}
+    op = m["openpbr"]
+    assert op["thin_film_weight"] == 1.0 and op["thin_film_ior"] == 1.33
+    assert op["thin_film_thickness"] == pytest.approx(0.4)  # µm
+    assert any("non-absorbing" in s for s in m["approximations"]["gltf"])
+    assert any("texture" in s.lower() for s in m["approximations"]["gltf"])
+    assert any("single film" in s for s in m["approximations"]["openpbr"])
+    metal = thin_film_material(1.5, 300, n_base=complex(0.2, 3.0))
+    pbr = metal["gltf_material"]["pbrMetallicRoughness"]
+    f0 = abs((complex(0.2, 3.0) - 1) / (complex(0.2, 3.0) + 1)) ** 2
+    assert pbr["metallicFactor"] == 1.0 and pbr["baseColorFactor"][:3] == pytest.approx([f0] * 3)
+    assert "KHR_materials_ior" not in metal["gltf_material"]["extensions"]
+    assert metal["openpbr"]["base_metalness"] == 1.0
+
+
+@pytest.mark.parametrize("args,kw,match", [
+    ((0.9, 300.0), {}, "n_film"), ((complex(1.5, 0.1), 300.0), {}, "real"),
+    ((1.4, -1.0), {}, "thickness"), ((1.4, (400.0, 100.0)), {}, "min <= max"),
+    ((1.4, (1.0, 2.0, 3.0)), {}, "min, max"), ((1.4, float("nan")), {}, "thickness"),
+    ((1.4, 300.0), {"n_base": [1.5, 1.6]}, "3 numbers"), ((1.4, 300.0), {"roughness": 2.0}, "roughness"),
+    ((1.4, 300.0), {"n_base": -1.0}, "positive"),
+])
+def test_thin_film_material_errors(args, kw, match):
+    with pytest.raises(ValueError, match=match):
+        thin_film_material(*args, **kw)
+
+
+def test_write_gltf_and_openpbr(tmp_path):
+    paths = write_thin_film_material(tmp_path / "film", 1.33, (100.0, 700.0), format="both")
+    assert [p.name for p in paths] == ["film.gltf", "film.openpbr.json"]
+    doc = json.loads(paths[0].read_text())
+    assert doc["asset"]["version"] == "2.0"
+    assert set(doc["extensionsUsed"]) == {"KHR_materials_iridescence", "KHR_materials_ior"}
+    (mat,) = doc["materials"]
+    assert set(mat["extensions"]) <= set(doc["extensionsUsed"])
+    assert mat["extensions"]["KHR_materials_iridescence"]["iridescenceIor"] == 1.33
+    assert mat["extras"]["torchirid"]["approximations"]
+    op = json.loads(paths[1].read_text())
+    assert op["openpbr"]["thin_film_thickness"] == pytest.approx(0.7) and op["approximations"]
+    only = write_thin_film_material(tmp_path / "m.gltf", 1.4, 250.0)
+    assert [p.name for p in only] == ["m.gltf"]
+    with pytest.raises(ValueError, match="infer"):
+        write_thin_film_material(tmp_path / "m.txt", 1.4, 250.0)
+    with pytest.raises(ValueError, match="format must be"):
+        write_thin_film_material(tmp_path / "m", 1.4, 250.0, format="usd")
+    pygltflib = pytest.importorskip("pygltflib")
+    g = pygltflib.GLTF2().load(str(paths[0]))
+    assert g.asset.version == "2.0" and len(g.materials) == 1
+    assert g.materials[0].extensions["KHR_materials_iridescence"]["iridescenceThicknessMaximum"] == 700.0
