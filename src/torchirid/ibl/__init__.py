@@ -13,6 +13,7 @@ from .fourier import (  # noqa: F401
     thin_film_fourier_terms,
     thin_film_xyz_fourier,
 )
+from .dfg import DFG_BUILDER, dfg_lut  # noqa: F401
 from .filtered import filtered_thin_film_xyz  # noqa: F401
 
 __all__ = [name for name in dir() if not name.startswith("_")]
