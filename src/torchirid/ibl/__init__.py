@@ -15,5 +15,14 @@ from .fourier import (  # noqa: F401
 )
 from .dfg import DFG_BUILDER, dfg_lut  # noqa: F401
 from .filtered import filtered_thin_film_xyz  # noqa: F401
+from .prefilter import (  # noqa: F401
+    MOMENT_CHANNELS,
+    PrefilteredEnvironment,
+    equirect_directions,
+    light_moments_to_mean_cov,
+    load_environment,
+    prefilter_environment,
+    synthetic_environment,
+)
 
 __all__ = [name for name in dir() if not name.startswith("_")]
