@@ -196,3 +196,26 @@ def test_load_environment_errors(tmp_path):
     notexr.write_bytes(b"abcd")
     with pytest.raises(ValueError, match="not an OpenEXR"):
         load_environment(notexr)
+
+
+def test_constant_environment_mean_length_matches_1d_quadrature():
+    # for a constant map the lobe is symmetric about R: |μ| = ∫ w c dc / ∫ w dc, c = ⟨R, l⟩ ∈ [0, 1]
+    from torchirid.microfacet import ggx_d
+
+    x, wq = np.polynomial.legendre.leggauss(400)
+    c = torch.tensor((x + 1) / 2, dtype=F64)
+    pre = prefilter_environment(torch.ones(64, 128, 3, dtype=F64), [0.3, 0.7], resolution=(4, 8))
+    got = pre.mean_cov()[0].norm(dim=-1)
+    for k, a in enumerate((0.3, 0.7)):
+        w = torch.tensor(wq, dtype=F64) * ggx_d(torch.sqrt((1 + c) / 2), a) * c
+        ref = float((w * c).sum() / w.sum())
+        assert float((got[k] - ref).abs().max()) < 2e-3, (a, ref)
+
+
+def test_feeds_filtered_thin_film_xyz():
+    from torchirid.ibl import filtered_thin_film_xyz
+
+    pre = prefilter_environment(synthetic_environment(16, 32), [0.1, 0.5], resolution=(4, 8))
+    mu, cov = pre.mean_cov()
+    xyz = filtered_thin_film_xyz(pre.directions, mu, cov, 1.3, 400.0, complex(1.5, 0.0))
+    assert xyz.shape == (2, 4, 8, 3) and bool(torch.isfinite(xyz).all())
