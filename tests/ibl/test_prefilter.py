@@ -209,7 +209,7 @@ def test_constant_environment_mean_length_matches_1d_quadrature():
     for k, a in enumerate((0.3, 0.7)):
         w = torch.tensor(wq, dtype=F64) * ggx_d(torch.sqrt((1 + c) / 2), a) * c
         ref = float((w * c).sum() / w.sum())
-        assert float((got[k] - ref).abs().max()) < 2e-3, (a, ref)
+        assert float((got[k] - ref).abs().max()) < 2e-4, (a, ref)  # measured 2.9e-5 / 4.0e-5
 
 
 def test_feeds_filtered_thin_film_xyz():
