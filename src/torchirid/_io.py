@@ -8,6 +8,8 @@ import tempfile
 from pathlib import Path
 from typing import IO, Callable
 
+import numpy as np
+
 
 def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) -> Path:
     """Call ``write(f)`` on a temporary file in ``path``'s directory, then rename it over ``path``.
@@ -35,3 +37,57 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) 
             pass
         raise
     return path
+
+
+# ----------------------------------------------------------------------------------------
+# OpenEXR (optional dependency): one reader for scatterograms, environments and exports
+# ----------------------------------------------------------------------------------------
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+
+
+def _import_openexr():
+    try:
+        import OpenEXR
+    except ImportError as exc:
+        raise ImportError("reading or writing OpenEXR (.exr) files needs the optional 'openexr' package: "
+                          "pip install openexr (or pip install 'torchirid[exr]')") from exc
+    return OpenEXR
+
+
+def _read_exr(path, saturation=None) -> tuple[np.ndarray, np.ndarray]:
+    """An OpenEXR file's first part as (linear RGB (H, W, 3) float64, valid (H, W) bool).
+
+    Channels R, G, B (or Y alone, as grey) in half or float, with an optional A; the values
+    are scene-linear and are not decoded. ``valid`` is False where a colour channel is not
+    finite, where A is not finite or ≤ 0, and (with ``saturation``) where a channel is ≥
+    ``saturation``."""
+    with open(path, "rb") as f:  # FileNotFoundError / OSError as for a PNG
+        magic = f.read(4)
+    if magic != _EXR_MAGIC:
+        raise ValueError(f"path {os.fspath(path)!r} is not an OpenEXR file")
+    OpenEXR = _import_openexr()
+    try:
+        exr = OpenEXR.File(os.fspath(path), separate_channels=True)
+    except Exception as exc:  # the binding raises RuntimeError for a corrupt file
+        raise ValueError(f"path {os.fspath(path)!r}: cannot read the OpenEXR file ({exc})") from exc
+    channels = {name: np.asarray(ch.pixels) for name, ch in exr.parts[0].channels.items()}
+    if all(k in channels for k in "RGB"):
+        names = ["R", "G", "B"]
+    elif "Y" in channels:
+        names = ["Y"] * 3
+    else:
+        raise ValueError(f"path {os.fspath(path)!r}: the OpenEXR file has no R, G, B (or Y) channels; "
+                         f"it has {sorted(channels)}")
+    for name in set(names) | ({"A"} & set(channels)):
+        if channels[name].dtype.kind != "f" or channels[name].ndim != 2:
+            raise ValueError(f"path {os.fspath(path)!r}: OpenEXR channel {name!r} must be a 2-D half or float "
+                             f"image; got {channels[name].dtype} {channels[name].shape}")
+    rgb = np.stack([channels[n].astype(np.float64) for n in names], -1)
+    valid = np.isfinite(rgb).all(-1)
+    if "A" in channels:
+        alpha = channels["A"].astype(np.float64)
+        valid &= np.isfinite(alpha) & (alpha > 0)
+    if saturation is not None:
+        valid &= (rgb < saturation).all(-1)
+    rgb = np.where(valid[..., None], rgb, 0.0)  # NaN/inf would poison the bilinear neighbours
+    return rgb, valid

@@ -81,7 +81,7 @@ def _stem(path) -> Path:
 
 
 def _openexr():
-    from .fitting.measured import _import_openexr  # noqa: PLC0415  (optional dependency)
+    from ._io import _import_openexr  # noqa: PLC0415  (optional dependency)
 
     try:
         return _import_openexr()

@@ -354,7 +354,7 @@ def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tenso
     _check_float_dtype(dtype)
     suffix = os.path.splitext(os.fspath(path))[1].lower()
     if suffix == ".exr":
-        from ..fitting.measured import _read_exr  # lazy: reuse the package's one OpenEXR reader
+        from .._io import _read_exr  # lazy: reuse the package's one OpenEXR reader
 
         rgb, _ = _read_exr(path)
     elif suffix == ".hdr":
