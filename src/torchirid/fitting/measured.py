@@ -288,6 +288,24 @@ def _write_png(path, pixels: np.ndarray):
     return atomic_write(path, lambda f: f.write(data))
 
 
+def _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask) -> torch.Tensor:
+    """Linear sRGB (H, W, 3) float64 of a scatterogram (or an XYZ array) times ``exposure``,
+    black off ``mask`` (default: the object's own mask, or none); shared by the PNG and EXR writers."""
+    if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not exposure > 0:
+        raise ValueError(f"exposure must be a number > 0; got {exposure!r}")
+    obj = scatterogram_or_xyz
+    xyz = obj.xyz if hasattr(obj, "xyz") else obj
+    if mask is None and hasattr(obj, "mask"):
+        mask = obj.mask
+    xyz = torch.as_tensor(xyz).detach().to(torch.float64)
+    if xyz.dim() != 3 or xyz.shape[-1] != 3:
+        raise ValueError(f"xyz must have shape (H, W, 3); got {tuple(xyz.shape)}")
+    rgb = xyz_to_linear_srgb(xyz * float(exposure))
+    if mask is not None:
+        rgb = torch.where(torch.as_tensor(mask, dtype=torch.bool).unsqueeze(-1), rgb, torch.zeros_like(rgb))
+    return rgb
+
+
 def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, bits: int = 16, mask=None):
     """Write a scatterogram as an sRGB PNG (8 or 16 bit, black off the disc): the
     counterpart of :func:`load_scatterogram` (read it back with ``exposure=1/exposure``).
@@ -304,18 +322,7 @@ def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, b
     """
     if bits not in (8, 16):
         raise ValueError(f"bits must be 8 or 16; got {bits!r}")
-    if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not exposure > 0:
-        raise ValueError(f"exposure must be a number > 0; got {exposure!r}")
-    obj = scatterogram_or_xyz
-    xyz = obj.xyz if hasattr(obj, "xyz") else obj
-    if mask is None and hasattr(obj, "mask"):
-        mask = obj.mask
-    xyz = torch.as_tensor(xyz).detach().to(torch.float64)
-    if xyz.dim() != 3 or xyz.shape[-1] != 3:
-        raise ValueError(f"xyz must have shape (H, W, 3); got {tuple(xyz.shape)}")
-    rgb = linear_srgb_to_srgb(xyz_to_linear_srgb(xyz * float(exposure))).clamp(0.0, 1.0)
-    if mask is not None:
-        rgb = torch.where(torch.as_tensor(mask, dtype=torch.bool).unsqueeze(-1), rgb, torch.zeros_like(rgb))
+    rgb = linear_srgb_to_srgb(_linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)).clamp(0.0, 1.0)
     top = 65535 if bits == 16 else 255
     pixels = np.rint(rgb.numpy() * top).astype(np.uint16 if bits == 16 else np.uint8)
     return _write_png(path, pixels)
@@ -337,18 +344,7 @@ def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, m
 
     Returns the path (a ``Path``); written atomically (a temporary file renamed over ``path``).
     """
-    if isinstance(exposure, bool) or not isinstance(exposure, numbers.Real) or not exposure > 0:
-        raise ValueError(f"exposure must be a number > 0; got {exposure!r}")
-    obj = scatterogram_or_xyz
-    xyz = obj.xyz if hasattr(obj, "xyz") else obj
-    if mask is None and hasattr(obj, "mask"):
-        mask = obj.mask
-    xyz = torch.as_tensor(xyz).detach().to(torch.float64)
-    if xyz.dim() != 3 or xyz.shape[-1] != 3:
-        raise ValueError(f"xyz must have shape (H, W, 3); got {tuple(xyz.shape)}")
-    rgb = xyz_to_linear_srgb(xyz * float(exposure))
-    if mask is not None:
-        rgb = torch.where(torch.as_tensor(mask, dtype=torch.bool).unsqueeze(-1), rgb, torch.zeros_like(rgb))
+    rgb = _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)
     pixels = rgb.numpy().astype(np.float32)
     OpenEXR = _import_openexr()
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
