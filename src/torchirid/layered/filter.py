@@ -112,6 +112,7 @@ import numpy as np
 import torch
 
 from .. import _checks
+from .._quadrature import gauss_legendre01
 
 __all__ = ["transmission_filter", "filter_quadrature"]  # the 2-D table: layered.filter_lut
 
@@ -368,18 +369,6 @@ def transmission_filter(theta_i, theta_d, alpha) -> torch.Tensor:
     return _filter(ti, td, a)
 
 
-_GL_CACHE: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-
-
-def _gauss_legendre(n: int, dtype, device):
-    """``n``-point Gauss–Legendre nodes and weights on [0, 1]."""
-    if n not in _GL_CACHE:
-        x, w = np.polynomial.legendre.leggauss(n)
-        _GL_CACHE[n] = (0.5 * (x + 1.0), 0.5 * w)
-    x, w = _GL_CACHE[n]
-    return torch.as_tensor(x, dtype=dtype, device=device), torch.as_tensor(w, dtype=dtype, device=device)
-
-
 def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bool, cos_i=None):
     """Nodes θd (*, K) and weights (*, K) for ∫₀^{π/2} g(θd) F_α(θi, θd) dθd (no validation).
 
@@ -388,12 +377,12 @@ def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bo
     k_a = (nodes + 1) // 2
     k_b = nodes - k_a
     seg_a, seg_b = _quadrature_pieces(ti.unsqueeze(-1), alpha.unsqueeze(-1))
-    ua, wa = _gauss_legendre(k_a, ti.dtype, ti.device)
+    ua, wa = gauss_legendre01(k_a, ti.dtype, ti.device)
     off_a, jac_a = seg_a.theta(ua)
     theta = [off_a]
     weight = [wa * jac_a]
     if k_b > 0:
-        vb, wb = _gauss_legendre(k_b, ti.dtype, ti.device)
+        vb, wb = gauss_legendre01(k_b, ti.dtype, ti.device)
         off_b, jac_b = seg_b.theta(vb * vb)  # s = v²: the kink's square root becomes smooth in v
         theta.append(seg_b.left + off_b)
         weight.append(wb * jac_b * 2.0 * vb)
@@ -491,7 +480,7 @@ def _hat_weights(ti: torch.Tensor, alpha: torch.Tensor, cells: int, chunk: int =
     """
     dtype, device = ti.dtype, ti.device
     h = _HALF_PI / cells
-    x, w = _gauss_legendre(2, dtype, device)
+    x, w = gauss_legendre01(2, dtype, device)
     grid = torch.linspace(0.0, _HALF_PI, cells + 1, dtype=dtype, device=device)
     nodes = (grid[:-1].unsqueeze(-1) + h * x).clamp(max=_HALF_PI)  # (cells, 2)
     rows = []

@@ -36,9 +36,10 @@ import math
 import torch
 
 from .. import _checks
+from .._quadrature import gauss_legendre01
 from . import _geometry
 from ..lut import LUT
-from ..microfacet.ggx import ggx_d, reflect, sample_ggx_vndf, smith_g1
+from ..microfacet.ggx import _d_unchecked, _g1_unchecked, reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
 from .structure import LayeredBragg, RoughBraggLayer
 from .transmission import transmission_probability, transmissivity_lut
@@ -232,6 +233,12 @@ def single_reflection_brdf(
     return _evaluate(structure, tables, wi, wo, rd)
 
 
+def _half_vector(wi_h: torch.Tensor, wo_h: torch.Tensor) -> torch.Tensor:
+    """Unit half vector of two host directions (a zero sum — exact backscatter at grazing — stays 0)."""
+    h = wi_h + wo_h
+    return h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
+
+
 def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torch.Tensor:
     n = structure.n_host
     ci, co = wi[..., 2], wo[..., 2]
@@ -242,8 +249,7 @@ def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torc
     # guard: grazing pairs have f_r·cos = 0; feed safe cosines so 1/(4 zi zo) stays finite
     zi_s = torch.where(up, zi, torch.ones_like(zi))
     zo_s = torch.where(up, zo, torch.ones_like(zo))
-    h = wi_h + wo_h
-    h = h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
+    h = _half_vector(wi_h, wo_h)
     cos_d = (wi_h * h).sum(-1).clamp(0.0, 1.0)
     cos_h = h[..., 2].clamp(-1.0, 1.0)
 
@@ -251,7 +257,8 @@ def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torc
     through = None  # Π τ_k(i') τ_k(o') over the layers above the current one
     for l, tab in enumerate(tables):
         a = tab.layer.alpha
-        shading = ggx_d(cos_h, a) * smith_g1(zi_s, a) * smith_g1(zo_s, a) / (4.0 * zi_s * zo_s)
+        # α was validated by RoughBraggLayer: the unchecked kernels skip per-call checks (host syncs)
+        shading = _d_unchecked(cos_h, a) * _g1_unchecked(zi_s, a) * _g1_unchecked(zo_s, a) / (4.0 * zi_s * zo_s)
         f_l = shading.unsqueeze(-1) * tab.reflectance(cos_d)
         if through is not None:
             f_l = f_l * through
@@ -386,21 +393,12 @@ def base_return_fraction(
                         azimuth_nodes=azimuth_nodes, reflectance_angles=reflectance_angles)
 
 
-def _gauss_legendre01(n: int, dtype, device):
-    """Gauss–Legendre nodes and weights on [0, 1]."""
-    import numpy as np
-
-    x, w = np.polynomial.legendre.leggauss(n)
-    return (torch.as_tensor(0.5 * (x + 1.0), dtype=dtype, device=device),
-            torch.as_tensor(0.5 * w, dtype=dtype, device=device))
-
-
 def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes=BASE_RADIUS_NODES,
                  azimuth_nodes=BASE_AZIMUTH_NODES, reflectance_angles=BASE_REFLECTANCE_ANGLES):
     """R_d (W,) of :func:`base_return_fraction` from the call's per-layer tables."""
     dtype, device = lam.dtype, lam.device
     n = structure.n_host
-    x, w_x = _gauss_legendre01(mu_nodes, dtype, device)
+    x, w_x = gauss_legendre01(mu_nodes, dtype, device)
     if structure.coated and n > 1.0:  # F_in has a kink at the critical cosine: one rule on each side
         mu_c = math.sqrt(1.0 - 1.0 / (n * n))
         mu = torch.cat([mu_c * x, mu_c + (1.0 - mu_c) * x])
@@ -411,10 +409,10 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
     # visible normals through Heitz's map of the unit disc (u1 = r², φ = 2π u2); the integrand is
     # symmetric under p1 → −p1 (φ → π − φ), so φ ∈ [−π/2, π/2], split at the kink of
     # sqrt(1 − p1²) at φ = 0 (r = 1), with Gauss–Legendre on each quarter
-    s, w_s = _gauss_legendre01(radius_nodes, dtype, device)
+    s, w_s = gauss_legendre01(radius_nodes, dtype, device)
     rad = torch.sin(0.5 * math.pi * s)  # r = sin(πs/2): the lift sqrt(1 − r²) = cos(πs/2) is smooth in s
     w_rad = 0.5 * math.pi * torch.cos(0.5 * math.pi * s) * w_s
-    t, w_t = _gauss_legendre01(azimuth_nodes, dtype, device)
+    t, w_t = gauss_legendre01(azimuth_nodes, dtype, device)
     phi = torch.cat([0.25 * t, 1.0 - 0.25 * t])  # u2 ∈ [0, ¼] ∪ [¾, 1]
     w_phi = torch.cat([0.25 * w_t, 0.25 * w_t]) * 2.0  # × 2: the other half of the disc
     u = torch.stack(torch.broadcast_tensors((rad * rad)[:, None], phi[None, :]), -1).reshape(-1, 2)  # (Q, 2)
@@ -553,13 +551,12 @@ def _pdf(structure, tables, wi, wo, probs):
     zi, zo = wi_h[..., 2], wo_h[..., 2]
     ok = (zi > 0) & (zo > 0)
     zi_s = torch.where(ok, zi, torch.ones_like(zi))
-    h = wi_h + wo_h
-    h = h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
+    h = _half_vector(wi_h, wo_h)
     cos_d = (wi_h * h).sum(-1).clamp_min(torch.finfo(h.dtype).tiny)
     pdf = probs[..., -1] * zo / math.pi  # base: cosine lobe in the host
     for l, tab in enumerate(tables):
         a = tab.layer.alpha
-        vndf = smith_g1(zi_s, a) * cos_d * ggx_d(h[..., 2].clamp(-1.0, 1.0), a) / zi_s
+        vndf = _g1_unchecked(zi_s, a) * cos_d * _d_unchecked(h[..., 2].clamp(-1.0, 1.0), a) / zi_s
         pdf = pdf + probs[..., l] * vndf / (4.0 * cos_d)
     # host solid angle → outer solid angle: dω' = cos θo / (n² cos θo') dω
     if n != 1.0:

@@ -55,6 +55,7 @@ import torch
 
 from .. import _checks
 from .._io import atomic_write
+from .._quadrature import gauss_legendre01
 from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
 from ..layered.single_reflection import coating_reflectance, refract_into_host, single_reflection_brdf
@@ -257,12 +258,6 @@ def _brdf(structure, wi, wo, lam, kw) -> torch.Tensor:
     return torch.cat(out, 0).reshape(*shape, lam.numel())
 
 
-def _gauss_legendre01(n: int, dtype, device):
-    x, w = np.polynomial.legendre.leggauss(n)
-    return (torch.as_tensor(0.5 * (x + 1.0), dtype=dtype, device=device),
-            torch.as_tensor(0.5 * w, dtype=dtype, device=device))
-
-
 _WARP = 4
 
 
@@ -274,7 +269,7 @@ def _unit_square(nodes, dtype, device, warp: int = 1):
     1 − u₁ ~ α² that plain Gauss–Legendre in u₁ resolves slowly).
     """
     n1, n2 = nodes
-    x1, w1 = _gauss_legendre01(n1, dtype, device)
+    x1, w1 = gauss_legendre01(n1, dtype, device)
     if warp > 1:
         w1 = w1 * warp * (1.0 - x1) ** (warp - 1)
         x1 = 1.0 - (1.0 - x1) ** warp
