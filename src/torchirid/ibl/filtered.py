@@ -44,7 +44,7 @@ import torch
 from .. import _checks
 from .fourier import _check_names, prefiltered_fourier_sensitivity, thin_film_fourier_terms
 
-__all__ = ["filtered_thin_film_xyz"]
+__all__ = ["filtered_thin_film_xyz", "gaussian_path_thin_film_xyz"]
 
 
 def _vectors(x, name, dtype, device):
@@ -138,6 +138,12 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     mean_D = scale * mean_c2
     var_D = scale * scale * var_c2
 
+    return _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant)
+
+
+def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant):
+    """Eq. 29 from the series terms (polarization-leading C0, a, K) and D ~ N(mean_D, var_D)."""
+    dtype, device = mean_D.dtype, mean_D.device
     # eq. 29: Ŝ(0) is the white; Ŝ(−mμ, m²σ²) = conj Ŝ(mμ, m²σ²) (the Gaussian damping is real)
     zero = torch.zeros((), dtype=dtype, device=device)
     white = prefiltered_fourier_sensitivity(zero, zero, observer=observer, illuminant=illuminant).real
@@ -151,3 +157,48 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         # C_m e^{imφ2} Ŝ(−mμ_D, ·) + c.c. = 2 Re[a^m K conj Ŝ(mμ_D, ·)]
         xyz = xyz + 2.0 * (coef[..., None] * S.conj()).real.sum(-2)
     return xyz
+
+
+def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
+                                n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
+                                illuminant: str = "D65", polarization: str = "unpolarized") -> torch.Tensor:
+    r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.
+
+    The last step of :func:`filtered_thin_film_xyz`, for callers that know μ_D and σ²_D by other
+    means: Kneiphof et al. 2019 Fig. 7 (c, g) use the ground-truth moments
+    (:func:`~torchirid.ibl.path_difference_moments`); :func:`~torchirid.ibl.fitted_thin_film_xyz`
+    reads fitted ones from a table. ``path_var = 0`` gives Belcour–Barla's eq. 4 with
+    D = ``path_mean``.
+
+    Args:
+        cos_theta: cos θ₁* (incidence on the facet) at which C*_m and φ₂* are evaluated, in [0, 1].
+        n_film, thickness, n_substrate, n_outer, terms, observer, illuminant, polarization: as
+            :func:`filtered_thin_film_xyz` (C*_m and φ₂* do not depend on the thickness; it is
+            validated and broadcast like the rest).
+        path_mean: μ_D in nm; path_var: σ²_D in nm² (≥ 0). Broadcast with the rest.
+
+    Returns:
+        ``(*, 3)`` XYZ (white Y = 1).
+
+    Example:
+        >>> import torch
+        >>> c = torch.tensor(0.9, dtype=torch.float64)
+        >>> xyz = gaussian_path_thin_film_xyz(c, 1.3, 600.0, complex(2.0, 0.5), 1500.0, 40.0**2)
+        >>> [round(v, 4) for v in xyz.tolist()]
+        [0.0483, 0.0839, 0.0644]
+    """
+    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
+        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _check_names(observer, illuminant)
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, path_mean,
+                                                 path_var, n_outer)
+    mD = _checks.as_real(path_mean, "path_mean", dtype, device)
+    vD = _checks.as_real(path_var, "path_var", dtype, device)
+    _checks.check_nonnegative(vD, "path_var", "nm^2")
+    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_outer=n_outer,
+                                          polarization=polarization)
+    shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
+    P = C0.shape[0]
+    ex = lambda t: t.expand(P, *shape)  # noqa: E731
+    return _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant)
