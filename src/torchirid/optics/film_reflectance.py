@@ -87,10 +87,9 @@ class FilmStack:
     def __post_init__(self):
         layers = []
         for i, pair in enumerate(self.layers):
-            try:
-                material, thickness = pair
-            except (TypeError, ValueError):
-                raise ValueError(f"layers[{i}] must be a (material, thickness_nm) pair; got {pair!r}") from None
+            if not isinstance(pair, (tuple, list)) or len(pair) != 2:
+                raise ValueError(f"layers[{i}] must be a (material, thickness_nm) pair; got {pair!r}")
+            material, thickness = pair
             if isinstance(thickness, bool) or not isinstance(thickness, numbers.Real):
                 raise ValueError(f"layers[{i}] thickness must be a real number of nm; got {thickness!r}")
             if not (math.isfinite(thickness) and thickness >= 0):
@@ -209,14 +208,16 @@ def smooth_directions(normal, view, n_incident, n_exit):
     Args:
         normal: unit surface normal on the incident side, ``(*, 3)``.
         view: unit vector from the surface point towards the viewer, ``(*, 3)``.
-        n_incident: real index n_0 of the incident medium, broadcasting with ``(*)``.
-        n_exit: index of the substrate, ``(*)`` or ``(*, W)`` (its real part is used; with
-            an absorbing substrate ``k_t = 0`` and the direction is irrelevant).
+        n_incident: real index n_0 of the incident medium: a number, or a spectrum ``(…, W)``.
+        n_exit: index of the substrate (its real part is used; with an absorbing substrate
+            ``k_t = 0`` and the direction is irrelevant): a number, or a spectrum ``(…, W)``.
+            If either index is a tensor with dimensions, both are read as spectra broadcasting
+            with ``(*, W)`` and the transmitted directions get a wavelength axis.
 
     Returns:
         ``(reflected, transmitted, cos_theta_i)``: ``reflected = 2(n·v)n − v`` ``(*, 3)``;
-        ``transmitted`` ``(*, 3)`` or ``(*, W, 3)`` (zero vector under total internal
-        reflection); ``cos_theta_i = n·v`` clamped to [0, 1] (a back-facing view is
+        ``transmitted`` ``(*, 3)`` for scalar indices, ``(*, W, 3)`` for spectra (zero
+        vector under total internal reflection); ``cos_theta_i = n·v`` clamped to [0, 1] (a back-facing view is
         treated as grazing).
 
     Example:
@@ -240,15 +241,15 @@ def smooth_directions(normal, view, n_incident, n_exit):
     _checks.check_positive(n1, "n_exit", unit="")
     cos_i = (nrm * v).sum(-1).clamp(0.0, 1.0)
     reflected = 2 * cos_i[..., None] * nrm - v
-    eta = n0[..., None] / n1 if n1.ndim > cos_i.ndim else n0 / n1  # (*) or (*, W)
-    extra = eta.ndim > cos_i.ndim  # per-wavelength substrate index
-    c = cos_i[..., None] if extra else cos_i
+    spectral = n0.ndim > 0 or n1.ndim > 0  # indices given per wavelength: (…, W) against (*, W)
+    c = cos_i[..., None] if spectral else cos_i
+    nrm_, v_ = (nrm[..., None, :], v[..., None, :]) if spectral else (nrm, v)
+    eta = n0 / n1
     sin2_t = eta * eta * (1 - c * c)
     tir = sin2_t >= 1
     # guard: sqrt'(0) at the critical angle; the TIR branch is masked to a zero vector anyway
     cos_t = torch.sqrt(torch.where(tir, torch.ones_like(sin2_t), 1 - sin2_t))
-    nn_, vv = (nrm[..., None, :], v[..., None, :]) if extra else (nrm, v)
-    transmitted = -eta[..., None] * vv + (eta * c - cos_t)[..., None] * nn_
+    transmitted = -eta[..., None] * v_ + (eta * c - cos_t)[..., None] * nrm_
     transmitted = torch.where(tir[..., None], torch.zeros_like(transmitted), transmitted)
     return reflected, transmitted, cos_i
 
