@@ -1,0 +1,687 @@
+r"""Multilayer films on a locally smooth *rough* surface (Hirayama et al. 2000, §4.2, eq. 8–17)
+with the He–Torrance rough-interface model (He, Torrance, Sillion & Greenberg 1991).
+
+Geometry (Hirayama §4.2): the films' own boundaries stay flat and parallel; only the
+interface between the last film and the substrate (interface ``L+1`` of the stack
+``indices[..., 0] | film 1 | … | film L | indices[..., L+1]``) is rough, a Gaussian random
+height field of rms height σ₀ (nm) and Gaussian autocorrelation length τ (nm), the last
+film's thickness being its *mean* thickness.  With no film (``L = 0``) the substrate itself
+is rough and the model is He–Torrance in the incident medium.
+
+Light reflected by such a surface splits into (He 1991, §4)
+
+* a **coherent specular** part, the ensemble-averaged field: the rough interface reflects
+  the amplitude :math:`r_{L+1}\,e^{-g/2}` (eq. 9, the paper's ``η(ω, ω)``), which then enters
+  Hirayama's smooth recursion (eq. 10 = eq. 3) → :func:`rough_multilayer_reflectance`;
+* an **incoherent directional-diffuse** part, scattered once by the rough interface into
+  all directions, reaching the outside through the film stack → :func:`rough_multilayer_diffuse`
+  (eq. 11–17, a BRDF in sr⁻¹).
+
+The roughness factor (He eq. 79) inside a medium of real index ``n`` is
+
+.. math:: g = \Big(\frac{2π σ}{λ/n}(\cos θ_i + \cos θ_r)\Big)^2
+             = \Big(\frac{2π σ (q_i + q_r)}{λ}\Big)^2, \qquad q = n\cos θ .
+
+Derivation of eq. 9 (the paper writes only "η is a ratio of amplitudes"): in the Kirchhoff
+approximation the field reflected by a facet at height ``h`` carries the phase
+:math:`e^{2ikqh}` (``k = 2π/λ``) relative to the mean plane; averaged over a Gaussian ``h``
+of variance σ², :math:`⟨e^{i a h}⟩ = e^{-a^2σ^2/2}` gives the coherent amplitude
+:math:`r\,e^{-2k^2q^2σ^2} = r\,e^{-g/2}` (g at ``θ_i = θ_r``), i.e. the specular *power*
+:math:`|r|^2 e^{-g}` of He eq. 31.  He's shadowing ``S(θ)²`` (eq. 24–25) multiplies the
+power, so the amplitude gets ``S(θ)``, and σ is He's effective roughness (eq. 80–83); both
+are 1 and σ₀ at moderate angles for τ ≫ σ₀ and can be switched off (``shadowing=False``,
+the plain ``g`` of Hirayama's text).  σ₀ = 0 gives ``η = r`` and the smooth eq. 1–5
+*exactly*.
+
+Derivation of eq. 11–17 (the printed equations are garbled: eq. 16 only has the multiple
+reflections of the *incoming* direction, the ratio in eq. 13/17 lacks the direction labels,
+and the intensity normalisation of η(ω_l, ω_i) is not given).  One diffuse scattering event
+at the rough interface (the paper's "primary reflection of the diffuse component"), with any
+number of coherent specular bounces before it (direction ``l``) and after it (direction
+``i``).  Summing the bounces of a direction is eq. 4 with the seed ``γ₀ = η_s`` (the coherent
+reflectivity above) and ``τ₀ = 1``: the amplitude of the downward wave at the bottom of film
+L.  Its power flux per unit mean area, relative to the incident one, is
+
+.. math:: T_{0→L}(θ) = \frac{\mathrm{Re}\,η_L}{η_0}\,|τ_L(θ)|^2
+
+(the same normalisation as eq. 6; it *is* eq. 6 for the stack cut below film L when the
+interface is removed).  The rough interface turns that irradiance in film L into radiance
+``ρ_L(l_L → i_L)·T_{0→L}(l)·E`` (He's directional-diffuse BRDF in the medium of film L,
+wavelength λ/n_L), and the upward radiance leaves the stack with the power transmittance
+``T_{L→0}(i) = T_{0→L}(i)`` (reciprocity of the transmittance of any stack, absorbing films
+included) and the radiance factor (n₀/n_L)² of refraction.  So
+
+.. math:: k_d(ω_l, ω_i, λ) = \Big(\frac{n_0}{n_L}\Big)^2\,T_{0→L}(θ_l)\,
+          ρ_L(ω_{l,L}, ω_{i,L})\,T_{0→L}(θ_i),
+
+which is |γ_{d,L}|² of eq. 15–17 written per layer as
+:math:`γ_{d,L-j+1} = t_j(l)\,t'_j(i)\,e^{i(φ_{l,j}+φ_{i,j})}\,γ_{d,L-j}
+/[(1 + r_j γ_{s,L-j}(l) e^{2iφ_{l,j}})(1 + r_j γ_{s,L-j}(i) e^{2iφ_{i,j}})]` — eq. 16 with
+the second denominator restored.  With it ``k_d`` is reciprocal, ``k_d(l, i) = k_d(i, l)``;
+without it, it is not.  The phases cancel in the power (a single diffusely scattered wave
+has no partner to interfere with); absorption in the films stays, through ``|e^{iφ}|``.
+The uniform-diffuse (subsurface) term of He's model is 0: the substrates here are opaque.
+Polarization: He's diffuse lobe is the unpolarized one; ``T`` is averaged over s and p on
+each side (``polarization="s"``/``"p"`` uses that polarization's ``T``).
+
+Energy: ``k_r(θ_l) + ∫ k_d(ω_l, ω_i) cos θ_i dω_i ≤ 1`` (tests integrate the hemisphere).
+The medium directly above the rough interface (film L, or the incident medium when L = 0)
+must be lossless: a diffuse radiance inside an absorbing medium is not defined.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from .. import _checks
+from .fresnel import admittance, fresnel_reflectance, interface, normal_wavenumber, nudge_critical
+
+__all__ = [
+    "roughness_factor",
+    "coherent_attenuation",
+    "he_shadowing",
+    "effective_roughness",
+    "he_directional_diffuse",
+    "rough_multilayer_reflectance",
+    "rough_multilayer_diffuse",
+    "stack_transmittance_to_last_film",
+]
+
+_NEWTON_STEPS = 10  # He eq. 80: converges to machine precision in < 6 steps (monotone, convex)
+_S_BIG = 30.0  # erfc(30) ≈ 1e-393 underflows: S = 1 to every digit beyond this argument
+
+
+# ---------------------------------------------------------------------------------------
+# validation helpers
+# ---------------------------------------------------------------------------------------
+
+
+def _check_cos_phi(t: torch.Tensor) -> None:
+    with torch.no_grad():
+        if bool(((t < -1) | (t > 1)).any()):
+            raise ValueError(
+                "cos_phi must lie in [-1, 1] (cosine of the azimuth between light and view; "
+                f"-1 is the mirror configuration); got {t[(t < -1) | (t > 1)].flatten()[0].item():g}"
+            )
+
+
+def _check_roughness(sigma: torch.Tensor, tau: torch.Tensor | None) -> None:
+    _checks.check_nonnegative(sigma, "sigma")
+    if tau is not None:
+        _checks.check_positive(tau, "tau")
+
+
+# ---------------------------------------------------------------------------------------
+# He–Torrance building blocks
+# ---------------------------------------------------------------------------------------
+
+
+def _g(lam, q_in, q_out, sigma):
+    x = (2 * math.pi) * sigma * (q_in + q_out) / lam
+    return x * x
+
+
+def roughness_factor(wavelength, cos_in, cos_out, sigma, *, n_medium=1.0) -> torch.Tensor:
+    r"""He's roughness factor g (He et al. 1991, eq. 79) in a lossless medium of index n.
+
+    .. math:: g = \Big(\frac{2π σ n}{λ}(\cos θ_i + \cos θ_r)\Big)^2
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0).
+        cos_in, cos_out: cosines of the incident and reflected directions in the medium, [0, 1].
+        sigma: rms roughness σ in nm (≥ 0).
+        n_medium: real index of the medium above the rough interface (> 0).
+
+    Returns:
+        g ≥ 0 (dimensionless), the broadcast shape, real dtype of the inputs.
+
+    Example (σ = 25 nm, normal incidence, 550 nm, air: g = (4π·25/550)²):
+        >>> import torch
+        >>> round(float(roughness_factor(torch.tensor(550.0, dtype=torch.float64), 1.0, 1.0, 25.0)), 6)
+        0.326268
+    """
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_in, cos_out, sigma, n_medium)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    ci = _checks.as_real(cos_in, "cos_in", dtype, device)
+    co = _checks.as_real(cos_out, "cos_out", dtype, device)
+    s = _checks.as_real(sigma, "sigma", dtype, device)
+    n = _checks.as_real(n_medium, "n_medium", dtype, device)
+    _checks.check_positive(lam, "wavelength")
+    _checks.check_cosine(ci, "cos_in")
+    _checks.check_cosine(co, "cos_out")
+    _checks.check_nonnegative(s, "sigma")
+    _checks.check_positive(n, "n_medium", unit="")
+    return _g(lam, n * ci, n * co, s)
+
+
+def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch.Tensor:
+    r"""Power factor :math:`e^{-g}` of the coherent (specular) reflection (He eq. 31, Hirayama eq. 9).
+
+    ``g`` is :func:`roughness_factor` at ``θ_i = θ_r = θ``: :math:`e^{-g} = e^{-(4π σ n \cos θ/λ)^2}`,
+    the Debye–Waller-like factor of a Gaussian height distribution (the amplitude factor is
+    :math:`e^{-g/2}`).
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0).
+        cos_theta: cosine of the incidence angle in the medium, [0, 1].
+        sigma: rms roughness σ in nm (≥ 0).
+        n_medium: real index of the medium above the rough interface.
+
+    Returns:
+        e^{-g} in (0, 1].
+
+    Example:
+        >>> import torch
+        >>> round(float(coherent_attenuation(torch.tensor(550.0, dtype=torch.float64), 1.0, 25.0)), 6)
+        0.721612
+    """
+    return torch.exp(-roughness_factor(wavelength, cos_theta, cos_theta, sigma, n_medium=n_medium))
+
+
+def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
+    """He eq. 24–25 (with the errata's exponential), unchecked."""
+    sin = torch.sqrt(torch.clamp(1 - c * c, min=0))
+    # a = τ cot θ / (2σ); guard each degenerate branch with a safe value (where evaluates both)
+    smooth = (sigma == 0) | (c * tau >= _S_BIG * 2 * sigma * sin)  # also normal incidence (sin = 0)
+    grazing = (c == 0) & ~smooth
+    bad = smooth | grazing
+    a = torch.where(bad, torch.ones_like(c * sigma), c * tau / (2 * torch.where(bad, torch.ones_like(sigma * sin), sigma * sin)))
+    erfc = torch.special.erfc(a)
+    lam = 0.5 * (torch.exp(-a * a) / (math.sqrt(math.pi) * a) - erfc)
+    S = (1 - 0.5 * erfc) / (lam + 1)
+    S = torch.where(grazing, torch.zeros_like(S), S)  # grazing: fully shadowed (limit a → 0)
+    return torch.where(smooth, torch.ones_like(S), S)
+
+
+def he_shadowing(cos_theta, sigma, tau) -> torch.Tensor:
+    r"""He's (Smith's) shadowing factor S(θ) of a Gaussian surface (He 1991, eq. 24–25).
+
+    .. math::
+        S(θ) = \frac{1 - \tfrac12\,\mathrm{erfc}(a)}{Λ(a) + 1}, \quad
+        Λ(a) = \tfrac12\Big(\frac{e^{-a^2}}{\sqrt{π}\,a} - \mathrm{erfc}(a)\Big), \quad
+        a = \frac{τ \cot θ}{2σ}
+
+    (the factor :math:`e^{-a^2}` is missing in the printed eq. 25 and restored by He's
+    errata; the rms slope of a Gaussian correlation is √2 σ/τ).  S = 1 for σ = 0 and at normal
+    incidence, S = 0 at grazing.
+
+    Args:
+        cos_theta: cosine of the direction, [0, 1].
+        sigma: rms roughness σ in nm (≥ 0).
+        tau: autocorrelation length τ in nm (> 0).
+
+    Returns:
+        S in [0, 1].
+
+    Example (τ/σ = 6 at 80°):
+        >>> import torch, math
+        >>> round(float(he_shadowing(torch.tensor(math.cos(math.radians(80)), dtype=torch.float64), 50.0, 300.0)), 6)
+        0.657189
+    """
+    dtype, device = _checks.resolve_dtype_device(cos_theta, sigma, tau)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
+    s = _checks.as_real(sigma, "sigma", dtype, device)
+    t = _checks.as_real(tau, "tau", dtype, device)
+    _checks.check_cosine(c)
+    _check_roughness(s, t)
+    c, s, t = torch.broadcast_tensors(c, s, t)
+    return _shadowing(c, s, t)
+
+
+def _effective_roughness(ci, co, sigma, tau):
+    """He eq. 80–83, unchecked: σ / sqrt(1 + (z0/σ)²) with x = z0/σ solving x e^{x²/2} = f0."""
+
+    def K(c):
+        sin = torch.sqrt(torch.clamp(1 - c * c, min=0))
+        # tan θ capped at 1e8: grazing directions are fully shadowed anyway (S = 0)
+        tan = sin / torch.clamp(c, min=1e-8)
+        arg_ok = (tan > 0) & (sigma > 0)
+        arg = tau / (2 * torch.where(arg_ok, sigma * tan, torch.ones_like(sigma * tan)))
+        return torch.where(arg_ok, tan * torch.special.erfc(arg), torch.zeros_like(arg))
+
+    f0 = (K(ci) + K(co)) / math.sqrt(8 * math.pi)
+    # start on the right of the root where possible: Newton then decreases monotonically (h convex)
+    big = f0 > 1
+    x = torch.where(big, torch.sqrt(2 * torch.log(torch.where(big, f0, torch.ones_like(f0)))), f0)
+    x = torch.where(big & (x < 1), torch.ones_like(x), x)
+    for _ in range(_NEWTON_STEPS):
+        e = torch.exp(0.5 * x * x)
+        x = x - (x * e - f0) / ((1 + x * x) * e)
+    return sigma / torch.sqrt(1 + x * x)
+
+
+def effective_roughness(cos_in, cos_out, sigma, tau) -> torch.Tensor:
+    r"""He's effective roughness σ (He 1991, eq. 80–83): the rms height of the *lit and seen* part.
+
+    .. math::
+        σ = \frac{σ_0}{\sqrt{1 + z_0^2/σ_0^2}}, \qquad
+        \sqrt{π/2}\,z_0 = \frac{σ_0}{4}(K_i + K_r)\,e^{-z_0^2/(2σ_0^2)}, \qquad
+        K = \tan θ\,\mathrm{erfc}\Big(\frac{τ}{2σ_0 \tan θ}\Big),
+
+    solved by Newton's method for ``x = z0/σ0`` (``x e^{x²/2} = (K_i+K_r)/\sqrt{8π}``, a
+    convex increasing function: monotone convergence, differentiable through the iterations).
+    σ → σ₀ at normal incidence and for τ ≫ σ₀ (K → 0).
+
+    Args:
+        cos_in, cos_out: cosines of the two directions, [0, 1].
+        sigma: rms roughness σ₀ in nm (≥ 0).
+        tau: autocorrelation length τ in nm (> 0).
+
+    Returns:
+        σ in nm, 0 ≤ σ ≤ σ₀.
+
+    Example:
+        >>> import torch, math
+        >>> c = torch.tensor(math.cos(math.radians(85)), dtype=torch.float64)
+        >>> round(float(effective_roughness(c, c, 50.0, 300.0)), 4)
+        30.0072
+    """
+    dtype, device = _checks.resolve_dtype_device(cos_in, cos_out, sigma, tau)
+    ci = _checks.as_real(cos_in, "cos_in", dtype, device)
+    co = _checks.as_real(cos_out, "cos_out", dtype, device)
+    s = _checks.as_real(sigma, "sigma", dtype, device)
+    t = _checks.as_real(tau, "tau", dtype, device)
+    _checks.check_cosine(ci, "cos_in")
+    _checks.check_cosine(co, "cos_out")
+    _check_roughness(s, t)
+    return _effective_roughness(ci, co, s, t)
+
+
+def _series_D(g: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
+    r"""Σ_{m≥1} g^m e^{-g}/(m!·m) · e^{-b/m} (He eq. 78 without its prefactor), a loop over
+    series terms (not over samples); summed in log space, so large g cannot overflow."""
+    pos = g > 0
+    gs = torch.where(pos, g, torch.ones_like(g))  # guard: log 0 in the unused branch
+    log_g = torch.log(gs)
+    with torch.no_grad():
+        gmax = float(gs[pos].max()) if bool(pos.any()) else 0.0
+    # the Poisson(g) weights beyond g + 12√g + 20 are below 1e-30 of the sum
+    terms = int(min(2000, math.ceil(gmax + 12 * math.sqrt(gmax) + 20)))
+    total = torch.zeros_like(g * b)
+    for m in range(1, terms + 1):
+        log_t = m * log_g - gs - math.lgamma(m + 1) - math.log(m) - b / m
+        total = total + torch.exp(log_t)
+    return torch.where(pos, total, torch.zeros_like(total))
+
+
+def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
+    """He's directional-diffuse BRDF in a lossless medium n_med, unchecked (sr⁻¹).
+
+    Directions point away from the surface: in = (sin θi, 0, cos θi),
+    out = (sin θr cos φ, sin θr sin φ, cos θr); the mirror direction has cos φ = −1.
+    """
+    si = torch.sqrt(torch.clamp(1 - ci * ci, min=0))
+    so = torch.sqrt(torch.clamp(1 - co * co, min=0))
+    # v = k_r − k_i = in + out (unit-free); v_xy² = |xy(in + out)|²
+    vx = si + so * cphi
+    vy2 = so * so * (1 - cphi * cphi)
+    vxy2 = vx * vx + vy2
+    vz = ci + co
+    vv = vxy2 + vz * vz
+    # He eq. 76; its polarization bracket [(ŝr·k̂i)²+(p̂r·k̂i)²][(ŝi·k̂r)²+(p̂i·k̂r)²]/|k̂i×k̂r|⁴ is
+    # identically 1 ((ŝ, p̂, k̂) is orthonormal, so each bracket is 1 − (k̂i·k̂r)² = |k̂i×k̂r|²)
+    vz_safe = torch.where(vz > 0, vz, torch.ones_like(vz))
+    G = (vv / vz_safe) ** 2
+    if shadowing:
+        S = _shadowing(ci, sigma, tau) * _shadowing(co, sigma, tau)
+        sig = _effective_roughness(ci, co, sigma, tau)
+    else:
+        S = torch.ones_like(ci)
+        sig = sigma
+    k_med = (2 * math.pi) * n_med / lam  # wavenumber in the medium, nm⁻¹
+    g = _g(lam, n_med * ci, n_med * co, sig)
+    b = (k_med * k_med) * vxy2 * (tau * tau) / 4
+    D = (math.pi**2 / 4) * (tau * n_med / lam) ** 2 * _series_D(g, b)
+    # Fresnel at the local (bisector) angle: cos θ_b = sqrt((1 + in·out)/2)
+    cos_b = torch.sqrt(torch.clamp(0.5 * vv / 2, min=0, max=1))  # |in+out|² = 2(1 + in·out)
+    F = fresnel_reflectance(cos_b, n_med, n_sub)
+    den = math.pi * ci * co
+    ok = den > 0
+    rho = F * G * S * D / torch.where(ok, den, torch.ones_like(den))
+    return torch.where(ok, rho, torch.zeros_like(rho))  # grazing: S = 0, no light scattered
+
+
+def he_directional_diffuse(
+    wavelength, cos_light, cos_view, cos_phi, sigma, tau, n_substrate, *, n_medium=1.0, shadowing: bool = True
+) -> torch.Tensor:
+    r"""He–Torrance directional-diffuse BRDF of a rough interface (He et al. 1991, eq. 76–84).
+
+    .. math::
+        ρ_{dd} = \frac{|F(θ_b)|^2}{π}\,\frac{G\,S\,D}{\cos θ_i \cos θ_r}, \qquad
+        D = \frac{π^2 τ^2}{4 λ_n^2} \sum_{m=1}^{∞} \frac{g^m e^{-g}}{m!\,m}
+            \exp\Big(-\frac{v_{xy}^2 τ^2}{4m}\Big),
+
+    with ``λ_n = λ/n`` the wavelength in the medium, :math:`\vec v = k_n(\hat k_r − \hat k_i)`,
+    ``G = (v·v / v_z)²`` (unit-free v; the polarization bracket of eq. 76 is identically 1),
+    ``S = S(θ_i) S(θ_r)`` (:func:`he_shadowing`), ``g`` (:func:`roughness_factor`) from the
+    effective roughness (:func:`effective_roughness`), and F the unpolarized Fresnel
+    reflectance at the bisector angle ``cos θ_b = √((1 + ω_i·ω_r)/2)``.  The exponent uses the
+    dimensional :math:`v_{xy} = k_n |\hat k_r − \hat k_i|_{xy}` (Beckmann's form; some
+    implementations drop the k²).  Symmetric in (light, view).  ``shadowing=False`` uses S = 1
+    and σ₀ itself.
+
+    Args:
+        wavelength: vacuum wavelength in nm (> 0).
+        cos_light, cos_view: cosines of the (outward) light and view directions, [0, 1].
+        cos_phi: cosine of the azimuth between them, [-1, 1] (−1: mirror plane, same side as
+            the mirror direction).
+        sigma: rms roughness σ₀ in nm (≥ 0); tau: autocorrelation length τ in nm (> 0).
+        n_substrate: index ``n + iκ`` below the interface; n_medium: real index above it.
+
+    Returns:
+        ρ_dd in sr⁻¹ (≥ 0), 0 when σ₀ = 0.
+
+    Example (Al-like n = 1 + 6.6i, σ₀ = 25 nm, τ = 300 nm, normal light, view 10° off):
+        >>> import torch, math
+        >>> v = math.cos(math.radians(10))
+        >>> rho = he_directional_diffuse(torch.tensor(550.0, dtype=torch.float64), 1.0, v, -1.0, 25.0, 300.0, 1 + 6.6j)
+        >>> round(float(rho), 5)
+        0.20217
+    """
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_light, cos_view, cos_phi, sigma, tau, n_substrate, n_medium)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    cl = _checks.as_real(cos_light, "cos_light", dtype, device)
+    cv = _checks.as_real(cos_view, "cos_view", dtype, device)
+    cp = _checks.as_real(cos_phi, "cos_phi", dtype, device)
+    s = _checks.as_real(sigma, "sigma", dtype, device)
+    t = _checks.as_real(tau, "tau", dtype, device)
+    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
+    nm = _checks.as_real(n_medium, "n_medium", dtype, device)
+    _checks.check_positive(lam, "wavelength")
+    _checks.check_cosine(cl, "cos_light")
+    _checks.check_cosine(cv, "cos_view")
+    _check_cos_phi(cp)
+    _check_roughness(s, t)
+    _checks.check_index(ns, "n_substrate")
+    _checks.check_positive(nm, "n_medium", unit="")
+    return _he_dd(lam, nm, ns, cl, cv, cp, s, t, shadowing)
+
+
+# ---------------------------------------------------------------------------------------
+# films on the rough surface (Hirayama eq. 9–17)
+# ---------------------------------------------------------------------------------------
+
+
+def _prepare(wavelength, cosines: dict, indices, thicknesses, sigma, tau, polarization, dtype, device):
+    """Validate the stack and roughness (before any work); returns tensors."""
+    _checks.check_polarization(polarization)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    cos = {k: _checks.as_real(v, k, dtype, device) for k, v in cosines.items()}
+    n = _checks.as_index(indices, "indices", dtype, device)
+    d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
+    s = _checks.as_real(sigma, "sigma", dtype, device)
+    t = _checks.as_real(tau, "tau", dtype, device)
+    _checks.check_last_dim(n, "indices", at_least=2)
+    _checks.check_last_dim(d, "thicknesses")
+    if n.shape[-1] != d.shape[-1] + 2:
+        raise ValueError(
+            f"indices must have len(thicknesses) + 2 entries on the last axis (incident medium, "
+            f"{d.shape[-1]} films, substrate); got {n.shape[-1]}"
+        )
+    _checks.check_positive(lam, "wavelength")
+    for k, v in cos.items():
+        _checks.check_cosine(v, k)
+    _checks.check_nonnegative(d, "thicknesses")
+    _checks.check_index(n, "indices")
+    _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
+    _checks.check_real_index(n[..., -2], "indices[..., -2] (the medium above the rough interface)")
+    _check_roughness(s, t)
+    return lam, cos, n, d, s, t
+
+
+def _stack_state(lam, c, n, d, polarization):
+    """Snell cosines, phases and admittances of the stack for incidence cosine ``c`` (as in
+    :func:`torchirid.multilayer`): returns q [..., L+2], e1, e2 [..., L], eta [P, ..., L+2]."""
+    c = _checks.flush_grazing(c)
+    cdt = _checks.complex_dtype(lam.dtype)
+    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
+    s2 = n0 * n0 * (1 - c * c)
+    nc = n.to(cdt)
+    q0 = (n0 * c).to(cdt)
+    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None], n0[..., None], q0[..., None])
+    q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
+    films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
+    q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
+    phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
+    e1 = torch.exp(1j * phi)
+    e2 = e1 * e1
+    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
+    eta = torch.stack([admittance(q, nc_b, p) for p in pols])
+    batch = _checks.broadcast_shapes(eta.shape[1:-1], e2.shape[:-1])
+    eta = eta.expand(eta.shape[0], *batch, eta.shape[-1])
+    return q, e1[None].expand(eta.shape[0], *batch, e1.shape[-1]), e2[None].expand(eta.shape[0], *batch, e2.shape[-1]), eta
+
+
+def _recurse(eta, e1, e2, seed):
+    """Hirayama eq. 3–4 from the rough interface up, with γ₀ = ``seed`` and τ₀ = 1.
+
+    Returns (γ, τ): the composite reflectivity and the amplitude of the downward wave at the
+    bottom of the last film (admittance-normalised t = 1 + r, as in torchirid.multilayer)."""
+    r = interface(eta[..., :-1], eta[..., 1:])
+    L = e2.shape[-1]
+    gamma = seed
+    tau = torch.ones_like(seed)
+    for j in range(L - 1, -1, -1):
+        rj = r[..., j]
+        ge2 = gamma * e2[..., j]
+        den = 1 + rj * ge2
+        degenerate = den == 0
+        if bool(degenerate.any()):
+            # guard (as in multilayer): 0/0 only at grazing, where the film is invisible
+            safe = torch.where(degenerate, torch.ones_like(den), den)
+            gamma = torch.where(degenerate, torch.zeros_like(den), (rj + ge2) / safe)
+            tau = torch.where(degenerate, torch.zeros_like(den), (1 + rj) * tau * e1[..., j] / safe)
+            continue
+        gamma = (rj + ge2) / den
+        tau = (1 + rj) * tau * e1[..., j] / den
+    return gamma, tau
+
+
+def _rough_seed(lam, q, eta, c_last, sigma, tau, shadowing):
+    """η_s of eq. 9: r_{L+1} e^{-g/2} (× S(θ_L) with shadowing), per polarization."""
+    r_last = interface(eta[..., -2], eta[..., -1])
+    qL = q[..., -2].real  # real part: an evanescent wave in film L (Re q = 0) sees no roughness
+    if shadowing:
+        sig = _effective_roughness(c_last, c_last, sigma, tau)
+        S = _shadowing(c_last, sigma, tau)
+    else:
+        sig, S = sigma, torch.ones_like(c_last)
+    g = _g(lam, qL, qL, sig)
+    amp = torch.exp(-0.5 * g) * S
+    # an evanescent wave in film L (Re q = 0 < Im q) is not a grazing ray: no roughness loss
+    evanescent = (q[..., -2].real == 0) & (q[..., -2].imag > 0)
+    amp = torch.where(evanescent, torch.ones_like(amp), amp)
+    return r_last * amp.to(r_last.dtype)
+
+
+def _last_cos(q, n):
+    """cos θ in the last film (the medium above the rough interface): Re(q_L)/n_L in [0, 1]."""
+    nL = n[..., -2].real if n.is_complex() else n[..., -2]
+    return torch.clamp(q[..., -2].real / nL, 0, 1), nL
+
+
+def rough_multilayer_reflectance(
+    wavelength,
+    cos_theta,
+    indices,
+    thicknesses,
+    sigma,
+    tau,
+    *,
+    polarization: str = "unpolarized",
+    shadowing: bool = True,
+) -> torch.Tensor:
+    r"""Coherent specular reflectance k_r of films on a rough surface (Hirayama 2000, eq. 9, 10, 5).
+
+    .. math::
+        γ_{s,0} = η(ω_{i,L}, ω_{i,L}, λ) = r_{L+1}\,e^{-g/2}\,S(θ_L), \qquad
+        γ_{s,L-j+1} = \frac{r_j + γ_{s,L-j} e^{2iφ_j}}{1 + r_j γ_{s,L-j} e^{2iφ_j}}, \qquad
+        k_r = \tfrac12(|γ_{s,L}^{∥}|^2 + |γ_{s,L}^{⊥}|^2),
+
+    with ``g = (4π σ q_L / λ)²`` (``q_L = n_L cos θ_L`` in the last film; see the module
+    docstring for the derivation).  σ = 0 reproduces :func:`torchirid.multilayer`'s R exactly.
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0), ``(*)``.
+        cos_theta: incidence cosine in the incident medium, [0, 1], ``(*)``.
+        indices: ``(*, L+2)`` indices ``n + iκ``: incident medium (real), L films (the last one
+            lossless), substrate.
+        thicknesses: ``(*, L)`` film thicknesses in nm (the last one: the mean thickness).
+        sigma: rms roughness σ₀ of the film/substrate interface in nm (≥ 0), ``(*)``.
+        tau: its autocorrelation length τ in nm (> 0), ``(*)``; used by ``shadowing`` only.
+        polarization: ``"s"``, ``"p"`` or ``"unpolarized"``.
+        shadowing: He's shadowing S and effective roughness (True), or the plain e^{-g} (False).
+
+    Returns:
+        k_r in [0, 1], the broadcast batch shape.
+
+    Example (Hirayama Fig. 8 stack dielectric/Ag/dielectric on Al at 550 nm, normal incidence):
+        >>> import torch
+        >>> n = torch.tensor([1.0, 1.4, 0.0596 + 3.5974j, 1.4, 1.0152 + 6.6273j], dtype=torch.complex128)
+        >>> d = torch.tensor([1000.0, 5.0, 1000.0], dtype=torch.float64)
+        >>> lam = torch.tensor(550.0, dtype=torch.float64)
+        >>> [round(float(rough_multilayer_reflectance(lam, 1.0, n, d, s, 300.0)), 4) for s in (0.0, 25.0, 50.0)]
+        [0.9247, 0.6487, 0.2563]
+    """
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, indices, thicknesses, sigma, tau)
+    lam, cos, n, d, s, t = _prepare(
+        wavelength, {"cos_theta": cos_theta}, indices, thicknesses, sigma, tau, polarization, dtype, device
+    )
+    c = cos["cos_theta"]
+    q, e1, e2, eta = _stack_state(lam, c, n, d, polarization)
+    cL, _ = _last_cos(q, n)
+    seed = _rough_seed(lam, q, eta, cL, s, t, shadowing)
+    gamma, _ = _recurse(eta, e1, e2, seed)
+    R = (gamma.real**2 + gamma.imag**2).mean(0).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1], s.shape, t.shape)
+    return R.expand(batch)
+
+
+def _transmittance_to_last(lam, q, e1, e2, eta, seed):
+    """T_{0→L} = Re(η_L)/η_0 |τ|² per polarization (eq. 6's normalisation)."""
+    _, tau = _recurse(eta, e1, e2, seed)
+    eta0 = eta[..., 0].real
+    grazing = eta0 == 0
+    safe0 = torch.where(grazing, torch.ones_like(eta0), eta0)
+    T = (tau.real**2 + tau.imag**2) * eta[..., -2].real / safe0
+    return torch.where(grazing, torch.zeros_like(T), T)  # grazing incidence carries no power in
+
+
+def stack_transmittance_to_last_film(
+    wavelength,
+    cos_theta,
+    indices,
+    thicknesses,
+    sigma,
+    tau,
+    *,
+    polarization: str = "unpolarized",
+    shadowing: bool = True,
+) -> torch.Tensor:
+    r"""Power reaching the rough interface: the flux :math:`T_{0→L}` of the downward wave at
+    the bottom of the last film per unit incident flux (eq. 4 seeded with γ₀ = η_s, τ₀ = 1).
+
+    .. math:: T_{0→L} = \frac{\mathrm{Re}\,η_L}{η_0} |τ_L|^2
+
+    (η = q for s, q/n² for p; averaged over s and p for ``"unpolarized"``).  With no roughness
+    *and no substrate contrast* (substrate = last film) it is :func:`torchirid.multilayer`'s
+    T of the stack.  It is also the upward transmittance ``T_{L→0}`` (reciprocity), the factor
+    of :func:`rough_multilayer_diffuse` on each side.  Arguments as in
+    :func:`rough_multilayer_reflectance`.
+
+    Example (no film: all the incident power reaches the interface):
+        >>> import torch
+        >>> float(stack_transmittance_to_last_film(torch.tensor(500.0, dtype=torch.float64), 0.5,
+        ...       torch.tensor([1.0, 1.5 + 0.1j]), torch.zeros(0), 20.0, 300.0))
+        1.0
+    """
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, indices, thicknesses, sigma, tau)
+    lam, cos, n, d, s, t = _prepare(
+        wavelength, {"cos_theta": cos_theta}, indices, thicknesses, sigma, tau, polarization, dtype, device
+    )
+    c = cos["cos_theta"]
+    q, e1, e2, eta = _stack_state(lam, c, n, d, polarization)
+    cL, _ = _last_cos(q, n)
+    seed = _rough_seed(lam, q, eta, cL, s, t, shadowing)
+    T = _transmittance_to_last(lam, q, e1, e2, eta, seed).mean(0)
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1], s.shape, t.shape)
+    return T.expand(batch)
+
+
+def rough_multilayer_diffuse(
+    wavelength,
+    cos_light,
+    cos_view,
+    cos_phi,
+    indices,
+    thicknesses,
+    sigma,
+    tau,
+    *,
+    polarization: str = "unpolarized",
+    shadowing: bool = True,
+) -> torch.Tensor:
+    r"""Directional-diffuse BRDF k_d of films on a rough surface (Hirayama 2000, eq. 11–17, 8).
+
+    .. math::
+        k_d(ω_l, ω_i, λ) = \Big(\frac{n_0}{n_L}\Big)^2\,T_{0→L}(θ_l)\,
+        ρ_{dd}(ω_{l,L}, ω_{i,L}; λ/n_L)\,T_{0→L}(θ_i)
+
+    — one He–Torrance scattering (:func:`he_directional_diffuse`, in the last film, between the
+    refracted directions ``cos θ_L = Re(q_L)/n_L``, same azimuth) between two passes through
+    the stack with all the coherent specular bounces (:func:`stack_transmittance_to_last_film`).
+    This is |γ_{d,L}|² of eq. 15–17 with the multiple-reflection denominator of the *outgoing*
+    direction restored (derivation in the module docstring); it is reciprocal in (l, i).
+    Used in eq. 8 as ``Σ_m k_d cos θ_l L_m``.
+
+    Args:
+        wavelength: vacuum wavelength λ in nm (> 0).
+        cos_light, cos_view: cosines of the light and view directions in the incident medium, [0, 1].
+        cos_phi: cosine of the azimuth between light and view, [-1, 1] (−1: mirror plane).
+        indices, thicknesses, sigma, tau, polarization, shadowing: as in
+            :func:`rough_multilayer_reflectance`.
+
+    Returns:
+        k_d in sr⁻¹ (≥ 0), 0 when σ = 0; the broadcast batch shape.
+
+    Example (bare Al-like substrate, L = 0: He–Torrance itself):
+        >>> import torch, math
+        >>> v = math.cos(math.radians(10))
+        >>> kd = rough_multilayer_diffuse(torch.tensor(550.0, dtype=torch.float64), 1.0, v, -1.0,
+        ...                               torch.tensor([1.0, 1 + 6.6j]), torch.zeros(0), 25.0, 300.0)
+        >>> round(float(kd), 5)
+        0.20217
+    """
+    dtype, device = _checks.resolve_dtype_device(
+        wavelength, cos_light, cos_view, cos_phi, indices, thicknesses, sigma, tau
+    )
+    cp = _checks.as_real(cos_phi, "cos_phi", dtype, device)
+    lam, cos, n, d, s, t = _prepare(
+        wavelength,
+        {"cos_light": cos_light, "cos_view": cos_view},
+        indices,
+        thicknesses,
+        sigma,
+        tau,
+        polarization,
+        dtype,
+        device,
+    )
+    _check_cos_phi(cp)
+    cl, cv = cos["cos_light"], cos["cos_view"]
+    ql, e1l, e2l, etal = _stack_state(lam, cl, n, d, polarization)
+    qv, e1v, e2v, etav = _stack_state(lam, cv, n, d, polarization)
+    clL, nL = _last_cos(ql, n)
+    cvL, _ = _last_cos(qv, n)
+    Tl = _transmittance_to_last(lam, ql, e1l, e2l, etal, _rough_seed(lam, ql, etal, clL, s, t, shadowing)).mean(0)
+    Tv = _transmittance_to_last(lam, qv, e1v, e2v, etav, _rough_seed(lam, qv, etav, cvL, s, t, shadowing)).mean(0)
+    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
+    rho = _he_dd(lam, nL, n[..., -1], clL, cvL, cp, s, t, shadowing)
+    kd = (n0 / nL) ** 2 * Tl * rho * Tv
+    batch = _checks.broadcast_shapes(
+        lam.shape, cl.shape, cv.shape, cp.shape, n.shape[:-1], d.shape[:-1], s.shape, t.shape
+    )
+    return kd.expand(batch)
