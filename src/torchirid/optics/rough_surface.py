@@ -449,10 +449,15 @@ def _stack_state(lam, c, n, d, polarization):
     e2 = e1 * e1
     nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
     pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
-    eta = torch.stack([admittance(q, nc_b, p) for p in pols])
-    batch = _checks.broadcast_shapes(eta.shape[1:-1], e2.shape[:-1])
-    eta = eta.expand(eta.shape[0], *batch, eta.shape[-1])
-    return q, e1[None].expand(eta.shape[0], *batch, e1.shape[-1]), e2[None].expand(eta.shape[0], *batch, e2.shape[-1]), eta
+    batch = _checks.broadcast_shapes(q.shape[:-1], e2.shape[:-1])
+
+    def lead(x):  # (*b, K) → (P, *batch, K): the polarization axis never meets a batch axis
+        x = x.expand(*batch, x.shape[-1])
+        return x[None].expand(len(pols), *batch, x.shape[-1])
+
+    q = q.expand(*batch, q.shape[-1])
+    eta = torch.stack([admittance(q, nc_b.expand(q.shape), p) for p in pols])
+    return q, lead(e1), lead(e2), eta
 
 
 def _recurse(eta, e1, e2, seed):
