@@ -1,0 +1,212 @@
+r"""Seeded synthetic hyperspectral cubes of a film on a substrate (Kobayashi et al. §5).
+
+:func:`synthetic_cube` renders a cube ``(H, W, A, B)`` — image rows × columns × incidence
+angles × spectral bands — of the s-polarized, band-integrated reflectance
+(:mod:`torchirid.estimation.measurement`) of a film whose thickness varies smoothly over the
+image, then adds noise:
+
+.. math:: y = R + σ_g R_{max}\, ε_1 + σ_s \sqrt{R\, R_{max}}\, ε_2, \qquad ε_i \sim N(0, 1),
+
+a Gaussian read-noise floor of σ_g and a shot (photon) noise whose standard deviation grows as
+√R, both expressed as fractions of the brightest noise-free sample R_max (so "1 % noise" is
+σ_g = σ_s = 0.01: 1 % of the peak from each source). The shot term is the Gaussian limit of a
+Poisson count with R_max ↦ 1/σ_s² photons.
+
+The three samples of the paper (:data:`SAMPLES`, §5.1, Table 1), all on PET (n = 1.64):
+
+=============  ==========================================  =============
+name           film                                        thickness
+=============  ==========================================  =============
+``mgf2_400``   MgF₂, n = 1.37 (non-dispersive)             400 nm
+``mgf2_600``   MgF₂, n = 1.37                              600 nm
+``zns_500``    ZnS, Debenham (1984) Sellmeier, 2.37 at D   500 nm
+=============  ==========================================  =============
+
+The thickness map is d(x, y) = d₀ (1 + v·f(x, y)), with f a seeded sum of four random
+plane waves of at most 1.5 cycles across the image, rescaled to span [−1, 1] exactly, and
+v = ``thickness_variation`` (default 0.1, i.e. ±10 %).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import torch
+
+from .. import _checks
+from .dispersion import REFERENCE_WAVELENGTH, zns_index
+from .measurement import airy_terms, band_nodes
+
+__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "smooth_field", "synthetic_cube", "DEFAULT_ANGLES", "default_wavelengths"]
+
+DEFAULT_ANGLES = (10.0, 20.0, 30.0, 40.0, 50.0)  # degrees, §5.1
+
+
+def default_wavelengths(dtype=torch.float64) -> torch.Tensor:
+    """Band centres 400, 404, …, 720 nm (81 bands of 4 nm, the paper's LCTF sampling).
+
+    >>> w = default_wavelengths(); (w.numel(), float(w[0]), float(w[-1]))
+    (81, 400.0, 720.0)
+    """
+    return torch.arange(400.0, 720.0 + 1e-9, 4.0, dtype=dtype)
+
+
+@dataclass(frozen=True)
+class FilmSample:
+    """One of the paper's samples: film index (a number or a callable of λ in nm), d₀, substrate."""
+
+    name: str
+    label: str
+    n_film: object
+    thickness: float
+    n_substrate: float = 1.64
+    paper: dict = field(default_factory=dict)
+
+    def n_at(self, wavelength) -> torch.Tensor:
+        w = torch.as_tensor(wavelength, dtype=torch.float64)
+        return self.n_film(w) if callable(self.n_film) else torch.full_like(w, float(self.n_film))
+
+    @property
+    def n_reference(self) -> float:
+        """n at :data:`~torchirid.estimation.dispersion.REFERENCE_WAVELENGTH` (589.3 nm)."""
+        return float(self.n_at(REFERENCE_WAVELENGTH))
+
+
+# Table 1 of Kobayashi et al.: estimated n, mean estimated d, BRDF error (mean ΔE*ab), RMSE
+SAMPLES = {
+    "mgf2_400": FilmSample(
+        "mgf2_400", "Sample 1: MgF2 400 nm", 1.37, 400.0,
+        paper={"n_true": 1.370, "n_est": 1.374, "d_true": 400, "d_est": 370, "delta_e": 0.72, "rmse": 0.04},
+    ),
+    "mgf2_600": FilmSample(
+        "mgf2_600", "Sample 2: MgF2 600 nm", 1.37, 600.0,
+        paper={"n_true": 1.370, "n_est": 1.367, "d_true": 600, "d_est": 551, "delta_e": 1.21, "rmse": 0.07},
+    ),
+    "zns_500": FilmSample(
+        "zns_500", "Sample 3: ZnS 500 nm", zns_index, 500.0,
+        paper={"n_true": 2.370, "n_est": 2.674, "d_true": 500, "d_est": 541, "delta_e": 5.63, "rmse": 0.18},
+    ),
+}
+
+
+@dataclass
+class SyntheticCube:
+    """A rendered cube and everything needed to score a fit of it.
+
+    Attributes:
+        cube: ``(H, W, A, B)`` noisy band reflectance.
+        clean: ``(H, W, A, B)`` noise-free band reflectance.
+        thickness: ``(H, W)`` true thickness (nm).
+        wavelength: ``(B,)`` band centres (nm); angles_deg ``(A,)``; cos_theta ``(A,)``.
+        sample: the :class:`FilmSample`; plus the rendering settings.
+    """
+
+    cube: torch.Tensor
+    clean: torch.Tensor
+    thickness: torch.Tensor
+    wavelength: torch.Tensor
+    angles_deg: torch.Tensor
+    cos_theta: torch.Tensor
+    sample: FilmSample
+    bandwidth: float
+    passband: str
+    polarization: str
+    gaussian_noise: float
+    shot_noise: float
+    seed: int
+
+
+def smooth_field(height: int, width: int, generator: torch.Generator, *, waves: int = 4, dtype=torch.float64):
+    """A smooth random field on ``(height, width)`` spanning exactly [−1, 1] (see module docstring).
+
+    >>> g = torch.Generator().manual_seed(0)
+    >>> f = smooth_field(8, 8, g); (round(float(f.min()), 12), round(float(f.max()), 12))
+    (-1.0, 1.0)
+    """
+    y = torch.linspace(0.0, 1.0, height, dtype=dtype)[:, None]
+    x = torch.linspace(0.0, 1.0, width, dtype=dtype)[None, :]
+    f = torch.zeros(height, width, dtype=dtype)
+    for _ in range(waves):
+        fx, fy, ph = (torch.rand(3, generator=generator, dtype=dtype) * torch.tensor([3.0, 3.0, 2 * math.pi], dtype=dtype)).tolist()
+        f = f + torch.cos(2 * math.pi * ((fx - 1.5) * x + (fy - 1.5) * y) * 0.5 + ph)
+    if height * width == 1:
+        return torch.zeros_like(f)
+    lo, hi = f.min(), f.max()
+    return 2 * (f - lo) / (hi - lo) - 1
+
+
+def synthetic_cube(
+    sample="mgf2_400",
+    *,
+    height: int = 64,
+    width: int = 64,
+    angles_deg=DEFAULT_ANGLES,
+    wavelength=None,
+    bandwidth: float = 4.0,
+    passband: str = "box",
+    polarization: str = "s",
+    gaussian_noise: float = 0.01,
+    shot_noise: float = 0.01,
+    thickness_variation: float = 0.1,
+    seed: int = 0,
+    nodes: int = 8,
+    dtype=torch.float64,
+) -> SyntheticCube:
+    """Render a seeded noisy cube ``(H, W, A, B)`` of one of :data:`SAMPLES` (or a :class:`FilmSample`).
+
+    Args:
+        sample: a key of :data:`SAMPLES` or a :class:`FilmSample`.
+        height, width: image size in pixels (≥ 1).
+        angles_deg: incidence angles in degrees, in [0, 90).
+        wavelength: ``(B,)`` band centres in nm; default 400–720 nm every 4 nm.
+        bandwidth, passband, nodes: the band model of :func:`~torchirid.estimation.band_reflectance`.
+        polarization: ``"s"`` (the paper), ``"p"`` or ``"unpolarized"``.
+        gaussian_noise, shot_noise: σ_g, σ_s ≥ 0 as fractions of R_max (module docstring).
+        thickness_variation: v ≥ 0, relative half-range of the thickness map (< 1).
+        seed: seeds one ``torch.Generator`` for the map and the noise.
+
+    Example:
+        >>> c = synthetic_cube("mgf2_400", height=4, width=5, seed=1)
+        >>> tuple(c.cube.shape), round(float(c.thickness.min()), 6), round(float(c.thickness.max()), 6)
+        ((4, 5, 5, 81), 360.0, 440.0)
+    """
+    if isinstance(sample, str):
+        if sample not in SAMPLES:
+            raise ValueError(f"sample must be one of {_checks.names(tuple(SAMPLES))} or a FilmSample; got {sample!r}")
+        sample = SAMPLES[sample]
+    for name, v in (("height", height), ("width", width)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise ValueError(f"{name} must be an integer >= 1; got {v!r}")
+    for name, v in (("gaussian_noise", gaussian_noise), ("shot_noise", shot_noise)):
+        if not (v >= 0 and math.isfinite(v)):
+            raise ValueError(f"{name} must be >= 0 (a fraction of R_max); got {v!r}")
+    if not (0 <= thickness_variation < 1):
+        raise ValueError(f"thickness_variation must be in [0, 1); got {thickness_variation!r}")
+    _checks.check_polarization(polarization)
+    ang = torch.as_tensor(angles_deg, dtype=dtype).reshape(-1)
+    if ang.numel() < 1 or bool(((ang < 0) | (ang >= 90) | ang.isnan()).any()):
+        raise ValueError(f"angles_deg must be in [0, 90) degrees; got {ang.tolist()}")
+    lam = default_wavelengths(dtype) if wavelength is None else torch.as_tensor(wavelength, dtype=dtype).reshape(-1)
+    gen = torch.Generator().manual_seed(int(seed))
+    d = sample.thickness * (1 + thickness_variation * smooth_field(height, width, gen, dtype=dtype))
+    cos_t = torch.cos(torch.deg2rad(ang))
+    off, wts = band_nodes(bandwidth, nodes, passband, dtype=dtype)
+    lam_q = lam[:, None] + off  # (B, Q)
+    n_f = sample.n_at(lam_q).to(dtype) if callable(sample.n_film) else float(sample.n_film)
+    a, b, e, k = airy_terms(lam_q, cos_t[:, None, None], n_f, sample.n_substrate, polarization=polarization)
+    flat = d.reshape(-1)
+    rows = []
+    for chunk in flat.split(2048):  # bounded memory: (chunk, pol, A, B, Q)
+        cb = b * torch.cos(k * chunk[:, None, None, None, None])
+        R = ((a + cb) / (e + cb)).mean(1)
+        rows.append((R * wts).sum(-1))
+    clean = torch.cat(rows).reshape(height, width, ang.numel(), lam.numel())
+    r_max = clean.max()
+    noise = gaussian_noise * r_max * torch.randn(clean.shape, generator=gen, dtype=dtype)
+    noise = noise + shot_noise * (clean * r_max).sqrt() * torch.randn(clean.shape, generator=gen, dtype=dtype)
+    return SyntheticCube(
+        cube=clean + noise, clean=clean, thickness=d, wavelength=lam, angles_deg=ang, cos_theta=cos_t,
+        sample=sample, bandwidth=float(bandwidth), passband=passband, polarization=polarization,
+        gaussian_noise=float(gaussian_noise), shot_noise=float(shot_noise), seed=int(seed),
+    )
