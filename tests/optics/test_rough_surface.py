@@ -25,6 +25,15 @@ from torchirid.optics import rough_surface as rs
 TAU = 300.0
 
 
+@pytest.fixture(autouse=True, scope="module")
+def _one_thread():
+    """Many small tensor ops: one thread avoids oversubscribing the shared 2-core machine."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
 def _stack(entry, wl):
     idx, d = hirayama_stack(entry, wl)
     n = np.stack([np.broadcast_to(np.asarray(i, dtype=complex), np.shape(wl)) for i in idx], -1)

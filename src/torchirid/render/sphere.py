@@ -1,0 +1,499 @@
+r"""Spectral renders of film-coated rough spheres (Hirayama et al. 2000, Fig. 8–9, Table 1) → sRGB.
+
+One orthographic sphere per image (view along −z, normal ``N = (x, y, √(1−x²−y²))``), lit by
+one distant light of a fluorescent-lamp spectrum (a CIE F-series illuminant from
+colour-science, never retyped) and a uniform environment of the same spectrum.  Each pixel
+follows Hirayama's eq. 8 with the rough-surface model of :mod:`torchirid.optics.rough_surface`:
+
+.. math::
+    P(λ) = \hat S(λ)\Big[k_r(θ_v, λ)\,\big(a + E_{disk}(\vec R)\big)
+           + π\,k_d(\vec ω_l, \vec ω_v, λ)\,\max(\cos θ_l, 0)\Big],
+
+in units of the radiance of a white Lambertian lit at normal incidence by the light (so the
+lamp white has Y = 1): ``k_r`` the coherent specular reflectance (eq. 9–10) sees the uniform
+environment ``a`` (``ambient``) and, where the mirror direction ``R = 2(N·V)N − V`` falls on
+the lamp (a disk of angular radius δ, radiance 1/sin²δ: the same irradiance as the distant
+light), the lamp itself; the directional-diffuse ``k_d`` (eq. 11–17) receives the light.  The
+lamp's own mirror image is a saturated highlight (excluded from the chroma statistics).
+
+Colour: ``XYZ = ∫ P x̄ dλ / ∫ \hat S ȳ dλ`` (:func:`torchirid.spectrum_to_xyz` with the equal-
+energy weights), Bradford adaptation from the lamp white to D65 (colour-science's matrix),
+CIELAB against D65 (:func:`torchirid.xyz_to_lab`), sRGB (:func:`torchirid.xyz_to_srgb`,
+clipped).  Chroma :math:`C^*_{ab} = \sqrt{a^{*2} + b^{*2}}` over the *lit* sphere pixels
+(inside the disk, ``cos θ_l > 0``, outside the lamp's mirror image): mean and 95th percentile.
+
+Lamp: Hirayama used "fluorescent lamp (N)" (the Japanese neutral-white type, 5000 K).  The
+default ``FL10`` is the CIE 5000 K tri-band lamp; any ``FL1``–``FL12``/``FL3.x`` key works.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from .._io import atomic_write
+from ..optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
+
+__all__ = [
+    "FIG8_ROWS",
+    "TABLE1_OBJECTS",
+    "SphereRender",
+    "lamp_spd",
+    "render_sphere",
+    "chroma_stats",
+    "render_panels",
+    "chroma_table_markdown",
+    "plot_panels",
+    "save_panels_png",
+    "save_panels_npz",
+    "add_parser",
+    "run",
+]
+
+#: Hirayama Fig. 8 rows: name → (substrate, films [(material, thickness nm)]); dielectric n = 1.4.
+FIG8_ROWS: dict[str, tuple[str, list]] = {
+    "silicon / dielectric-Ag-dielectric (a-c)": ("Si", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
+    "aluminium / dielectric-Ag-dielectric (d-f)": ("Al", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
+    "aluminium / dielectric-Au-dielectric (g-i)": ("Al", [(1.4, 1000.0), ("Au", 5.0), (1.4, 1000.0)]),
+}
+#: Hirayama Table 1 (Fig. 9): dielectric A n = 1.4, dielectric B n = 2.0, in air.
+TABLE1_OBJECTS: dict[str, tuple[str, list]] = {
+    "teapot (Al)": ("Al", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
+    "cylinder (Si)": ("Si", [(2.0, 1000.0), (1.4, 1000.0), (2.0, 1000.0), (1.4, 1000.0)]),
+    "sphere (Cu)": ("Cu", [(1.4, 1000.0), ("Au", 5.0), (1.4, 1000.0)]),
+}
+DEFAULT_LIGHT = (-0.45, 0.55, 0.70)  # towards the light: upper left, in front (≈ 46° off the view axis)
+
+
+# ---------------------------------------------------------------------------------------
+# lamp, white point, adaptation (colour-science data, cached)
+# ---------------------------------------------------------------------------------------
+
+
+@functools.lru_cache(maxsize=None)
+def _lamp_numpy(name: str, wl: tuple) -> np.ndarray:
+    import colour
+
+    if name not in colour.SDS_ILLUMINANTS or not name.startswith("FL"):
+        keys = [k for k in colour.SDS_ILLUMINANTS if k.startswith("FL")]
+        raise ValueError(f"lamp must be a CIE fluorescent illuminant, one of {', '.join(keys)}; got {name!r}")
+    sd = colour.SDS_ILLUMINANTS[name]
+    w = np.asarray(wl)
+    lo, hi = float(sd.wavelengths[0]), float(sd.wavelengths[-1])
+    if w.min() < lo or w.max() > hi:
+        raise ValueError(f"wavelengths must lie in the lamp's range [{lo:g}, {hi:g}] nm; got [{w.min():g}, {w.max():g}]")
+    return np.interp(w, np.asarray(sd.wavelengths, dtype=float), np.asarray(sd.values, dtype=float))
+
+
+def lamp_spd(wavelength, name: str = "FL10") -> torch.Tensor:
+    r"""The lamp's relative spectral power :math:`\hat S(λ)` on ``wavelength`` (nm), scaled so that a
+    perfect white reflector has Y = 1 with :func:`torchirid.spectrum_to_xyz` (``illuminant="E"``).
+
+    Data: ``colour.SDS_ILLUMINANTS[name]`` (CIE F-series, 380–780 nm, 5 nm), linearly
+    interpolated.  dtype/device follow ``wavelength``.
+
+    Example:
+        >>> import torch, torchirid
+        >>> wl = torch.arange(380.0, 781.0, 5.0, dtype=torch.float64)
+        >>> round(float(torchirid.spectrum_to_xyz(lamp_spd(wl), wl, illuminant="E")[1]), 12)
+        1.0
+    """
+    from ..color import spectrum_to_xyz
+
+    w = torch.as_tensor(wavelength)
+    if not w.is_floating_point():
+        w = w.to(torch.get_default_dtype())
+    S = torch.as_tensor(_lamp_numpy(name, tuple(w.detach().cpu().double().tolist())), dtype=w.dtype, device=w.device)
+    return S / spectrum_to_xyz(S, w, illuminant="E")[1]
+
+
+@functools.lru_cache(maxsize=None)
+def _adaptation_numpy(name: str, wl: tuple) -> np.ndarray:
+    """Bradford matrix (colour-science) from the lamp white (on this grid) to D65, XYZ columns."""
+    import colour
+
+    from ..color import spectrum_to_xyz
+
+    from ..color import white_point_xyz
+
+    w = torch.tensor(wl, dtype=torch.float64)
+    white = spectrum_to_xyz(lamp_spd(w, name), w, illuminant="E").numpy()
+    d65 = white_point_xyz("D65").numpy()  # the white of xyz_to_lab: the lamp white lands on a* = b* = 0
+    return colour.adaptation.matrix_chromatic_adaptation_VonKries(white, d65, transform="Bradford")
+
+
+# ---------------------------------------------------------------------------------------
+# rendering
+# ---------------------------------------------------------------------------------------
+
+
+def _indices(substrate, films, wl: torch.Tensor, coated: bool) -> tuple[torch.Tensor, torch.Tensor]:
+    """(indices (W, L+2) complex, thicknesses (L,)) of air | films | substrate on the grid."""
+    from ..materials import refractive_index
+
+    cdt = torch.complex128 if wl.dtype == torch.float64 else torch.complex64
+
+    def nk(m):
+        return refractive_index(m, wl).to(cdt).expand(wl.shape)
+
+    layers = films if coated else []
+    cols = [nk(1.0)] + [nk(m) for m, _ in layers] + [nk(substrate)]
+    d = torch.tensor([float(t) for _, t in layers], dtype=wl.dtype, device=wl.device)
+    return torch.stack(cols, -1), d
+
+
+def _geometry(size: int, light, dtype):
+    """Per-pixel geometry of an orthographic unit sphere: mask (H, W) and, on the pixels inside,
+    cos θ_v, cos θ_l, cos φ and R·L (flattened over the masked pixels)."""
+    c = (torch.arange(size, dtype=dtype) + 0.5) / size * 2 - 1
+    y, x = torch.meshgrid(-c, c, indexing="ij")  # row 0 at the top (y = +1)
+    r2 = x * x + y * y
+    mask = r2 < 1
+    nz = torch.sqrt(torch.clamp(1 - r2[mask], min=0))
+    N = torch.stack([x[mask], y[mask], nz], -1)
+    L = torch.tensor(light, dtype=dtype)
+    L = L / L.norm()
+    V = torch.tensor([0.0, 0.0, 1.0], dtype=dtype)
+    cv = N[:, 2].clamp(0, 1)
+    cl = N @ L
+    Lt = L - cl[:, None] * N
+    Vt = V - cv[:, None] * N
+    nl, nv = Lt.norm(dim=-1), Vt.norm(dim=-1)
+    ok = (nl > 1e-12) & (nv > 1e-12)
+    # azimuth between the light and view directions in the tangent plane (undefined, and
+    # irrelevant, where either is along the normal: sin θ = 0 there)
+    cphi = torch.where(ok, (Lt * Vt).sum(-1) / torch.where(ok, nl * nv, torch.ones_like(nl)), torch.ones_like(nl))
+    R = 2 * cv[:, None] * N - V
+    return mask, cv, cl, cphi.clamp(-1, 1), R @ L
+
+
+@dataclass(frozen=True)
+class SphereRender:
+    """One rendered sphere.
+
+    Attributes:
+        srgb: (H, W, 3) display sRGB in [0, 1] (background 0).
+        lab: (H, W, 3) CIELAB (D65 after Bradford adaptation from the lamp white); NaN outside.
+        mask: (H, W) inside the sphere; lit: (H, W) pixels of the chroma statistics.
+        chroma_mean, chroma_p95: C*ab statistics over ``lit``.
+    """
+
+    srgb: np.ndarray
+    lab: np.ndarray
+    mask: np.ndarray
+    lit: np.ndarray
+    chroma_mean: float
+    chroma_p95: float
+
+
+def chroma_stats(lab, lit) -> tuple[float, float]:
+    r"""Mean and 95th percentile of CIELAB chroma :math:`C^*_{ab} = \sqrt{a^{*2}+b^{*2}}` over ``lit``.
+
+    Example:
+        >>> import numpy as np
+        >>> lab = np.zeros((2, 2, 3)); lab[..., 1] = [[3.0, 4.0], [0.0, 0.0]]; lab[..., 2] = [[4.0, 3.0], [0.0, 0.0]]
+        >>> chroma_stats(lab, np.array([[True, True], [False, False]]))
+        (5.0, 5.0)
+    """
+    lab = np.asarray(lab, dtype=float)
+    lit = np.asarray(lit, dtype=bool)
+    if lab.shape[:-1] != lit.shape or lab.shape[-1] != 3:
+        raise ValueError(f"lab must be (H, W, 3) and lit (H, W); got {lab.shape} and {lit.shape}")
+    if not lit.any():
+        raise ValueError("lit selects no pixel")
+    C = np.hypot(lab[..., 1], lab[..., 2])[lit]
+    return float(C.mean()), float(np.percentile(C, 95))
+
+
+def render_sphere(
+    substrate,
+    films,
+    sigma: float,
+    tau: float = 300.0,
+    *,
+    coated: bool = True,
+    size: int = 128,
+    wavelength_step: float = 5.0,
+    light=DEFAULT_LIGHT,
+    lamp: str = "FL10",
+    ambient: float = 0.35,
+    light_radius_deg: float = 3.0,
+    shadowing: bool = True,
+) -> SphereRender:
+    r"""Render one sphere of ``substrate`` (bare, or coated with ``films``) with rms roughness
+    ``sigma`` and autocorrelation length ``tau`` (nm), spectrally (380–780 nm every
+    ``wavelength_step`` nm, float64), see the module docstring for the shading.
+
+    Args:
+        substrate: a material for :func:`torchirid.materials.refractive_index` ("Al", "Si", "Cu", …).
+        films: [(material, thickness nm), …] from the air side down (ignored if not ``coated``).
+        sigma: σ₀ ≥ 0 nm; tau: τ > 0 nm.
+        size: image side in pixels (≥ 8).
+        light: direction towards the light (x right, y up, z towards the viewer), z > 0.
+        lamp: CIE fluorescent illuminant key; ambient: environment radiance (≥ 0) relative to
+            the light's white-Lambertian radiance; light_radius_deg: the lamp disk (0 < δ ≤ 20°).
+
+    Returns:
+        :class:`SphereRender`.
+
+    Example (smooth bare aluminium: the lit sphere is nearly grey):
+        >>> r = render_sphere("Al", [], 0.0, coated=False, size=16, wavelength_step=20.0)
+        >>> r.srgb.shape, r.chroma_mean < 3.0
+        ((16, 16, 3), True)
+    """
+    from ..color import spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
+
+    if isinstance(size, bool) or not isinstance(size, int) or size < 8:
+        raise ValueError(f"size must be an integer >= 8 pixels; got {size!r}")
+    if not (math.isfinite(wavelength_step) and 0 < wavelength_step <= 50):
+        raise ValueError(f"wavelength_step must lie in (0, 50] nm; got {wavelength_step!r}")
+    if not (math.isfinite(sigma) and sigma >= 0):
+        raise ValueError(f"sigma must be >= 0 nm; got {sigma!r}")
+    if not (math.isfinite(tau) and tau > 0):
+        raise ValueError(f"tau must be > 0 nm; got {tau!r}")
+    if not (math.isfinite(ambient) and ambient >= 0):
+        raise ValueError(f"ambient must be >= 0; got {ambient!r}")
+    if not (0 < light_radius_deg <= 20):
+        raise ValueError(f"light_radius_deg must lie in (0, 20]; got {light_radius_deg!r}")
+    light = tuple(float(v) for v in light)
+    if len(light) != 3 or light[2] <= 0 or not all(map(math.isfinite, light)):
+        raise ValueError(f"light must be a finite 3-vector with z > 0 (in front of the sphere); got {light!r}")
+
+    dt = torch.float64
+    wl = torch.arange(380.0, 780.0 + 1e-9, wavelength_step, dtype=dt)
+    S = lamp_spd(wl, lamp)
+    M = torch.as_tensor(_adaptation_numpy(lamp, tuple(wl.tolist())), dtype=dt)
+    n, d = _indices(substrate, films, wl, coated)
+    mask, cv, cl, cphi, RdotL = _geometry(size, light, dt)
+
+    kr = rough_multilayer_reflectance(wl, cv[:, None], n, d, sigma, tau, shadowing=shadowing)  # (P, W)
+    cos_d = math.cos(math.radians(light_radius_deg))
+    disk = (RdotL >= cos_d).to(dt) / math.sin(math.radians(light_radius_deg)) ** 2
+    spectrum = kr * (ambient + disk[:, None])
+    if sigma > 0:
+        kd = rough_multilayer_diffuse(
+            wl, cl.clamp(0, 1)[:, None], cv[:, None], cphi[:, None], n, d, sigma, tau, shadowing=shadowing
+        )
+        spectrum = spectrum + math.pi * kd * cl.clamp(min=0)[:, None]
+    xyz = spectrum_to_xyz(spectrum * S, wl, illuminant="E") @ M.T
+    lab = xyz_to_lab(xyz)
+    rgb = xyz_to_srgb(xyz).clamp(0, 1)
+
+    H = W = size
+    srgb = np.zeros((H, W, 3))
+    srgb[mask.numpy()] = rgb.numpy()
+    lab_img = np.full((H, W, 3), np.nan)
+    lab_img[mask.numpy()] = lab.numpy()
+    lit_flat = ((cl > 0) & (RdotL < cos_d)).numpy()
+    lit = np.zeros((H, W), dtype=bool)
+    lit[mask.numpy()] = lit_flat
+    cm, cp = chroma_stats(np.nan_to_num(lab_img), lit)
+    return SphereRender(srgb=srgb, lab=lab_img, mask=mask.numpy(), lit=lit, chroma_mean=cm, chroma_p95=cp)
+
+
+# ---------------------------------------------------------------------------------------
+# panels (Fig. 8 style): rows = stacks, columns = σ₀, each panel = coated | uncoated
+# ---------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SpherePanels:
+    """A grid of sphere pairs.
+
+    Attributes:
+        rows: row titles; sigmas: σ₀ of the columns (nm).
+        images: (R, C, 2, H, W, 3) sRGB, [..., 0, ...] coated, [..., 1, ...] uncoated.
+        chroma: (R, C, 2, 2) C*ab (mean, p95) of (coated, uncoated).
+        params: JSON-ready parameters.
+    """
+
+    rows: list
+    sigmas: list
+    images: np.ndarray
+    chroma: np.ndarray
+    params: dict = field(repr=False)
+
+
+def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **kwargs) -> SpherePanels:
+    """Render every (stack, σ₀) as a coated and an uncoated sphere (:func:`render_sphere` kwargs).
+
+    Example:
+        >>> p = render_panels({"Al": ("Al", [(1.4, 300.0)])}, sigmas=(0.0,), size=8, wavelength_step=50.0)
+        >>> p.images.shape, p.chroma.shape
+        ((1, 1, 2, 8, 8, 3), (1, 1, 2, 2))
+    """
+    from .. import __version__
+
+    rows = list(stacks)
+    images, chroma = [], []
+    for name in rows:
+        substrate, films = stacks[name]
+        row_i, row_c = [], []
+        for s in sigmas:
+            pair = [render_sphere(substrate, films, float(s), tau, coated=c, **kwargs) for c in (True, False)]
+            row_i.append(np.stack([p.srgb for p in pair]))
+            row_c.append(np.array([[p.chroma_mean, p.chroma_p95] for p in pair]))
+        images.append(np.stack(row_i))
+        chroma.append(np.stack(row_c))
+    params = dict(
+        stacks={k: [v[0], [[m if isinstance(m, str) else float(m), float(t)] for m, t in v[1]]] for k, v in stacks.items()},
+        sigmas_nm=[float(s) for s in sigmas],
+        tau_nm=float(tau),
+        torchirid_version=__version__,
+        **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()},
+    )
+    return SpherePanels(rows=rows, sigmas=[float(s) for s in sigmas], images=np.stack(images), chroma=np.stack(chroma), params=params)
+
+
+def chroma_table_markdown(panels: SpherePanels) -> str:
+    """The chroma table (coated vs uncoated × σ₀) as markdown."""
+    lines = [
+        "| stack | σ₀ (nm) | C*ab coated mean | C*ab uncoated mean | coated p95 | uncoated p95 | coated − uncoated (mean) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
+    for i, name in enumerate(panels.rows):
+        for j, s in enumerate(panels.sigmas):
+            (cm, cp), (um, up) = panels.chroma[i, j]
+            lines.append(f"| {name} | {s:g} | {cm:.2f} | {um:.2f} | {cp:.2f} | {up:.2f} | {cm - um:+.2f} |")
+    return "\n".join(lines)
+
+
+def plot_panels(panels: SpherePanels, title: str = ""):
+    """A matplotlib Figure (no pyplot): one panel per (stack, σ₀), coated left, uncoated right."""
+    from matplotlib.figure import Figure
+
+    R, C = panels.images.shape[:2]
+    fig = Figure(figsize=(3.2 * C, 1.9 * R + 0.5), facecolor="black")
+    axes = fig.subplots(R, C, squeeze=False)
+    for i in range(R):
+        for j in range(C):
+            ax = axes[i, j]
+            ax.imshow(np.concatenate([panels.images[i, j, 0], panels.images[i, j, 1]], axis=1), interpolation="nearest")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            (cm, _), (um, _) = panels.chroma[i, j]
+            ax.set_title(f"{panels.rows[i]}\nσ₀ = {panels.sigmas[j]:g} nm   C* {cm:.1f} | {um:.1f}", color="white", fontsize=7)
+    if title:
+        fig.suptitle(title, color="white", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def save_panels_png(panels: SpherePanels, path, *, title: str = "", dpi: int = 130) -> Path:
+    """Write :func:`plot_panels` atomically as a PNG."""
+    fig = plot_panels(panels, title)
+    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi, facecolor="black"))
+
+
+def save_panels_npz(panels: SpherePanels, path) -> Path:
+    """Write the images (R, C, 2, H, W, 3), chroma (R, C, 2, 2), rows, sigmas and params (JSON) atomically."""
+    return atomic_write(
+        path,
+        lambda f: np.savez(
+            f,
+            images=panels.images.astype(np.float32),
+            chroma=panels.chroma,
+            rows=np.array(panels.rows),
+            sigmas_nm=np.array(panels.sigmas),
+            params=np.array(json.dumps(panels.params, sort_keys=True)),
+        ),
+    )
+
+
+# ---------------------------------------------------------------------------------------
+# the `torchirid render-sphere` command
+# ---------------------------------------------------------------------------------------
+
+PRESETS = {"fig8": FIG8_ROWS, "table1": TABLE1_OBJECTS}
+
+
+def _film(text: str):
+    """MATERIAL:THICKNESS, e.g. ``1.4:1000`` or ``Ag:5``."""
+    try:
+        m, t = text.rsplit(":", 1)
+        t = float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected MATERIAL:THICKNESS_NM such as 1.4:1000 or Ag:5, got {text!r}") from None
+    try:
+        m = float(m)
+    except ValueError:
+        pass
+    if not (math.isfinite(t) and t >= 0):
+        raise argparse.ArgumentTypeError(f"film thickness must be >= 0 nm, got {t!r}")
+    return (m, t)
+
+
+def add_parser(sub) -> argparse.ArgumentParser:
+    """Register ``render-sphere`` on an argparse subparsers object (sets ``func=run``)."""
+    p = sub.add_parser(
+        "render-sphere",
+        help="spectral renders of film-coated rough spheres (Hirayama 2000, Fig. 8 / Table 1) → .png + .npz",
+        description=(
+            "Render spheres coated with multilayer films on a rough (He–Torrance) surface,\n"
+            "spectrally, under a fluorescent lamp, next to the same sphere uncoated, for\n"
+            "each rms roughness σ0; write <out>/<name>.png and <out>/<name>.npz and print the\n"
+            "chroma table (CIELAB C*ab over the lit pixels, coated vs uncoated) as markdown."
+        ),
+    )
+    p.add_argument("--preset", choices=sorted(PRESETS) + ["custom"], default="fig8",
+                   help="fig8: Fig. 8's three stacks; table1: Table 1's objects as spheres; custom: --substrate/--film")
+    p.add_argument("--substrate", default="Al", help="substrate material for --preset custom (Al, Si, Cu, Ag, Au or an index)")
+    p.add_argument("--film", type=_film, action="append", default=None, metavar="MAT:NM",
+                   help="a film for --preset custom, from the air side down (repeat)")
+    p.add_argument("--sigma", type=float, nargs="+", default=None, metavar="NM",
+                   help="rms roughness values σ0 in nm (default: 0 25 50 for fig8, 0 50 for table1)")
+    p.add_argument("--tau", type=float, default=300.0, metavar="NM", help="autocorrelation length τ in nm")
+    p.add_argument("--size", type=int, default=128, help="sphere image side in pixels")
+    p.add_argument("--wavelength-step", type=float, default=5.0, metavar="NM", help="spectral step over 380–780 nm")
+    p.add_argument("--lamp", default="FL10", help="CIE fluorescent illuminant (FL1..FL12, FL3.x)")
+    p.add_argument("--ambient", type=float, default=0.35, help="uniform environment radiance relative to the light")
+    p.add_argument("--out", default=".", help="output directory (must exist)")
+    p.add_argument("--name", default=None, help="file name stem (default: hirayama_<preset>)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    """Run ``torchirid render-sphere``; returns the exit status (2 for a bad argument)."""
+    import sys
+
+    if args.preset == "custom":
+        stacks = {f"{args.substrate} custom": (_substrate(args.substrate), list(args.film or []))}
+    else:
+        stacks = PRESETS[args.preset]
+    sigmas = args.sigma if args.sigma is not None else ((0.0, 50.0) if args.preset == "table1" else (0.0, 25.0, 50.0))
+    out = Path(args.out)
+    if not out.is_dir():
+        print(f"torchirid render-sphere: error: --out {str(out)!r} is not a directory", file=sys.stderr)
+        return 2
+    name = args.name or f"hirayama_{args.preset}"
+    try:
+        panels = render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
+                               lamp=args.lamp, ambient=args.ambient)
+    except ValueError as exc:
+        print(f"torchirid render-sphere: error: {exc}", file=sys.stderr)
+        return 2
+    save_panels_png(panels, out / f"{name}.png", title=f"Hirayama 2000 ({args.preset}), τ = {args.tau:g} nm, lamp {args.lamp}")
+    save_panels_npz(panels, out / f"{name}.npz")
+    print(chroma_table_markdown(panels))
+    return 0
+
+
+def _substrate(text: str):
+    try:
+        return float(text)
+    except ValueError:
+        pass
+    try:
+        z = complex(text.replace("i", "j"))
+        return z
+    except ValueError:
+        return text
