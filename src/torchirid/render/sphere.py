@@ -184,6 +184,7 @@ class SphereRender:
         lab: (H, W, 3) CIELAB (D65 after Bradford adaptation from the lamp white); NaN outside.
         mask: (H, W) inside the sphere; lit: (H, W) pixels of the chroma statistics.
         chroma_mean, chroma_p95: C*ab statistics over ``lit``.
+        lightness_mean: mean L* over ``lit``.
     """
 
     srgb: np.ndarray
@@ -192,6 +193,7 @@ class SphereRender:
     lit: np.ndarray
     chroma_mean: float
     chroma_p95: float
+    lightness_mean: float
 
 
 def chroma_stats(lab, lit) -> tuple[float, float]:
@@ -296,7 +298,8 @@ def render_sphere(
     lit = np.zeros((H, W), dtype=bool)
     lit[mask.numpy()] = lit_flat
     cm, cp = chroma_stats(np.nan_to_num(lab_img), lit)
-    return SphereRender(srgb=srgb, lab=lab_img, mask=mask.numpy(), lit=lit, chroma_mean=cm, chroma_p95=cp)
+    return SphereRender(srgb=srgb, lab=lab_img, mask=mask.numpy(), lit=lit, chroma_mean=cm, chroma_p95=cp,
+                        lightness_mean=float(lab_img[lit, 0].mean()))
 
 
 # ---------------------------------------------------------------------------------------
@@ -312,6 +315,7 @@ class SpherePanels:
         rows: row titles; sigmas: σ₀ of the columns (nm).
         images: (R, C, 2, H, W, 3) sRGB, [..., 0, ...] coated, [..., 1, ...] uncoated.
         chroma: (R, C, 2, 2) C*ab (mean, p95) of (coated, uncoated).
+        lightness: (R, C, 2) mean L* of (coated, uncoated).
         params: JSON-ready parameters.
     """
 
@@ -319,6 +323,7 @@ class SpherePanels:
     sigmas: list
     images: np.ndarray
     chroma: np.ndarray
+    lightness: np.ndarray
     params: dict = field(repr=False)
 
 
@@ -333,16 +338,18 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **
     from .. import __version__
 
     rows = list(stacks)
-    images, chroma = [], []
+    images, chroma, light = [], [], []
     for name in rows:
         substrate, films = stacks[name]
-        row_i, row_c = [], []
+        row_i, row_c, row_l = [], [], []
         for s in sigmas:
             pair = [render_sphere(substrate, films, float(s), tau, coated=c, **kwargs) for c in (True, False)]
             row_i.append(np.stack([p.srgb for p in pair]))
             row_c.append(np.array([[p.chroma_mean, p.chroma_p95] for p in pair]))
+            row_l.append(np.array([p.lightness_mean for p in pair]))
         images.append(np.stack(row_i))
         chroma.append(np.stack(row_c))
+        light.append(np.stack(row_l))
     params = dict(
         stacks={k: [v[0], [[m if isinstance(m, str) else float(m), float(t)] for m, t in v[1]]] for k, v in stacks.items()},
         sigmas_nm=[float(s) for s in sigmas],
@@ -350,19 +357,22 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **
         torchirid_version=__version__,
         **{k: (list(v) if isinstance(v, tuple) else v) for k, v in kwargs.items()},
     )
-    return SpherePanels(rows=rows, sigmas=[float(s) for s in sigmas], images=np.stack(images), chroma=np.stack(chroma), params=params)
+    return SpherePanels(rows=rows, sigmas=[float(s) for s in sigmas], images=np.stack(images), chroma=np.stack(chroma),
+                        lightness=np.stack(light), params=params)
 
 
 def chroma_table_markdown(panels: SpherePanels) -> str:
     """The chroma table (coated vs uncoated × σ₀) as markdown."""
     lines = [
-        "| stack | σ₀ (nm) | C*ab coated mean | C*ab uncoated mean | coated p95 | uncoated p95 | coated − uncoated (mean) |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| stack | σ₀ (nm) | C*ab coated mean | C*ab uncoated mean | coated p95 | uncoated p95 "
+        "| coated − uncoated (mean) | L* coated | L* uncoated |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for i, name in enumerate(panels.rows):
         for j, s in enumerate(panels.sigmas):
             (cm, cp), (um, up) = panels.chroma[i, j]
-            lines.append(f"| {name} | {s:g} | {cm:.2f} | {um:.2f} | {cp:.2f} | {up:.2f} | {cm - um:+.2f} |")
+            lc, lu = panels.lightness[i, j]
+            lines.append(f"| {name} | {s:g} | {cm:.2f} | {um:.2f} | {cp:.2f} | {up:.2f} | {cm - um:+.2f} | {lc:.1f} | {lu:.1f} |")
     return "\n".join(lines)
 
 
@@ -401,6 +411,7 @@ def save_panels_npz(panels: SpherePanels, path) -> Path:
             f,
             images=panels.images.astype(np.float32),
             chroma=panels.chroma,
+            lightness=panels.lightness,
             rows=np.array(panels.rows),
             sigmas_nm=np.array(panels.sigmas),
             params=np.array(json.dumps(panels.params, sort_keys=True)),
