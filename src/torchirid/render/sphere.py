@@ -40,6 +40,7 @@ import numpy as np
 import torch
 
 from .._io import atomic_write
+from ..optics.film_reflectance import hirayama_stacks
 from ..optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 
 __all__ = [
@@ -58,17 +59,23 @@ __all__ = [
     "run",
 ]
 
-#: Hirayama Fig. 8 rows: name → (substrate, films [(material, thickness nm)]); dielectric n = 1.4.
-FIG8_ROWS: dict[str, tuple[str, list]] = {
-    "silicon / dielectric-Ag-dielectric (a-c)": ("Si", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
-    "aluminium / dielectric-Ag-dielectric (d-f)": ("Al", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
-    "aluminium / dielectric-Au-dielectric (g-i)": ("Al", [(1.4, 1000.0), ("Au", 5.0), (1.4, 1000.0)]),
+def _hirayama(key: str) -> tuple:
+    """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.optics.film_reflectance.hirayama_stacks` entry."""
+    stack = hirayama_stacks()[key]
+    return stack.substrate, [(m, float(t)) for m, t in stack.layers]
+
+
+#: Hirayama Fig. 8 rows: title → (substrate, films from the air side); dielectric n = 1.4.
+FIG8_ROWS: dict[str, tuple] = {
+    "silicon / dielectric-Ag-dielectric (a-c)": _hirayama("fig8_abc_silicon_silver"),
+    "aluminium / dielectric-Ag-dielectric (d-f)": _hirayama("fig8_def_aluminum_silver"),
+    "aluminium / dielectric-Au-dielectric (g-i)": _hirayama("fig8_ghi_aluminum_gold"),
 }
-#: Hirayama Table 1 (Fig. 9): dielectric A n = 1.4, dielectric B n = 2.0, in air.
-TABLE1_OBJECTS: dict[str, tuple[str, list]] = {
-    "teapot (Al)": ("Al", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)]),
-    "cylinder (Si)": ("Si", [(2.0, 1000.0), (1.4, 1000.0), (2.0, 1000.0), (1.4, 1000.0)]),
-    "sphere (Cu)": ("Cu", [(1.4, 1000.0), ("Au", 5.0), (1.4, 1000.0)]),
+#: Hirayama Table 1 (Fig. 9) objects, rendered as spheres: dielectric A n = 1.4, B n = 2.0, in air.
+TABLE1_OBJECTS: dict[str, tuple] = {
+    "teapot (Al)": _hirayama("teapot"),
+    "cylinder (Si)": _hirayama("cylinder"),
+    "sphere (Cu)": _hirayama("sphere"),
 }
 DEFAULT_LIGHT = (-0.45, 0.55, 0.70)  # towards the light: upper left, in front (≈ 46° off the view axis)
 
