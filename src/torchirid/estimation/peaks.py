@@ -117,12 +117,13 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
         ``(position, kind, window)``: position ``(*, K)`` in nm (NaN where none), kind
         ``(*, K)`` int8 (+1 maximum, −1 minimum, 0 none), and the W used.
 
-    Example (a cosine of period 100 nm: maxima at 450, 550, 650 nm — between bands):
+    Example (an interference fringe cos(2π·2200 nm/λ): maxima at 2200/5 = 440 and 2200/4 = 550 nm,
+    minima at 2200/4.5 = 488.9 and 2200/3.5 = 628.6 nm — between the 4 nm bands):
         >>> import torch, math
         >>> w = torch.arange(400.0, 701.0, 4.0, dtype=torch.float64)
-        >>> pos, kind, W = detect_extrema(torch.cos(2 * math.pi * (w - 450) / 100), w)
-        >>> [round(v, 1) for v, k in zip(pos.tolist(), kind.tolist()) if k == 1]
-        [450.0, 550.0, 650.0]
+        >>> pos, kind, W = detect_extrema(torch.cos(2 * math.pi * 2200 / w), w)
+        >>> [(round(v, 1), k) for v, k in zip(pos.tolist(), kind.tolist()) if k != 0]
+        [(440.0, 1), (488.9, -1), (550.0, 1), (628.6, -1)]
     """
     y = torch.as_tensor(spectra)
     if not y.is_floating_point():
@@ -154,23 +155,28 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
         raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")
     sm = _smooth(Yf, max(W / 2, 1.0))
     kind = _raw_extrema(sm, W)
-    # least-squares parabola y = c0 + c1 t + c2 t² over t = -W..W, as two linear filters
-    t = torch.arange(-W, W + 1, dtype=y.dtype, device=y.device)
-    V = torch.stack([torch.ones_like(t), t, t * t], dim=-1)
-    P = torch.linalg.pinv(V)  # (3, 2W+1)
+    # least-squares parabola in the wavenumber ν = 1/λ over the 2W+1 bands around each band:
+    # the film phase is linear in ν, so a peak is symmetric in ν (not in λ) — no skew bias
     win = Yf.unfold(-1, 2 * W + 1, 1)  # (N, B - 2W, 2W+1), window centred at band W + j
-    coef = win @ P.T  # (N, B-2W, 3)
+    nu = 1000.0 / lam  # 1/µm
+    nu_w = nu.unfold(-1, 2 * W + 1, 1)  # (B - 2W, 2W+1)
+    t = nu_w - nu[W:B - W, None]
+    scale_t = t.abs().amax(-1, keepdim=True)
+    ts = t / scale_t
+    V = torch.stack([torch.ones_like(ts), ts, ts * ts], dim=-1)  # (B-2W, 2W+1, 3)
+    Pm = torch.linalg.pinv(V)  # (B-2W, 3, 2W+1)
+    coef = torch.einsum("jkw,njw->njk", Pm, win)
     c1, c2 = coef[..., 1], coef[..., 2]
-    vertex = -c1 / (2 * c2)
+    vertex = -c1 / (2 * c2) * scale_t[:, 0]  # in ν, relative to the centre band
     ok_shape = torch.zeros_like(kind, dtype=torch.bool)
     inner = kind[:, W:B - W]
     good = ((inner == 1) & (c2 < 0)) | ((inner == -1) & (c2 > 0))
-    good = good & (vertex.abs() <= max(W / 2, 1.0))
+    half = (max(W / 2, 1.0) * step / lam[W:B - W]) * nu[W:B - W]  # W/2 bands, in ν
+    good = good & (vertex.abs() <= half)
     ok_shape[:, W:B - W] = good
     kind = torch.where(ok_shape, kind, torch.zeros_like(kind))
-    vfull = torch.zeros_like(Yf)
-    vfull[:, W:B - W] = torch.nan_to_num(vertex, nan=0.0)
-    pos_all = lam + vfull * step
+    pos_all = lam.expand_as(Yf).clone()
+    pos_all[:, W:B - W] = 1000.0 / (nu[W:B - W] + torch.nan_to_num(vertex, nan=0.0))
     # keep the first K extrema by wavelength
     idx = torch.arange(B, device=y.device).expand_as(kind)
     key = torch.where(kind != 0, idx, B + idx)

@@ -1,0 +1,55 @@
+import os
+
+import numpy as np
+import pytest
+import torch
+
+from torchirid.estimation import synthetic_cube
+from torchirid.estimation.cube_io import read_cube, write_envi, write_npz
+
+pytest.importorskip("spectral")
+
+
+def test_npz_round_trip(tmp_path):
+    c = synthetic_cube("mgf2_400", height=3, width=4, seed=0)
+    p = tmp_path / "c.npz"
+    write_npz(p, c.cube, c.wavelength, c.angles_deg, bandwidth=4.0, thickness=c.thickness, meta={"n_true": 1.37})
+    r = read_cube(p)
+    assert torch.equal(r.cube, c.cube) and torch.equal(r.thickness, c.thickness)
+    assert r.bandwidth == 4.0 and r.meta["n_true"] == 1.37
+    assert torch.allclose(r.cos_theta, c.cos_theta)
+
+
+def test_envi_round_trip_sorts_angles(tmp_path):
+    c = synthetic_cube("zns_500", height=3, width=2, seed=0, angles_deg=(30.0, 10.0, 20.0))
+    write_envi(tmp_path / "c.hdr", c.cube, c.wavelength, c.angles_deg, bandwidth=4.0)
+    r = read_cube(tmp_path / "c.hdr")
+    assert r.angles_deg.tolist() == [10.0, 20.0, 30.0]
+    assert (r.cube - c.cube[:, :, [1, 2, 0]]).abs().max() < 1e-7  # float32 on disk
+    assert r.bandwidth == 4.0 and torch.allclose(r.wavelength, c.wavelength)
+
+
+def test_envi_one_file_per_angle(tmp_path):
+    from spectral.io import envi
+
+    c = synthetic_cube("mgf2_600", height=2, width=2, seed=0, angles_deg=(10.0, 20.0))
+    paths = []
+    for a in range(2):
+        p = str(tmp_path / f"a{a}.hdr")
+        envi.save_image(p, c.cube[:, :, a].numpy().astype(np.float32), force=True, ext=".img",
+                        metadata={"wavelength": [str(v) for v in c.wavelength.tolist()]})
+        paths.append(p)
+    r = read_cube(paths, angles_deg=[10.0, 20.0])
+    assert r.cube.shape == (2, 2, 2, 81) and (r.cube - c.cube).abs().max() < 1e-7
+
+
+def test_bad_files(tmp_path):
+    with pytest.raises(ValueError, match="npz"):
+        read_cube(tmp_path / "x.txt")
+    np.savez(tmp_path / "bad.npz", cube=np.zeros((2, 2, 1, 3)))
+    with pytest.raises(ValueError, match="wavelength_nm"):
+        read_cube(tmp_path / "bad.npz")
+    with pytest.raises(ValueError, match="shape"):
+        write_npz(tmp_path / "y.npz", np.zeros((2, 2, 2, 3)), [1, 2, 3], [10])
+    with pytest.raises(ValueError, match="angle"):
+        read_cube([str(tmp_path / "a.hdr")])
