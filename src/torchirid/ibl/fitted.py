@@ -1,0 +1,215 @@
+r"""A fitted light-distribution table for rough thin films: past Kneiphof's single Gaussian.
+
+Kneiphof et al. 2019 replace the distribution of the path difference D over a GGX lobe by
+one Gaussian (eq. 18–29), with C*_m and φ₂* taken at the mean direction. Under uniform light
+(their Fig. 7) the true distribution of :math:`\cos θ_1 = ⟨h, ω_i⟩` is skewed, with GGX's long
+tail towards smaller cos θ1, and C_m, φ₂ vary across it (most at grazing): one Gaussian leaves
+a mean ΔE2000 of ≈ 4 against the ground truth (docs/performance.md, "Thin-film IBL").
+
+This module fits, per (cos θo, √α), a **K-component Gaussian mixture to the distribution of
+cos θ1** under :math:`p_R ∝ \tilde ρ⟨n,ω_i⟩` (:func:`~torchirid.ibl.cos_theta1_distribution`):
+the distribution is cut at fixed quantiles (default 5 %, 30 %, 70 %, 95 %) and each piece is
+replaced by a Gaussian with its mass :math:`w_k`, mean :math:`\bar c_k` and variance
+:math:`s_k^2` (a method-of-moments fit per piece; the pieces' masses, means and second
+moments add up to the distribution's). At run time each component is one eq. 29 evaluation:
+
+.. math:: \mathbf{XYZ} ≈ \sum_k w_k\,\mathrm{eq.\,29}\Big(C^*_m, φ_2^* \text{ at } \bar c_k;\;
+          μ_D = 2η_2 d\,c_2(\bar c_k),\; σ_D = 2η_2 d\,\Big|\frac{dc_2}{dc_1}\Big|_{\bar c_k} s_k\Big),
+          \qquad c_2(c_1) = \sqrt{1 - \tfrac{η_1^2}{η_2^2}(1 - c_1^2)},
+
+the linearisation of eq. 25–26 applied per component (narrow pieces: small error). The table
+depends only on the geometry, not on the film: one table serves every thickness, film index
+and base (dielectric or conductor) — 15 numbers per node for K = 5. The table is stored in the
+LUT container (axes ``cos_theta_o`` (nodes uniform in θo) and ``sqrt_alpha``; channels
+``(K, 3)`` = (w, c̄, s²)) and interpolated multilinearly; the shipped one is
+``data/thin_film_ibl/light_mixture.npz`` (built by ``luts/build_light_mixture.py``).
+
+It models uniform light (Fig. 7, or an environment that is smooth over the lobe); for a
+structured environment Kneiphof's moment channels remain the way to see the light.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.resources
+import math
+
+import torch
+
+from .. import _checks
+from ..lut import LUT
+from .filtered import _series_xyz
+from .fourier import _check_names, thin_film_fourier_terms
+from .uniform import cos_theta1_distribution
+
+__all__ = [
+    "LIGHT_MIXTURE_BUILDER",
+    "DEFAULT_QUANTILES",
+    "build_light_mixture_table",
+    "light_mixture_table",
+    "light_mixture",
+    "fitted_thin_film_xyz",
+]
+
+LIGHT_MIXTURE_BUILDER = "torchirid.ibl.fitted:build_light_mixture_table"
+DEFAULT_QUANTILES = (0.05, 0.3, 0.7, 0.95)
+_ALPHA_MIN = 1e-4  # the √α = 0 node is evaluated here (GGX needs α > 0; a mirror to ≲ 1e-5)
+_THETA_MAX_DEG = 89.5  # the θo = 90° node is evaluated here (a view above the horizon)
+_DATA = ("data", "thin_film_ibl", "light_mixture.npz")
+_SHIPPED = {"quantiles": list(DEFAULT_QUANTILES), "theta_nodes": 48, "alpha_nodes": 48,
+            "bins": 2048, "nodes": 64}
+
+
+def _quantile_pieces(grid, w, quantiles):
+    """Masses, means and variances of the pieces of a binned distribution cut at quantiles."""
+    # each bin goes to the piece holding its mid-CDF (bins are 1/2048 wide: the cut is that sharp)
+    mid = w.cumsum(-1) - 0.5 * w
+    edges = [0.0, *quantiles, math.inf]
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        m = w * ((mid >= lo) & (mid < hi))
+        wk = m.sum(-1)
+        safe = torch.where(wk > 0, wk, torch.ones_like(wk))
+        mk = (m * grid).sum(-1) / safe
+        vk = ((m * grid * grid).sum(-1) / safe - mk * mk).clamp_min(0.0)
+        # an empty piece (a near-mirror: all mass in one bin) sits at the mean with no weight
+        mean = (w * grid).sum(-1)
+        out.append(torch.stack([wk, torch.where(wk > 0, mk, mean), vk], -1))
+    return torch.stack(out, -2)  # (*, K, 3)
+
+
+def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int = 2048, nodes: int = 64):
+    r"""The K-component mixture of cos θ1 for given geometry, computed directly (no table).
+
+    Args:
+        cos_theta_o: cos θo in (0, 1]; alpha: GGX roughness > 0 (broadcast).
+        quantiles: increasing cut points in (0, 1); K = len(quantiles) + 1 components.
+        bins, nodes: resolution of :func:`~torchirid.ibl.cos_theta1_distribution`.
+
+    Returns:
+        ``(*, K, 3)``: per component (mass w_k, mean c̄_k, variance s_k²); Σ w_k = 1.
+
+    Example:
+        >>> import torch
+        >>> mix = light_mixture(torch.tensor(0.8, dtype=torch.float64), 0.25)
+        >>> [round(v, 3) for v in mix[..., 0].tolist()], round(float(mix[..., 0].sum()), 6)
+        ([0.05, 0.25, 0.399, 0.251, 0.05], 1.0)
+    """
+    q = [float(x) for x in quantiles]
+    if not q or any(not (0.0 < x < 1.0) for x in q) or any(b <= a for a, b in zip(q[:-1], q[1:])):
+        raise ValueError(f"quantiles must be increasing values in (0, 1); got {quantiles!r}")
+    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
+    return _quantile_pieces(grid, w, q)
+
+
+def build_light_mixture_table(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alpha_nodes: int = 48,
+                              bins: int = 2048, nodes: int = 64, dtype: torch.dtype = torch.float32) -> LUT:
+    r"""Tabulate :func:`light_mixture` over (cos θo, √α) (module docstring).
+
+    Args:
+        quantiles, bins, nodes: as :func:`light_mixture`.
+        theta_nodes: nodes uniform in θo ∈ [0°, 90°] (90° evaluated at 89.5°), stored as an
+            increasing ``cos_theta_o`` axis.
+        alpha_nodes: nodes uniform in √α ∈ [0, 1] (α = 0 evaluated at 1e-4).
+        dtype: stored dtype (computed in float64).
+
+    Returns:
+        :class:`~torchirid.lut.LUT` with axes ``cos_theta_o``, ``sqrt_alpha`` and channels ``(K, 3)``.
+    """
+    for name, v in (("theta_nodes", theta_nodes), ("alpha_nodes", alpha_nodes)):
+        if isinstance(v, bool) or not isinstance(v, int) or v < 2:
+            raise ValueError(f"{name} must be an integer >= 2; got {v!r}")
+    f64 = torch.float64
+    theta = torch.linspace(90.0, 0.0, theta_nodes, dtype=f64)  # decreasing θ = increasing cos
+    cos_axis = torch.cos(torch.deg2rad(theta))
+    cos_axis[0] = 0.0
+    cos_eval = torch.cos(torch.deg2rad(theta.clamp(max=_THETA_MAX_DEG)))
+    sa = torch.linspace(0.0, 1.0, alpha_nodes, dtype=f64)
+    alpha = (sa * sa).clamp_min(_ALPHA_MIN)
+    mix = light_mixture(cos_eval[:, None], alpha[None, :], quantiles=quantiles, bins=bins, nodes=nodes)
+    params = {"quantiles": [float(x) for x in quantiles], "theta_nodes": theta_nodes,
+              "alpha_nodes": alpha_nodes, "bins": bins, "nodes": nodes}
+    return LUT(mix.to(dtype), {"cos_theta_o": cos_axis.to(dtype), "sqrt_alpha": sa.to(dtype)},
+               builder=LIGHT_MIXTURE_BUILDER, parameters=params,
+               units={"cos_theta_o": "1", "sqrt_alpha": "1", "values": "1 (mass, mean cos θ1, variance)"})
+
+
+def light_mixture_path():
+    """Path of the shipped table (``src/torchirid/data/thin_film_ibl/light_mixture.npz``)."""
+    return importlib.resources.files("torchirid").joinpath(*_DATA)
+
+
+@functools.lru_cache(maxsize=None)
+def _shipped(dtype, device) -> LUT:
+    path = light_mixture_path()
+    with importlib.resources.as_file(path) as p:
+        if p.exists():
+            lut = LUT.load(p, builder=LIGHT_MIXTURE_BUILDER, parameters=_SHIPPED)
+        else:  # a source tree without the data file: build it (≈ 5 s) rather than fail
+            lut = build_light_mixture_table(**_SHIPPED)
+    return lut.to(dtype=dtype, device=device)
+
+
+def light_mixture_table(*, dtype: torch.dtype = torch.float64, device=None) -> LUT:
+    """The shipped K = 5 mixture table (48 θo × 48 √α nodes), cached per dtype/device."""
+    return _shipped(dtype, torch.device("cpu") if device is None else torch.device(device))
+
+
+def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_outer=1.0, table=None,
+                         terms: int = 2, observer: str = "CIE 1931 2", illuminant: str = "D65",
+                         polarization: str = "unpolarized") -> torch.Tensor:
+    r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
+
+    Args:
+        cos_theta_o: cos θo in [0, 1]; alpha: GGX roughness in [0, 1] (clamped to the table).
+        n_film: real film index η₂ ≥ ``n_outer``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
+        n_outer: real outer index η₁ (default 1).
+        table: a :class:`~torchirid.lut.LUT` from :func:`build_light_mixture_table`; default
+            the shipped one.
+        terms, observer, illuminant, polarization: as :func:`~torchirid.ibl.filtered_thin_film_xyz`.
+
+    Returns:
+        ``(*, 3)`` XYZ of the reflectance term (white Y = 1); multiply by the albedo (DFG) for
+        the reflected radiance. Differentiable w.r.t. every input.
+
+    Example:
+        >>> import torch
+        >>> xyz = fitted_thin_film_xyz(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, complex(2.0, 0.5))
+        >>> [round(v, 4) for v in xyz.tolist()]  # reference (uniform_thin_film_xyz): [0.0647, 0.067, 0.1077]
+        [0.0645, 0.0668, 0.1076]
+    """
+    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
+        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _check_names(observer, illuminant)
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_outer)
+    c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
+    a = _checks.as_real(alpha, "alpha", dtype, device)
+    _checks.check_cosine(c, "cos_theta_o")
+    _checks.check_nonnegative(a, "alpha", "(GGX roughness)")
+    nf = _checks.as_real(n_film, "n_film", dtype, device)
+    d = _checks.as_real(thickness, "thickness", dtype, device)
+    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    _checks.check_positive(nf, "n_film", "")
+    _checks.check_positive(n0, "n_outer", "")
+    _checks.check_nonnegative(d, "thickness")
+    if table is None:
+        table = light_mixture_table(dtype=dtype, device=device)
+    elif not isinstance(table, LUT) or table.builder != LIGHT_MIXTURE_BUILDER:
+        raise ValueError("table must be a LUT built by build_light_mixture_table")
+    else:
+        table = table.to(dtype=dtype, device=device)
+    mix = table(cos_theta_o=c, sqrt_alpha=torch.sqrt(a))  # (*, K, 3)
+    w, c1, v1 = mix.unbind(-1)
+    c1 = c1.clamp(0.0, 1.0).movedim(-1, 0)  # (K, *)
+    w, v1 = (t.clamp_min(0.0).movedim(-1, 0) for t in (w, v1))
+    # per component: C*, φ2* at c̄_k; D ~ N(2η2 d c2(c̄_k), (2η2 d c2'(c̄_k) s_k)²) (eq. 25–28 per piece)
+    k = (n0 / nf) ** 2
+    c2 = torch.sqrt((1.0 - k * (1.0 - c1 * c1)).clamp_min(torch.finfo(dtype).tiny))
+    slope = k * c1 / c2
+    scale = 2.0 * nf * d
+    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, n_substrate, n_outer=n0, polarization=polarization)
+    shape = C0.shape[1:]
+    xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
+                      terms, observer, illuminant)  # (K, *, 3)
+    return (w.expand(shape)[..., None] * xyz).sum(0)
