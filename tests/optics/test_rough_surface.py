@@ -378,3 +378,43 @@ def test_bare_substrate_diffuse_is_he_torrance():
     torch.testing.assert_close(kd, ref, rtol=1e-14, atol=0)
     T = rs.stack_transmittance_to_last_film(lam, cl, tc128([1.0, n_sub]), t64(np.zeros(0)), 35.0, TAU)
     assert torch.all(T == 1.0)
+
+
+def _T_down_one_film(lam, c, n1, d, n2, sigma, pol):
+    """Independent (numpy, tmm conventions): flux of the downward wave at the bottom of one lossless
+    film on a rough substrate, A = t01 e^{iφ} / (1 + r01 r12 e^{-g/2} e^{2iφ}), T = n1 cos θ1 / cos θ0 |A|²."""
+    s = math.sqrt(1 - c * c)
+    c1 = math.sqrt(1 - (s / n1) ** 2)
+    c2 = np.sqrt(1 - (s / n2) ** 2 + 0j)
+    if c2.imag < 0:
+        c2 = -c2
+    if pol == "s":
+        r01 = (c - n1 * c1) / (c + n1 * c1)
+        t01 = 2 * c / (c + n1 * c1)
+        r12 = (n1 * c1 - n2 * c2) / (n1 * c1 + n2 * c2)
+    else:
+        r01 = (n1 * c - c1) / (n1 * c + c1)
+        t01 = 2 * c / (n1 * c + c1)
+        r12 = (n2 * c1 - n1 * c2) / (n2 * c1 + n1 * c2)
+    g = (4 * math.pi * sigma * n1 * c1 / lam) ** 2
+    e1 = np.exp(1j * 2 * math.pi * n1 * c1 * d / lam)
+    A = t01 * e1 / (1 + r01 * r12 * math.exp(-g / 2) * e1 * e1)
+    return n1 * c1 / c * abs(A) ** 2, c1
+
+
+@pytest.mark.parametrize("lam, tl, tv, cphi", [(430.0, 10.0, 35.0, -1.0), (560.0, 50.0, 20.0, -0.3), (690.0, 70.0, 5.0, 0.6)])
+def test_single_film_diffuse_vs_independent_composition(lam, tl, tv, cphi):
+    """k_d = (n0/n1)² T(l) ρ_dd(in the film) T(v), T from an independent Airy-type sum (s/p averaged)."""
+    n1, d, sigma = 1.4, 800.0, 30.0
+    n2 = complex(material_nk("Al", lam))
+    cl, cv = math.cos(math.radians(tl)), math.cos(math.radians(tv))
+    T = {}
+    for name, c in (("l", cl), ("v", cv)):
+        Ts, c1 = _T_down_one_film(lam, c, n1, d, n2, sigma, "s")
+        Tp, _ = _T_down_one_film(lam, c, n1, d, n2, sigma, "p")
+        T[name] = (0.5 * (Ts + Tp), c1)
+    rho = rs.he_directional_diffuse(t64(lam), T["l"][1], T["v"][1], cphi, sigma, TAU, n2, n_medium=n1, shadowing=False)
+    ref = (1 / n1) ** 2 * T["l"][0] * float(rho) * T["v"][0]
+    got = rs.rough_multilayer_diffuse(t64(lam), cl, cv, cphi, tc128([1.0, n1, n2]), t64([d]), sigma, TAU,
+                                      shadowing=False)
+    assert abs(float(got) - ref) <= 1e-12 * ref
