@@ -331,8 +331,9 @@ def test_float32_matches_float64():
     kr32 = rs.rough_multilayer_reflectance(t64(wl).float(), c.float(), n.to(torch.complex64), d.float(), 25.0, TAU)
     kd32 = rs.rough_multilayer_diffuse(t64(wl).float(), c.float(), 0.8, -0.9, n.to(torch.complex64), d.float(), 25.0, TAU)
     assert kr32.dtype == torch.float32 and kd32.dtype == torch.float32
-    assert torch.max(torch.abs(kr32.double() - kr64)) < 2e-4  # 1000 nm films: phase ~ 40 rad in float32
-    assert torch.max(torch.abs(kd32.double() - kd64) / kd64.abs().max()) < 2e-4
+    # measured over all Fig. 8 / Table 1 stacks, 81 λ × 21 angles, σ 25 and 50: 6.2e-6 and 3.6e-6
+    assert torch.max(torch.abs(kr32.double() - kr64)) < 3e-5  # 1000 nm films: phases ~ 40 rad in float32
+    assert torch.max(torch.abs(kd32.double() - kd64) / kd64.abs().max()) < 3e-5
 
 
 def test_shapes_broadcast():
