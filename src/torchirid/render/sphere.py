@@ -475,7 +475,7 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--ambient", type=float, default=0.35, help="uniform environment radiance relative to the light")
     p.add_argument("--out", default=".", help="output directory (must exist)")
     p.add_argument("--name", default=None, help="file name stem (default: hirayama_<preset>)")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, parser=p)
     return p
 
 
