@@ -14,7 +14,23 @@ from .fourier import (  # noqa: F401
     thin_film_xyz_fourier,
 )
 from .dfg import DFG_BUILDER, dfg_lut  # noqa: F401
-from .filtered import filtered_thin_film_xyz  # noqa: F401
+from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz  # noqa: F401
+from .fitted import (  # noqa: F401
+    DEFAULT_QUANTILES,
+    LIGHT_MIXTURE_BUILDER,
+    build_light_mixture_table,
+    fitted_thin_film_xyz,
+    light_mixture,
+    light_mixture_path,
+    light_mixture_table,
+)
+from .uniform import (  # noqa: F401
+    cos_theta1_distribution,
+    path_difference_moments,
+    uniform_light_moments,
+    uniform_lobe_quadrature,
+    uniform_thin_film_xyz,
+)
 from .prefilter import (  # noqa: F401
     MOMENT_CHANNELS,
     PrefilteredEnvironment,

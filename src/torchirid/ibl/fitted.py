@@ -48,6 +48,7 @@ __all__ = [
     "build_light_mixture_table",
     "light_mixture_table",
     "light_mixture",
+    "light_mixture_path",
     "fitted_thin_film_xyz",
 ]
 

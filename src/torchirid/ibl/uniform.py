@@ -13,15 +13,16 @@ shared exactly by every method that multiplies a prefiltered BRDF by a reflectan
 moments of :math:`p_R` (what Kneiphof's nine moment channels estimate) and the distribution
 of the path difference D, all by one deterministic quadrature:
 
-**Lobe quadrature.** With h drawn from the visible normals of ω_o (Heitz 2018,
-:func:`~torchirid.microfacet.sample_ggx_vndf`) and ω_i = reflect(ω_o, h), the estimator weight
-of :math:`\tilde ρ⟨n,ω_i⟩` is :math:`G(ω_i,ω_o)/G_1(ω_o) = G_1(ω_i)` for the library's separable
-Smith G (0 below the horizon), so
-:math:`∫ \tilde ρ⟨n,ω_i⟩ f(ω_i)\,dω_i = ∫_{[0,1]^2} G_1(ω_i(u))\,f(ω_i(u))\,du`; the unit
-square is integrated with a tensor Gauss–Legendre rule (``nodes`` × ``nodes``). The integrand
-is continuous (G1 → 0 at the horizon, no jump), so the rule converges quadratically or better:
-measured against brute-force hemisphere quadrature, the albedo and the moments agree to
-≤ 1e-5 at 96 × 96 nodes for α ∈ [0.01, 1], θo ≤ 89° (tests/ibl/test_uniform.py).
+**Lobe quadrature.** The microfacet normal h is drawn from GGX's D·cos density,
+:math:`\tan^2θ_h = α^2 u/(1-u)` with u uniform, φ_h uniform, and ω_i = reflect(ω_o, h); the weight
+of :math:`\tilde ρ⟨n,ω_i⟩` per unit (u, φ/2π) is then :math:`G(ω_i,ω_o)⟨ω_o,h⟩/(\cos θ_o\cos θ_h)`
+(separable Smith G, 0 below the horizon or on back-facing facets). u = sin²(πs/2) removes the
+square roots at both ends (Gauss–Legendre in s) and φ is integrated by the periodic trapezoid
+rule: ``nodes`` × 2·``nodes`` points. The integrand is continuous but has a kink where ω_i
+crosses the horizon, so the error falls as nodes⁻²: the albedo at normal view and α = 1
+(exactly 1 − ln 2) errs by 2.4e-4 / 6.1e-5 / 1.5e-5 at 64 / 128 / 256 nodes; the reference
+colours below move by ΔE2000 < 0.005 from 64 to 256 nodes at grazing and small α
+(tests/ibl/test_uniform.py).
 
 **Reflectance term.** The film's reflectance depends on ω_i only through
 :math:`\cos θ_1 = ⟨h, ω_i⟩ = ⟨h, ω_o⟩`, so the term is :math:`∫_0^1 p(\cos θ_1)\,
@@ -43,7 +44,7 @@ import torch
 from .. import _checks
 from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
-from ..microfacet.ggx import _g1_unchecked, reflect, sample_ggx_vndf
+from ..microfacet.ggx import _g1_unchecked, reflect
 from ..optics.thin_film import thin_film_reflectance
 
 __all__ = [

@@ -1,0 +1,81 @@
+"""The fitted light-mixture table (torchirid.ibl.fitted)."""
+
+import math
+
+import pytest
+import torch
+
+from torchirid import delta_e_2000, xyz_to_lab
+from torchirid.ibl import (build_light_mixture_table, cos_theta1_distribution, fitted_thin_film_xyz,
+                           filtered_thin_film_xyz, light_mixture, light_mixture_table, thin_film_xyz_fourier,
+                           uniform_light_moments, uniform_thin_film_xyz)
+
+F64 = torch.float64
+FILM = dict(n_film=1.3, thickness=600.0, n_substrate=complex(2.0, 0.5))
+
+
+def test_mixture_preserves_mass_mean_and_second_moment():
+    c = torch.tensor([0.1, 0.6, 0.95], dtype=F64)
+    a = torch.tensor([0.8, 0.3, 0.05], dtype=F64)
+    mix = light_mixture(c, a, nodes=32)
+    grid, w, _ = cos_theta1_distribution(c, a, nodes=32)
+    wk, mk, vk = mix.unbind(-1)
+    assert torch.allclose(wk.sum(-1), torch.ones(3, dtype=F64), atol=1e-12)
+    assert torch.allclose((wk * mk).sum(-1), (w * grid).sum(-1), atol=1e-12)
+    assert torch.allclose((wk * (vk + mk * mk)).sum(-1), (w * grid * grid).sum(-1), atol=1e-12)
+    assert (mk[..., 1:] >= mk[..., :-1] - 1e-12).all()  # pieces are ordered in cos θ1
+
+
+def test_table_nodes_equal_direct_mixture_and_shipped_table():
+    lut = build_light_mixture_table(theta_nodes=3, alpha_nodes=3, nodes=32, dtype=F64)
+    c = lut.axes["cos_theta_o"][1]
+    sa = lut.axes["sqrt_alpha"][2]
+    direct = light_mixture(c, sa * sa, nodes=32)
+    assert torch.allclose(lut(cos_theta_o=c, sqrt_alpha=sa), direct, atol=1e-12)
+    shipped = light_mixture_table()
+    assert shipped.parameters["quantiles"] == [0.05, 0.3, 0.7, 0.95]
+    cs, ss = shipped.axes["cos_theta_o"][30], shipped.axes["sqrt_alpha"][20]
+    assert torch.allclose(shipped(cos_theta_o=cs, sqrt_alpha=ss), light_mixture(cs, ss * ss), atol=2e-6)
+
+
+def test_fitted_beats_kneiphof_and_original():
+    th = torch.deg2rad(torch.tensor([5.0, 30.0, 55.0, 70.0, 82.0], dtype=F64))[:, None]
+    c = torch.cos(th)
+    a = torch.tensor([0.03, 0.2, 0.45, 0.9], dtype=F64)[None, :]
+    d = 600.0
+    ref = xyz_to_lab(uniform_thin_film_xyz(c, a, **FILM, nodes=48))
+    fit = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, **FILM)), ref)
+    A, mu, cov = uniform_light_moments(c, a, nodes=48)
+    wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1).expand(5, 4, 3)
+    kn = delta_e_2000(xyz_to_lab(filtered_thin_film_xyz(wo, mu, cov, **FILM)), ref)
+    orig = delta_e_2000(xyz_to_lab(thin_film_xyz_fourier(c.expand(5, 4), **FILM, terms=2, sensitivity="exact")), ref)
+    assert fit.mean() < 0.5 and fit.max() < 2.0
+    assert fit.mean() < 0.25 * kn.mean() and fit.mean() < 0.1 * orig.mean()
+
+
+@pytest.mark.parametrize("base", [1.5, complex(0.2, 3.0)])
+def test_fitted_generalises_to_other_films(base):
+    """The table depends on the geometry only: other film indices, thicknesses and bases."""
+    c = torch.tensor([0.9, 0.5, 0.2], dtype=F64)
+    a = torch.tensor([0.1, 0.4, 0.7], dtype=F64)
+    for nf, d in ((1.6, 350.0), (2.0, 900.0)):
+        ref = xyz_to_lab(uniform_thin_film_xyz(c, a, nf, d, base, nodes=48))
+        de = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, nf, d, base)), ref)
+        assert de.max() < 2.0
+
+
+def test_gradients_and_validation():
+    lut = light_mixture_table(dtype=F64)
+    d = torch.tensor([650.0], dtype=F64, requires_grad=True)
+    nf = torch.tensor(1.4, dtype=F64, requires_grad=True)
+    c = torch.tensor([0.4], dtype=F64)
+    assert torch.autograd.gradcheck(lambda d, nf: fitted_thin_film_xyz(c, 0.3, nf, d, 1.5, table=lut), (d, nf))
+    xyz = fitted_thin_film_xyz(c, 0.3, nf, d, 1.5)
+    xyz.sum().backward()
+    assert torch.isfinite(d.grad).all() and torch.isfinite(nf.grad)
+    with pytest.raises(ValueError, match="table"):
+        fitted_thin_film_xyz(c, 0.3, 1.3, 600.0, 1.5, table="nope")
+    with pytest.raises(ValueError, match="cos_theta_o"):
+        fitted_thin_film_xyz(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5)
+    with pytest.raises(ValueError, match="quantiles"):
+        light_mixture(torch.tensor(0.5, dtype=F64), 0.3, quantiles=(0.5, 0.2))
