@@ -219,3 +219,36 @@ def test_feeds_filtered_thin_film_xyz():
     mu, cov = pre.mean_cov()
     xyz = filtered_thin_film_xyz(pre.directions, mu, cov, 1.3, 400.0, complex(1.5, 0.0))
     assert xyz.shape == (2, 4, 8, 3) and bool(torch.isfinite(xyz).all())
+
+
+def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
+    from torchirid.export import export_lut, load_exported_lut
+    from torchirid.ibl import PrefilteredEnvironment, prefilter_environment, synthetic_environment
+    from torchirid.lut import LUT
+
+    env = synthetic_environment(16, 32)
+    pre = prefilter_environment(env, torch.tensor([0.5, 0.1], dtype=torch.float64), resolution=4)
+    lut = pre.to_lut(parameters={"env": "synthetic 16x32"})
+    assert lut.axis_names == ("alpha", "theta", "phi") and lut.channel_shape == (12,)
+    path = lut.save(tmp_path / "pre.npz")
+    back = PrefilteredEnvironment.from_lut(LUT.load(path))
+    assert torch.equal(back.alphas, torch.tensor([0.1, 0.5], dtype=torch.float64))  # sorted by roughness
+    assert torch.equal(back.radiance[1], pre.radiance[0]) and torch.equal(back.moments[0], pre.moments[1])
+    assert torch.allclose(back.directions, pre.directions)
+    pytest.importorskip("OpenEXR")
+    files = export_lut(lut, tmp_path / "pre", format="exr")
+    exr = load_exported_lut(files[0])
+    assert torch.allclose(exr.values.double(), lut.values, rtol=1e-6, atol=1e-6)
+    with pytest.raises(ValueError, match="2 roughness levels"):
+        prefilter_environment(env, 0.5, resolution=2).to_lut()
+    with pytest.raises(ValueError, match="to_lut"):
+        PrefilteredEnvironment.from_lut(LUT(torch.zeros(2), {"x": torch.tensor([0.0, 1.0])}, builder="other"))
+
+
+def test_shipped_dfg_matches_builder():
+    from torchirid.ibl import DFG_SHIPPED, dfg_lut, shipped_dfg_lut
+
+    lut = shipped_dfg_lut()
+    assert lut.parameters["resolution"] == DFG_SHIPPED["resolution"]
+    small = dfg_lut(DFG_SHIPPED["resolution"], samples=DFG_SHIPPED["samples"])
+    assert (lut.values - small.values).abs().max() < 1e-6  # float32 on disk

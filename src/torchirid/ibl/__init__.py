@@ -13,7 +13,7 @@ from .fourier import (  # noqa: F401
     thin_film_fourier_terms,
     thin_film_xyz_fourier,
 )
-from .dfg import DFG_BUILDER, dfg_lut  # noqa: F401
+from .dfg import DFG_BUILDER, DFG_SHIPPED, dfg_lut, shipped_dfg_lut  # noqa: F401
 from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz  # noqa: F401
 from .fitted import (  # noqa: F401
     DEFAULT_QUANTILES,
@@ -33,6 +33,7 @@ from .uniform import (  # noqa: F401
 )
 from .prefilter import (  # noqa: F401
     MOMENT_CHANNELS,
+    PREFILTERED_ENVIRONMENT_BUILDER,
     PrefilteredEnvironment,
     equirect_directions,
     light_moments_to_mean_cov,

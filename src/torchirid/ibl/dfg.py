@@ -18,16 +18,22 @@ surface. Samples: a 2-D Hammersley set (deterministic, so the table is reproduci
 
 from __future__ import annotations
 
+import functools
+import importlib.resources
+
 import torch
 
 from ..lut import LUT
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 
-__all__ = ["dfg_lut", "DFG_BUILDER"]
+__all__ = ["dfg_lut", "shipped_dfg_lut", "DFG_BUILDER", "DFG_SHIPPED"]
 
 DFG_BUILDER = "torchirid.ibl.dfg:dfg_lut"
 _COS_MIN = 1e-4  # the cos θo = 0 node is evaluated here (VNDF sampling needs a view above the horizon)
 _ALPHA_MIN = 1e-3  # the α = 0 node is evaluated here (GGX needs α > 0; a mirror to ~1e-6)
+#: parameters of the shipped table ``data/dfg/dfg_64.npz`` (built by ``luts/build_dfg.py``)
+DFG_SHIPPED = {"resolution": 64, "samples": 4096}
+_DFG_FILE = ("data", "dfg", "dfg_64.npz")
 
 
 def _hammersley(n: int, dtype) -> torch.Tensor:
@@ -81,3 +87,28 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
                parameters={"resolution": resolution, "samples": samples, "sampling": "ggx vndf, hammersley",
                            "masking": "separable smith", "cos_min": _COS_MIN, "alpha_min": _ALPHA_MIN},
                units={"cos_theta_o": "1", "alpha": "1", "values": "1 (scale, bias of F0)"})
+
+
+@functools.lru_cache(maxsize=None)
+def _shipped(dtype, device) -> LUT:
+    path = importlib.resources.files("torchirid").joinpath(*_DFG_FILE)
+    with importlib.resources.as_file(path) as p:
+        if p.exists():
+            lut = LUT.load(p, builder=DFG_BUILDER)
+            if {k: lut.parameters.get(k) for k in DFG_SHIPPED} != DFG_SHIPPED:
+                raise ValueError(f"{p}: not the shipped DFG table ({lut.parameters})")
+        else:  # a source tree without the data file: build it (≈ 2 s)
+            lut = dfg_lut(**DFG_SHIPPED)
+    return lut.to(dtype=dtype, device=device)
+
+
+def shipped_dfg_lut(*, dtype: torch.dtype = torch.float64, device=None) -> LUT:
+    """The shipped split-sum table (64 × 64 nodes, 4096 samples each; float32 on disk), cached.
+
+    Example:
+        >>> lut = shipped_dfg_lut()
+        >>> [round(v, 3) for v in lut(cos_theta_o=torch.tensor(1.0, dtype=torch.float64),
+        ...                          alpha=torch.tensor(0.0, dtype=torch.float64)).tolist()]
+        [1.0, 0.0]
+    """
+    return _shipped(dtype, torch.device("cpu") if device is None else torch.device(device))

@@ -35,6 +35,7 @@ import numpy as np
 import torch
 
 from .. import _checks
+from ..lut import LUT
 from ..microfacet.ggx import _d_unchecked
 
 __all__ = [
@@ -45,8 +46,10 @@ __all__ = [
     "prefilter_environment",
     "synthetic_environment",
     "MOMENT_CHANNELS",
+    "PREFILTERED_ENVIRONMENT_BUILDER",
 ]
 
+PREFILTERED_ENVIRONMENT_BUILDER = "torchirid.ibl.prefilter:PrefilteredEnvironment.to_lut"
 MOMENT_CHANNELS = ("x", "y", "z", "xx", "yy", "zz", "xy", "yz", "zx")
 _LUMA = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, linear luminance Y
 _CHUNK_ELEMENTS = 1 << 22  # outputs × texels per batch: bounds memory at ~32 MiB per float64 temporary
@@ -163,6 +166,38 @@ class PrefilteredEnvironment:
     def mean_cov(self) -> tuple[torch.Tensor, torch.Tensor]:
         """``(mean (A, Ho, Wo, 3), cov (A, Ho, Wo, 3, 3))`` of the light directions."""
         return light_moments_to_mean_cov(self.moments)
+
+    def to_lut(self, *, parameters=None) -> "LUT":
+        """The maps as one :class:`~torchirid.lut.LUT`: axes ``alpha`` (A ≥ 2 levels), ``theta``
+        and ``phi`` (radians, texel centres of the module convention), channels ``(12,)`` =
+        R, G, B radiance then the nine moments (:data:`MOMENT_CHANNELS`). Save it with
+        ``.save(path)``, export it for shaders with :func:`torchirid.export.export_lut`
+        (OpenEXR or raw float32 + JSON), read it back with :meth:`from_lut`.
+        ``parameters``: extra JSON metadata (e.g. the environment's file name).
+        """
+        if self.alphas.numel() < 2:
+            raise ValueError("to_lut needs at least 2 roughness levels (a LUT axis has >= 2 nodes); "
+                             "prefilter with more alphas")
+        order = torch.argsort(self.alphas)
+        ho, wo = self.directions.shape[:2]
+        dt, dev = self.radiance.dtype, self.radiance.device
+        theta = (torch.arange(ho, dtype=dt, device=dev) + 0.5) * (math.pi / ho)
+        phi = (torch.arange(wo, dtype=dt, device=dev) + 0.5) * (2.0 * math.pi / wo)
+        values = torch.cat([self.radiance, self.moments], -1)[order]
+        return LUT(values, {"alpha": self.alphas[order], "theta": theta, "phi": phi},
+                   builder=PREFILTERED_ENVIRONMENT_BUILDER, parameters=dict(parameters or {}),
+                   units={"alpha": "1", "theta": "rad", "phi": "rad",
+                          "values": "radiance (linear RGB, as the map) then moments of l (1)"})
+
+    @classmethod
+    def from_lut(cls, lut: "LUT") -> "PrefilteredEnvironment":
+        """Inverse of :meth:`to_lut` (refuses a LUT from another builder)."""
+        if not isinstance(lut, LUT) or lut.builder != PREFILTERED_ENVIRONMENT_BUILDER:
+            raise ValueError("lut must be a LUT written by PrefilteredEnvironment.to_lut")
+        v = lut.values
+        ho, wo = v.shape[1], v.shape[2]
+        R, _ = equirect_directions(ho, wo, dtype=v.dtype, device=v.device)
+        return cls(alphas=lut.axes["alpha"], directions=R, radiance=v[..., :3], moments=v[..., 3:])
 
 
 def light_moments_to_mean_cov(m) -> tuple[torch.Tensor, torch.Tensor]:

@@ -1,0 +1,35 @@
+"""Build the shipped split-sum DFG table of torchirid.ibl.dfg (64 × 64 nodes, 4096 samples).
+
+    PYTHONPATH=src python luts/build_dfg.py [--out PATH]
+
+Writes src/torchirid/data/dfg/dfg_64.npz (float32). Export it for a shader with
+``torchirid.export.export_lut(shipped_dfg_lut(), "dfg", format="exr")``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import torch
+
+from torchirid.ibl.dfg import DFG_SHIPPED, dfg_lut
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ROOT / "src/torchirid/data/dfg/dfg_64.npz")
+    args = ap.parse_args(argv)
+    t = time.perf_counter()
+    lut = dfg_lut(**DFG_SHIPPED).to(torch.float32)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    lut.save(args.out)
+    print(f"wrote {args.out} ({args.out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
