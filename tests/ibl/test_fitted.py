@@ -79,3 +79,14 @@ def test_gradients_and_validation():
         fitted_thin_film_xyz(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5)
     with pytest.raises(ValueError, match="quantiles"):
         light_mixture(torch.tensor(0.5, dtype=F64), 0.3, quantiles=(0.5, 0.2))
+
+
+def test_sensitivity_lut_mode_close_to_exact():
+    c = torch.tensor([0.9, 0.5, 0.15], dtype=F64)
+    a = torch.tensor([0.05, 0.3, 0.6], dtype=F64)
+    d = torch.tensor([150.0, 600.0, 950.0], dtype=F64)
+    ex = xyz_to_lab(fitted_thin_film_xyz(c, a, 1.3, d, complex(2.0, 0.5)))
+    lut = xyz_to_lab(fitted_thin_film_xyz(c, a, 1.3, d, complex(2.0, 0.5), sensitivity="lut"))
+    assert delta_e_2000(lut, ex).max() < 0.3
+    with pytest.raises(ValueError, match="sensitivity"):
+        fitted_thin_film_xyz(c, a, 1.3, d, 1.5, sensitivity="table")

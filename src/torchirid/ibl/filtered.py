@@ -42,7 +42,18 @@ from __future__ import annotations
 import torch
 
 from .. import _checks
-from .fourier import _check_names, prefiltered_fourier_sensitivity, thin_film_fourier_terms
+from .fourier import (_check_names, prefiltered_fourier_sensitivity, prefiltered_fourier_sensitivity_lut,
+                      thin_film_fourier_terms)
+
+#: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
+#: or ``"lut"`` (Kneiphof's 2-D table, bilinear, built in memory on first use).
+FILTERED_SENSITIVITY_MODES = ("exact", "lut")
+
+
+def _check_sensitivity(sensitivity):
+    if sensitivity not in FILTERED_SENSITIVITY_MODES:
+        raise ValueError(f"sensitivity must be one of {_checks.names(FILTERED_SENSITIVITY_MODES)}; "
+                         f"got {sensitivity!r}")
 
 __all__ = ["filtered_thin_film_xyz", "gaussian_path_thin_film_xyz"]
 
@@ -62,7 +73,8 @@ def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
 
 def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
-                           illuminant: str = "D65", polarization: str = "unpolarized") -> torch.Tensor:
+                           illuminant: str = "D65", polarization: str = "unpolarized",
+                           sensitivity: str = "exact") -> torch.Tensor:
     r"""Thin-film XYZ averaged over a light-direction distribution (Kneiphof et al. 2019, eq. 20–29).
 
     See the module docstring for the chain eq. 20 → 29. For ``light_cov = 0`` and a unit
@@ -81,6 +93,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         terms: M ≥ 0, Fourier terms kept (paper: 2).
         observer, illuminant: the sensitivity (see :func:`~torchirid.ibl.fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
+        sensitivity: ``"exact"`` (default) or ``"lut"`` (:data:`FILTERED_SENSITIVITY_MODES`).
 
     Returns:
         ``(*, 3)`` XYZ (white Y = 1), real dtype of the inputs, differentiable w.r.t. every input.
@@ -97,6 +110,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
         raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
     _check_names(observer, illuminant)
+    _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wo, light_mean, light_cov, n_film, thickness,
                                                  n_substrate, n_outer)
@@ -138,20 +152,21 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     mean_D = scale * mean_c2
     var_D = scale * scale * var_c2
 
-    return _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant)
+    return _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivity)
 
 
-def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant):
+def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivity="exact"):
     """Eq. 29 from the series terms (polarization-leading C0, a, K) and D ~ N(mean_D, var_D)."""
     dtype, device = mean_D.dtype, mean_D.device
+    fn = prefiltered_fourier_sensitivity if sensitivity == "exact" else prefiltered_fourier_sensitivity_lut
     # eq. 29: Ŝ(0) is the white; Ŝ(−mμ, m²σ²) = conj Ŝ(mμ, m²σ²) (the Gaussian damping is real)
     zero = torch.zeros((), dtype=dtype, device=device)
     white = prefiltered_fourier_sensitivity(zero, zero, observer=observer, illuminant=illuminant).real
     xyz = C0.mean(0)[..., None] * white
     if terms:
         m = torch.arange(1, terms + 1, dtype=dtype, device=device)
-        S = prefiltered_fourier_sensitivity(mean_D[..., None] * m, var_D[..., None] * (m * m),
-                                            observer=observer, illuminant=illuminant)  # (*, M, 3)
+        S = fn(mean_D[..., None] * m, var_D[..., None] * (m * m), observer=observer,
+               illuminant=illuminant)  # (*, M, 3)
         am = torch.polar(a.abs()[..., None] ** m, torch.angle(a)[..., None] * m)  # (P, *, M)
         coef = (am * K[..., None]).mean(0)  # polarization average
         # C_m e^{imφ2} Ŝ(−mμ_D, ·) + c.c. = 2 Re[a^m K conj Ŝ(mμ_D, ·)]
@@ -161,7 +176,8 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant):
 
 def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
                                 n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
-                                illuminant: str = "D65", polarization: str = "unpolarized") -> torch.Tensor:
+                                illuminant: str = "D65", polarization: str = "unpolarized",
+                                sensitivity: str = "exact") -> torch.Tensor:
     r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.
 
     The last step of :func:`filtered_thin_film_xyz`, for callers that know μ_D and σ²_D by other
@@ -174,7 +190,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
         cos_theta: cos θ₁* (incidence on the facet) at which C*_m and φ₂* are evaluated, in [0, 1].
         n_film, thickness, n_substrate, n_outer, terms, observer, illuminant, polarization: as
             :func:`filtered_thin_film_xyz` (C*_m and φ₂* do not depend on the thickness; it is
-            validated and broadcast like the rest).
+            validated and broadcast like the rest); sensitivity: ``"exact"`` or ``"lut"``.
         path_mean: μ_D in nm; path_var: σ²_D in nm² (≥ 0). Broadcast with the rest.
 
     Returns:
@@ -190,6 +206,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
     if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
         raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
     _check_names(observer, illuminant)
+    _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, path_mean,
                                                  path_var, n_outer)
@@ -201,4 +218,5 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
     shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
     P = C0.shape[0]
     ex = lambda t: t.expand(P, *shape)  # noqa: E731
-    return _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant)
+    return _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant,
+                       sensitivity)

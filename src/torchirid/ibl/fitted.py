@@ -38,7 +38,7 @@ import torch
 
 from .. import _checks
 from ..lut import LUT
-from .filtered import _series_xyz
+from .filtered import _check_sensitivity, _series_xyz
 from .fourier import _check_names, thin_film_fourier_terms
 from .uniform import cos_theta1_distribution
 
@@ -158,7 +158,7 @@ def light_mixture_table(*, dtype: torch.dtype = torch.float64, device=None) -> L
 
 def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_outer=1.0, table=None,
                          terms: int = 2, observer: str = "CIE 1931 2", illuminant: str = "D65",
-                         polarization: str = "unpolarized") -> torch.Tensor:
+                         polarization: str = "unpolarized", sensitivity: str = "exact") -> torch.Tensor:
     r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
 
     Args:
@@ -167,7 +167,9 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         n_outer: real outer index η₁ (default 1).
         table: a :class:`~torchirid.lut.LUT` from :func:`build_light_mixture_table`; default
             the shipped one.
-        terms, observer, illuminant, polarization: as :func:`~torchirid.ibl.filtered_thin_film_xyz`.
+        terms, observer, illuminant, polarization, sensitivity: as
+            :func:`~torchirid.ibl.filtered_thin_film_xyz` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
+            what a shader reads).
 
     Returns:
         ``(*, 3)`` XYZ of the reflectance term (white Y = 1); multiply by the albedo (DFG) for
@@ -182,6 +184,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
         raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
     _check_names(observer, illuminant)
+    _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_outer)
     c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
@@ -212,5 +215,5 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, n_substrate, n_outer=n0, polarization=polarization)
     shape = C0.shape[1:]
     xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
-                      terms, observer, illuminant)  # (K, *, 3)
+                      terms, observer, illuminant, sensitivity)  # (K, *, 3)
     return (w.expand(shape)[..., None] * xyz).sum(0)

@@ -80,6 +80,8 @@ __all__ = [
     "build_fourier_sensitivity",
     "prefiltered_fourier_sensitivity",
     "build_prefiltered_sensitivity",
+    "prefiltered_sensitivity_lut",
+    "prefiltered_fourier_sensitivity_lut",
     "thin_film_fourier_terms",
     "thin_film_xyz_fourier",
     "FOURIER_SENSITIVITY_BUILDER",
@@ -344,6 +346,49 @@ def build_prefiltered_sensitivity(observer: str = "CIE 1931 2", illuminant: str 
                            "step": float(step), "sigma_max": float(sigma_max),
                            "representation": _REPRESENTATION},
                units={"mu": "nm", "sigma": "nm", "values": "magnitude 1, phase rad"})
+
+
+@functools.lru_cache(maxsize=None)
+def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
+    if dtype != torch.float64 or device != torch.device("cpu"):
+        return _prefiltered_cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype,
+                                                                                                device=device)
+    return build_prefiltered_sensitivity(observer, illuminant)
+
+
+def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
+                                dtype: torch.dtype = torch.float64, device=None) -> LUT:
+    """Kneiphof's 2-D Ŝ(μ_D, σ_D) table with the default grid (μ 0–20 µm every 10 nm, σ 0–1000 nm
+    in 41 nodes), built in memory on first use (≈ 3–6 s) and cached per observer/illuminant/dtype/device."""
+    _check_names(observer, illuminant)
+    return _prefiltered_cached(observer, illuminant, dtype,
+                               torch.device(device) if device is not None else torch.device("cpu"))
+
+
+def prefiltered_fourier_sensitivity_lut(mu, sigma2, *, observer: str = "CIE 1931 2",
+                                        illuminant: str = "D65") -> torch.Tensor:
+    r"""Ŝ(μ, σ²) read from :func:`prefiltered_sensitivity_lut` (bilinear in magnitude and unwrapped
+    phase over (|μ|, σ)); conjugate for μ < 0, 0 beyond μ = 20 µm, σ clamped at 1000 nm (where
+    |Ŝ| < 1e-20). What a shader does with Kneiphof's texture; compare
+    :func:`prefiltered_fourier_sensitivity` (exact).
+
+    Example:
+        >>> import torch
+        >>> s = prefiltered_fourier_sensitivity_lut(torch.tensor(1000.0, dtype=torch.float64), 100.0**2)
+        >>> round(abs(s[1]).item(), 4)
+        0.3742
+    """
+    dtype, device = _checks.resolve_dtype_device(mu, sigma2)
+    m = _checks.as_real(mu, "mu", dtype, device)
+    s2 = _checks.as_real(sigma2, "sigma2", dtype, device)
+    _checks.check_nonnegative(s2, "sigma2", "nm^2")
+    lut = prefiltered_sensitivity_lut(observer, illuminant, dtype=dtype, device=device)
+    a = m.abs()
+    v = lut(mu=a, sigma=torch.sqrt(s2))
+    mag, ph = v[..., 0], v[..., 1]
+    mag = torch.where((a <= lut.axes["mu"][-1])[..., None], mag, torch.zeros_like(mag))
+    ph = torch.where((m < 0)[..., None], -ph, ph)
+    return torch.polar(mag, ph)
 
 
 # ---------------------------------------------------------------------------------------
