@@ -62,7 +62,7 @@ class FilmEstimate:
 
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
                   passband: str = "box", polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5),
-                  thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 1024,
+                  thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
                   iterations: int = 10, final_iterations: int = 2, seed: int = 0, progress=None) -> FilmEstimate:
     """Film index (shared) and per-pixel thickness from a cube (module docstring).
 
@@ -108,7 +108,9 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     g = torch.Generator().manual_seed(int(seed))
     idx = torch.randperm(P, generator=g)[: min(P, sample)]
     ys, ds = Y[idx], d_peak[idx]
-    n_scan, d_scan, _, _ = scan_index(ys, ds, pk.n, lam, c, ns, **kw)
+    a_sel = sorted({0, A // 2, A - 1})  # decimated cube for the scans: 3 angles, every 3rd band
+    b_sel = list(range(0, B, 3))
+    n_scan, d_scan, _, _ = scan_index(ys[:, a_sel][:, :, b_sel], ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
     step("index scan")
     s2 = (float(n_outer) ** 2) * (1 - c * c)
     lam_mid = float(lam.median())
@@ -137,9 +139,13 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     Tm = period(n_mid)
     D = (d_peak * scale)[:, None] + Tm * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
     D = torch.where(D > 0, D, torch.full_like(D, math.nan))
+    # the order: 3 candidates polished on the decimated cube, then the winner on the full cube
+    terms_s = model_terms(theta, index_model_name, lam[b_sel], c[a_sel], ns, **kw)
+    Dn, S = d_only_gauss_newton(Y[:, a_sel][:, :, b_sel], D, terms_s, iterations=2)
+    d0 = Dn.gather(-1, S.argmin(-1, keepdim=True))
     terms = model_terms(theta, index_model_name, lam, c, ns, **kw)
-    Dn, S = d_only_gauss_newton(Y, D, terms, iterations=3)
-    d = Dn.gather(-1, S.argmin(-1, keepdim=True))[:, 0]
+    d, S = d_only_gauss_newton(Y, d0, terms, iterations=2)
+    d = d[:, 0]
     step("thickness")
     if final_iterations > 0 or smoothness > 0:
         res = refine_film(y, lam, c, ns, d.reshape(batch), theta, index_model_name=index_model_name,
@@ -147,7 +153,7 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
                           fit_index=final_iterations > 0, progress=progress, **kw)
         theta, d, sse = res.params, res.thickness.reshape(-1), res.sse.reshape(-1)
     else:
-        sse = S.min(-1).values
+        sse = S[:, 0]
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
     n_ref = float(index_model(torch.tensor(REFERENCE_WAVELENGTH, dtype=dtype), theta, index_model_name))

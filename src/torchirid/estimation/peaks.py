@@ -35,7 +35,6 @@ import math
 from dataclasses import dataclass
 
 import torch
-import torch.nn.functional as F
 
 from .. import _checks
 from .measurement import airy_terms, band_terms
@@ -81,14 +80,23 @@ def _gauss_kernel(sigma: float, dtype, device):
 
 
 def _smooth(y: torch.Tensor, sigma: float) -> torch.Tensor:
-    """Gaussian smoothing along the last axis with reflected ends; y: (N, B)."""
+    """Gaussian smoothing along the last axis with reflected ends; y: (N, B).
+
+    One (B, B) matrix product (BLAS) — several times faster than a conv1d over many short rows.
+    """
+    B = y.shape[-1]
     k = _gauss_kernel(sigma, y.dtype, y.device)
-    r = (k.numel() - 1) // 2
-    r = min(r, y.shape[-1] - 1)
+    r = min((k.numel() - 1) // 2, B - 1)
     k = k[(k.numel() - 1) // 2 - r:(k.numel() - 1) // 2 + r + 1]
     k = k / k.sum()
-    yp = F.pad(y[:, None], (r, r), mode="reflect")
-    return F.conv1d(yp, k.flip(0)[None, None])[:, 0]
+    # column j of M holds the weights of output j over the inputs, reflection folded in
+    src = torch.arange(B, device=y.device)[:, None] + torch.arange(-r, r + 1, device=y.device)[None, :]
+    src = src.abs()
+    src = torch.where(src > B - 1, 2 * (B - 1) - src, src)
+    M = torch.zeros(B, B, dtype=y.dtype, device=y.device)
+    M.index_put_((src.reshape(-1), torch.arange(B, device=y.device).repeat_interleave(2 * r + 1)),
+                 k.repeat(B), accumulate=True)
+    return y @ M
 
 
 def _raw_extrema(sm: torch.Tensor, edge: int):
@@ -141,7 +149,8 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
     Y = y.reshape(-1, B)
     Yf = torch.nan_to_num(Y, nan=0.0)
     if window is None:
-        kind0 = _raw_extrema(_smooth(Yf, 1.5), 2)
+        probe = Yf[torch.linspace(0, Yf.shape[0] - 1, min(Yf.shape[0], 2048)).long()]  # a spread of spectra is enough
+        kind0 = _raw_extrema(_smooth(probe, 1.5), 2)
         idx = torch.arange(B, device=y.device).expand_as(kind0)
         posn = torch.where(kind0 != 0, idx, -1)
         # spacing between successive extrema, pooled over every spectrum
@@ -155,34 +164,37 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
         raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")
     sm = _smooth(Yf, max(W / 2, 1.0))
     kind = _raw_extrema(sm, W)
-    # least-squares parabola in the wavenumber ν = 1/λ over the 2W+1 bands around each band:
-    # the film phase is linear in ν, so a peak is symmetric in ν (not in λ) — no skew bias
-    win = Yf.unfold(-1, 2 * W + 1, 1)  # (N, B - 2W, 2W+1), window centred at band W + j
+    # the first K candidate extrema by wavelength, then a parabola only there
+    idx = torch.arange(B, device=y.device).expand_as(kind)
+    key = torch.where(kind != 0, idx, B + idx)
+    order = key.topk(min(max_extrema, B), dim=-1, largest=False, sorted=True).indices  # (N, K) band indices
+    k_sel = kind.gather(-1, order)
+    centre = order.clamp(W, B - 1 - W)
+    # least-squares parabola in the wavenumber ν = 1/λ over the 2W+1 bands around each extremum:
+    # the film phase is linear in ν, so a fringe is symmetric in ν (not in λ) — no skew bias
     nu = 1000.0 / lam  # 1/µm
-    nu_w = nu.unfold(-1, 2 * W + 1, 1)  # (B - 2W, 2W+1)
+    nu_w = nu.unfold(-1, 2 * W + 1, 1)  # (B - 2W, 2W+1), window j centred at band W + j
     t = nu_w - nu[W:B - W, None]
     scale_t = t.abs().amax(-1, keepdim=True)
     ts = t / scale_t
     V = torch.stack([torch.ones_like(ts), ts, ts * ts], dim=-1)  # (B-2W, 2W+1, 3)
-    Pm = torch.linalg.pinv(V)  # (B-2W, 3, 2W+1)
-    coef = torch.einsum("jkw,njw->njk", Pm, win)
-    c1, c2 = coef[..., 1], coef[..., 2]
-    vertex = -c1 / (2 * c2) * scale_t[:, 0]  # in ν, relative to the centre band
-    ok_shape = torch.zeros_like(kind, dtype=torch.bool)
-    inner = kind[:, W:B - W]
-    good = ((inner == 1) & (c2 < 0)) | ((inner == -1) & (c2 > 0))
-    half = (max(W / 2, 1.0) * step / lam[W:B - W]) * nu[W:B - W]  # W/2 bands, in ν
-    good = good & (vertex.abs() <= half)
-    ok_shape[:, W:B - W] = good
-    kind = torch.where(ok_shape, kind, torch.zeros_like(kind))
-    pos_all = lam.expand_as(Yf).clone()
-    pos_all[:, W:B - W] = 1000.0 / (nu[W:B - W] + torch.nan_to_num(vertex, nan=0.0))
-    # keep the first K extrema by wavelength
-    idx = torch.arange(B, device=y.device).expand_as(kind)
-    key = torch.where(kind != 0, idx, B + idx)
-    order = key.argsort(dim=-1)[:, :max_extrema]
-    k_sel = kind.gather(-1, order)
-    p_sel = torch.where(k_sel != 0, pos_all.gather(-1, order), torch.full_like(pos_all[:, :1], math.nan))
+    Pm = torch.linalg.pinv(V)[:, 1:]  # rows for c1, c2: (B-2W, 2, 2W+1)
+    offs = torch.arange(-W, W + 1, device=y.device)
+    win = Yf.gather(-1, (centre[..., None] + offs).reshape(Yf.shape[0], -1)).reshape(*centre.shape, 2 * W + 1)
+    Psel = Pm[centre - W]  # (N, K, 2, 2W+1)
+    coef = (Psel * win[..., None, :]).sum(-1)  # (N, K, 2)
+    c1, c2 = coef[..., 0], coef[..., 1]
+    vertex = -c1 / (2 * c2) * scale_t[centre - W, 0]  # in ν, relative to the centre band
+    nu_c = nu[centre]
+    half = max(W / 2, 1.0) * step / lam[centre] * nu_c  # W/2 bands, in ν
+    good = (((k_sel == 1) & (c2 < 0)) | ((k_sel == -1) & (c2 > 0))) & (vertex.abs() <= half)
+    k_sel = torch.where(good, k_sel, torch.zeros_like(k_sel))
+    p_sel = torch.where(k_sel != 0, 1000.0 / (nu_c + torch.nan_to_num(vertex, nan=0.0)),
+                        torch.full_like(nu_c, math.nan))
+    # rejected candidates last, the rest in order of wavelength
+    key2 = torch.where(k_sel != 0, order, B + order)
+    o2 = key2.argsort(-1)
+    k_sel, p_sel = k_sel.gather(-1, o2), p_sel.gather(-1, o2)
     K = order.shape[-1]
     return p_sel.reshape(*batch, K), k_sel.reshape(*batch, K), W
 
@@ -368,7 +380,7 @@ class PeakResult:
 
 def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 4.0, passband: str = "box",
                 polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0),
-                n_film=None, window=None) -> PeakResult:
+                n_film=None, window=None, score_stride: int = 3) -> PeakResult:
     r"""Kobayashi et al.'s estimate of n (eq. 12) and per-pixel d (eq. 13–14) from a cube ``(*, A, B)``.
 
     Args:
@@ -376,6 +388,9 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
         wavelength: ``(B,)`` band centres (nm), uniform; cos_theta ``(A,)``.
         n_substrate: real substrate index.
         n_film: if given, skip eq. 12 and use this index.
+        score_stride: eq. 14 scores the orders on every ``score_stride``-th band of the first,
+            middle and last angles (enough to tell orders apart, 5× cheaper at the default 3;
+            1 with all angles = the full cube).
 
     Example: see ``tests/estimation/test_peaks.py`` (a synthetic MgF₂ cube gives n within 0.02).
     """
@@ -401,18 +416,21 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
         n_est = float(n_film)
     cand = thickness_candidates(tracks, kinds, c, n_est, n_substrate, thickness_range=thickness_range,
                                 n_outer=n_outer, polarization=polarization)
-    terms = band_terms(lam, c[:, None], n_est, float(n_substrate), bandwidth=bandwidth, passband=passband,
+    a_sel = sorted({0, A // 2, A - 1}) if score_stride > 1 else list(range(A))
+    b_sel = list(range(0, B, max(1, int(score_stride))))
+    terms = band_terms(lam[b_sel], c[a_sel, None], n_est, float(n_substrate), bandwidth=bandwidth, passband=passband,
                        n_outer=n_outer, polarization=polarization)
+    Ys = Y[:, a_sel][:, :, b_sel]
     d = torch.full((P,), math.nan, dtype=dtype)
     sse = torch.full((P,), math.inf, dtype=dtype)
     has = ~cand.isnan().all(-1)
     if bool(has.any()):
-        d[has], sse[has] = select_candidates(Y[has], cand[has], terms)
+        d[has], sse[has] = select_candidates(Ys[has], cand[has], terms)
     nofb = int((~has).sum())
     if nofb:
         # no usable extremum: a grid fine enough for the refinement's basin (λ_min/(8 n))
         step = float(lam[0]) / (8 * n_est)
         grid = torch.arange(thickness_range[0], thickness_range[1] + step, step, dtype=dtype)
-        d[~has], sse[~has] = select_candidates(Y[~has], grid.expand(nofb, -1), terms)
+        d[~has], sse[~has] = select_candidates(Ys[~has], grid.expand(nofb, -1), terms)
     return PeakResult(n=n_est, thickness=d.reshape(batch), sse=sse.reshape(batch),
                       track_index=n_tr.reshape(*batch, -1), window=W, fallback=nofb)
