@@ -7,7 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
-from . import color, export, fitting, ibl, layered, lut, microfacet, optics, render, spectral
+from . import color, export, fitting, ibl, layered, lut, materials, microfacet, optics, render, spectral
 from ._compile import compile_enabled, set_compile
 from .color import (
     DELTA_E_METHODS,
@@ -44,7 +44,7 @@ from .layered import (
     transmissivity_lut,
 )
 from .fitting import load_scatterogram, match_scatterogram
-from .ibl import thin_film_xyz_fourier
+from .ibl import fitted_thin_film_xyz, filtered_thin_film_xyz, thin_film_xyz_fourier, uniform_thin_film_xyz
 from .lut import LUT
 from .render import scatterogram
 from .microfacet import (
@@ -66,7 +66,16 @@ from .optics import (
     fresnel_reflectance,
     multilayer,
     thin_film_reflectance,
+    FilmStack,
+    film_reflectance,
+    hirayama_stacks,
+    reflectance_table,
+    rough_multilayer_diffuse,
+    rough_multilayer_reflectance,
+    smooth_radiance,
+    table_reflectance,
 )
+from .materials import available_materials, material_range, refractive_index
 from .spectral import BRAGG_XYZ_METHODS, bragg_xyz
 
 __version__ = "0.1.0"
@@ -128,4 +137,18 @@ __all__ = [
     "match_scatterogram",
     "scatterogram",
     "thin_film_xyz_fourier",
+    "filtered_thin_film_xyz",
+    "fitted_thin_film_xyz",
+    "uniform_thin_film_xyz",
+    "FilmStack",
+    "film_reflectance",
+    "hirayama_stacks",
+    "reflectance_table",
+    "rough_multilayer_diffuse",
+    "rough_multilayer_reflectance",
+    "smooth_radiance",
+    "table_reflectance",
+    "available_materials",
+    "material_range",
+    "refractive_index",
 ]

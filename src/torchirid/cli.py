@@ -20,6 +20,7 @@ products. That import (torch, numpy, matplotlib) happens inside the command so t
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -93,6 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
             "  torchirid gradients                      # Fourneau et al. 2024, Fig. 4 atlas\n"
             "  torchirid scatterogram                   # jewel-beetle scatterograms, Fig. 9\n"
             "  torchirid thin-film                      # Kneiphof et al. 2019 Fig. 7: thin films under IBL\n"
+            "  torchirid render-sphere                  # Hirayama 2000 Fig. 8: coated rough spheres\n"
+            "  torchirid film-table --stack teapot --check  # Hirayama 2000 §5: k_r/k_t table → LUT .npz\n"
             "  torchirid spectrum --help                # all options"
         ),
     )
@@ -176,6 +179,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_gradients_parser(sub)
     _add_scatterogram_parser(sub)
     _add_thin_film_parser(sub)
+    # by module path: the packages re-export functions of the same names as these modules
+    importlib.import_module("torchirid.optics.reflectance_table").add_parser(sub)
+    importlib.import_module("torchirid.render.sphere").add_parser(sub)
     return parser
 
 

@@ -5,6 +5,12 @@ from .fresnel import fresnel_reflectance
 from .modules import BraggMirror, Multilayer, ThinFilm
 from .multilayer import multilayer
 from .thin_film import thin_film_reflectance
+from .film_reflectance import (FilmStack, film_reflectance, hirayama_stacks, smooth_directions,
+                               smooth_radiance, stack_indices)
+from .reflectance_table import interpolation_error, reflectance_table, table_reflectance
+from .rough_surface import (coherent_attenuation, effective_roughness, he_directional_diffuse, he_shadowing,
+                            rough_multilayer_diffuse, rough_multilayer_reflectance, roughness_factor,
+                            stack_transmittance_to_last_film)
 
 __all__ = [
     "BraggMirror",
@@ -16,4 +22,21 @@ __all__ = [
     "fresnel_reflectance",
     "multilayer",
     "thin_film_reflectance",
+    "FilmStack",
+    "film_reflectance",
+    "hirayama_stacks",
+    "smooth_directions",
+    "smooth_radiance",
+    "stack_indices",
+    "interpolation_error",
+    "reflectance_table",
+    "table_reflectance",
+    "coherent_attenuation",
+    "effective_roughness",
+    "he_directional_diffuse",
+    "he_shadowing",
+    "rough_multilayer_diffuse",
+    "rough_multilayer_reflectance",
+    "roughness_factor",
+    "stack_transmittance_to_last_film",
 ]
