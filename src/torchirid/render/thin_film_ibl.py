@@ -209,8 +209,8 @@ def plot_thin_film_ibl(panels):
     panels = list(panels)
     keys = [k for k, _ in THIN_FILM_IBL_METHODS] + ["reference"]
     labels = [lab for _, lab in THIN_FILM_IBL_METHODS] + ["reference (ground truth)"]
-    fig = Figure(figsize=(2.3 * len(keys) + 0.6, 2.75 * len(panels) + 0.7))
-    gs = fig.add_gridspec(len(panels), len(keys), left=0.06, right=0.99, top=0.9, bottom=0.07,
+    fig = Figure(figsize=(2.3 * len(keys) + 0.6, 2.9 * len(panels) + 0.9))
+    gs = fig.add_gridspec(len(panels), len(keys), left=0.06, right=0.99, top=0.9, bottom=0.13,
                           wspace=0.08, hspace=0.55)
     for i, p in enumerate(panels):
         light = {k: p.xyz[k] * p.albedo[..., None] for k in keys}
