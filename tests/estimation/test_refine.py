@@ -93,3 +93,18 @@ def test_refine_errors():
         refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, cube.thickness, 1.4, smoothness=-1.0)
     with pytest.raises(ValueError, match="cube"):
         estimate_film(torch.zeros(5, 81), cube.wavelength, cube.cos_theta, 1.64)
+
+
+def test_dead_pixels_smoothness_and_float32():
+    cube = synthetic_cube("mgf2_400", height=16, width=16, seed=3)
+    y = cube.cube.clone()
+    y[0, 0] = math.nan  # a dead pixel: every angle and band
+    y[5, 5, 2, 10:20] = math.nan  # a few dropped samples
+    est = estimate_film(y, cube.wavelength, cube.cos_theta, 1.64, sample=128, smoothness=1e-6)
+    assert abs(est.n - 1.37) < 0.005
+    err = (est.thickness - cube.thickness).abs()
+    err[0, 0] = 0
+    assert float(err.mean()) < 2.0 and float(err[5, 5]) < 2.0
+    est32 = estimate_film(cube.cube.float(), cube.wavelength.float(), cube.cos_theta.float(), 1.64, sample=128)
+    assert est32.thickness.dtype == torch.float32
+    assert abs(est32.n - 1.37) < 0.005 and float((est32.thickness.double() - cube.thickness).abs().mean()) < 2.0
