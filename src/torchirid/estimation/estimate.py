@@ -31,7 +31,7 @@ from ..color import delta_e_1976, spectrum_to_xyz, xyz_to_lab
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
 from .measurement import band_terms, band_reflectance_fast
 from .peaks import peak_method
-from .refine import d_only_gauss_newton, model_terms, refine_film, scan_index
+from .refine import d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
 
 __all__ = ["FilmEstimate", "estimate_film", "film_metrics", "model_cube"]
 
@@ -58,6 +58,12 @@ class FilmEstimate:
     def index(self, wavelength) -> torch.Tensor:
         """n(λ) of the estimate (λ in nm)."""
         return index_model(torch.as_tensor(wavelength, dtype=self.params.dtype), self.params, self.index_model)
+
+
+def _sse_at(cube, d, terms):
+    from .peaks import cube_sse
+
+    return cube_sse(cube, terms, d).sum()
 
 
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
@@ -95,6 +101,10 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     ns = float(n_substrate)
     kw = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_outer=n_outer)
     step = progress if progress is not None else (lambda name: None)
+
+    def terms_for(n, lam_, c_):
+        return band_terms(lam_, c_[:, None], n, ns, **kw)
+
     times = {}
     t0 = time.perf_counter()
     pk = peak_method(y, lam, c, ns, n_range=n_range, thickness_range=thickness_range, **kw)
@@ -110,7 +120,24 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     ys, ds = Y[idx], d_peak[idx]
     a_sel = sorted({0, A // 2, A - 1})  # decimated cube for the scans: 3 angles, every 3rd band
     b_sel = list(range(0, B, 3))
-    n_scan, d_scan, _, _ = scan_index(ys[:, a_sel][:, :, b_sel], ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
+    yd = ys[:, a_sel][:, :, b_sel]
+    n_scan, d_scan, _, losses = scan_index(yd, ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
+    # the peaks may mislead (noise, too few extrema, dispersion): an exhaustive (n, d) search on a
+    # smaller sample settles which of the two to trust, then a fine scan around the winner
+    few = yd[: min(yd.shape[0], 128)]
+    n_grid = torch.exp(torch.linspace(math.log(n_range[0]), math.log(n_range[1]), 32, dtype=dtype))
+    g_loss, _ = grid_scan(few, lam[b_sel], c[a_sel], ns, n_grid, thickness_range=thickness_range, **kw)
+    d_few, _ = d_only_gauss_newton(few, d_scan[: few.shape[0], None], terms_for(n_scan, lam[b_sel], c[a_sel]),
+                                   iterations=2)
+    n_best_grid = float(n_grid[g_loss.argmin()])
+    peak_loss = float(_sse_at(few, d_few, terms_for(n_scan, lam[b_sel], c[a_sel])))
+    if float(g_loss.min()) < 0.8 * peak_loss:  # the peak-based start is clearly worse: restart from the grid
+        fine = n_best_grid * torch.linspace(0.95, 1.05, 11, dtype=dtype)
+        f_loss, f_d = grid_scan(yd, lam[b_sel], c[a_sel], ns, fine, thickness_range=thickness_range, **kw)
+        n_scan, d_scan = float(fine[f_loss.argmin()]), f_d[f_loss.argmin()]
+        restarted = True
+    else:
+        restarted = False
     step("index scan")
     s2 = (float(n_outer) ** 2) * (1 - c * c)
     lam_mid = float(lam.median())
@@ -143,6 +170,25 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     terms_s = model_terms(theta, index_model_name, lam[b_sel], c[a_sel], ns, **kw)
     Dn, S = d_only_gauss_newton(Y[:, a_sel][:, :, b_sel], D, terms_s, iterations=2)
     d0 = Dn.gather(-1, S.argmin(-1, keepdim=True))
+    s0 = S.min(-1).values
+    # pixels with no good order among the peak-based candidates (misfit well above what the
+    # sample reached at the fitted index) get an exhaustive search; all of them when the
+    # peaks misled the index search (index_start == "grid")
+    ref = float(_sse_at(yd, best[1].thickness[:, None], terms_s) / yd.shape[0])
+    bad = (s0 > 3 * ref) | torch.full_like(s0, float(restarted), dtype=torch.bool)
+    if bool(bad.any()):
+        from .peaks import cube_sse
+
+        lo, hi = map(float, thickness_range)
+        gstep = float(lam.min()) / (8 * float(torch.sqrt(n_mid ** 2 - s2).max()))
+        grid = torch.arange(lo, hi + gstep, gstep, dtype=dtype)
+        terms_b = model_terms(theta, index_model_name, lam, c[a_sel], ns, **kw)  # every band: no fringe aliasing
+        yb = Y[bad][:, a_sel]
+        sg = cube_sse(yb, terms_b, grid.expand(int(bad.sum()), -1))
+        db, sb = d_only_gauss_newton(yb, grid[sg.argmin(-1)][:, None], terms_b, iterations=2, max_step=gstep)
+        s_old = cube_sse(yb, terms_b, d0[bad])
+        d0[bad] = torch.where(sb < s_old, db, d0[bad])
+    step("order check")
     terms = model_terms(theta, index_model_name, lam, c, ns, **kw)
     d, S = d_only_gauss_newton(Y, d0, terms, iterations=2)
     d = d[:, 0]
@@ -159,7 +205,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     n_ref = float(index_model(torch.tensor(REFERENCE_WAVELENGTH, dtype=dtype), theta, index_model_name))
     return FilmEstimate(params=theta, index_model=index_model_name, n=n_ref, thickness=d.reshape(batch),
                         rms=(sse / (A * B)).sqrt().reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness,
-                        timings=times, settings=dict(kw, n_substrate=ns, index_model=index_model_name,
+                        timings=times, settings=dict(kw, n_substrate=ns, index_model=index_model_name, index_start='grid' if restarted else 'peaks',
+                                                     exhaustive_pixels=int(bad.sum()),
                                                      smoothness=smoothness, sample=sample, seed=seed))
 
 

@@ -344,3 +344,33 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
                 progress("order check")
     return RefineResult(params=theta, index_model=index_model_name, thickness=d.reshape(batch), sse=sse.reshape(batch),
                         history=history, iterations=it_done, reordered=reordered)
+
+
+def grid_scan(cube, wavelength, cos_theta, n_substrate, n_grid, *, thickness_range=(20.0, 2000.0),
+              bandwidth=4.0, passband="box", polarization="s", n_outer=1.0):
+    """Exhaustive search, independent of any peak: for each constant index of ``n_grid`` the
+    best thickness of every pixel of ``cube`` ``(P, A, B)`` on a grid of step λ_min/(8√(n²−s²))
+    (inside one interference basin), polished by two Gauss–Newton steps.
+
+    Returns ``(losses (N,), thickness (N, P))`` — the total misfit per index and the thicknesses.
+    Cost N × P × (grid size) model evaluations: meant for a pixel sample or few pixels.
+    """
+    dtype = cube.dtype
+    lam = torch.as_tensor(wavelength, dtype=dtype)
+    c = torch.as_tensor(cos_theta, dtype=dtype)
+    s2 = (n_outer ** 2) * (1 - c * c)
+    lo, hi = map(float, thickness_range)
+    losses, ds = [], []
+    for n in torch.as_tensor(n_grid, dtype=dtype).tolist():
+        terms = band_terms(lam, c[:, None], n, n_substrate, bandwidth=bandwidth, passband=passband, n_outer=n_outer,
+                           polarization=polarization)
+        step = float(lam.min()) / (8 * float(torch.sqrt(n * n - s2).max()))
+        grid = torch.arange(lo, hi + step, step, dtype=dtype)
+        from .peaks import cube_sse
+
+        sse = cube_sse(cube, terms, grid.expand(cube.shape[0], -1))
+        d0 = grid[sse.argmin(-1)][:, None]
+        d, s = d_only_gauss_newton(cube, d0, terms, iterations=2, max_step=step)
+        losses.append(float(s.sum()))
+        ds.append(d[:, 0])
+    return torch.tensor(losses, dtype=dtype), torch.stack(ds)
