@@ -108,3 +108,19 @@ def test_dead_pixels_smoothness_and_float32():
     est32 = estimate_film(cube.cube.float(), cube.wavelength.float(), cube.cos_theta.float(), 1.64, sample=128)
     assert est32.thickness.dtype == torch.float32
     assert abs(est32.n - 1.37) < 0.005 and float((est32.thickness.double() - cube.thickness).abs().mean()) < 2.0
+
+
+@pytest.mark.parametrize("sample,model,kw", [
+    ("mgf2_400", "constant", dict(gaussian_noise=0.05, shot_noise=0.05)),  # eq. 12 lands at ~1.9 here
+    ("thin", "constant", {}),  # MgF2 150 nm: no extremum inside 400-720 nm at most angles
+    ("thick_zns", "cauchy3", {}),  # ZnS 1200 nm: index slope and order trade off
+])
+def test_hard_cases(sample, model, kw):
+    from torchirid.estimation import FilmSample, zns_index
+
+    s = {"thin": FilmSample("thin", "MgF2 150 nm", 1.37, 150.0),
+         "thick_zns": FilmSample("thick", "ZnS 1200 nm", zns_index, 1200.0)}.get(sample, sample)
+    cube = synthetic_cube(s, height=16, width=16, seed=1, **kw)
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256)
+    m = film_metrics(est, cube)
+    assert m["n_error"] <= 0.01 and m["d_error_mean"] <= 5.0

@@ -121,7 +121,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     a_sel = sorted({0, A // 2, A - 1})  # decimated cube for the scans: 3 angles, every 3rd band
     b_sel = list(range(0, B, 3))
     yd = ys[:, a_sel][:, :, b_sel]
-    n_scan, d_scan, _, losses = scan_index(yd, ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
+    p_scan, d_scan, _, _ = scan_index(yd, ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
+    n_scan = float(p_scan[0])
     # the peaks may mislead (noise, too few extrema, dispersion): an exhaustive (n, d) search on a
     # smaller sample settles which of the two to trust, then a fine scan around the winner
     few = yd[: min(yd.shape[0], 128)]
@@ -145,6 +146,14 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     def period(n):
         return lam_mid / (2 * float(torch.sqrt(n * n - s2).mean()))
 
+    theta0 = torch.tensor([n_scan], dtype=dtype)
+    if INDEX_MODELS[index_model_name] > 1:
+        # dispersive model: a second scan over (n(λ_mid), dn/d(1/λ²)) around the constant index;
+        # a thick dispersive film otherwise falls into a wrong (index slope, order) pair
+        p2, d_scan, _, _ = scan_index(yd, d_scan, n_scan, lam[b_sel], c[a_sel], ns, rel_range=0.05, steps=11,
+                                      slopes=tuple(0.015 * i for i in range(7)), **kw)
+        theta0 = torch.cat([p2, torch.zeros(INDEX_MODELS[index_model_name] - 2, dtype=dtype)])
+        n_scan = float(index_model(torch.tensor(lam_mid, dtype=dtype), theta0, index_model_name))
     # 3. global order hypotheses with the full index model
     best = None
     T = period(n_scan)
@@ -152,7 +161,7 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         start = d_scan + j * T
         if bool((start <= 0).any()):
             continue
-        res = refine_film(ys, lam, c, ns, start, n_scan, index_model_name=index_model_name, iterations=iterations, **kw)
+        res = refine_film(ys, lam, c, ns, start, theta0, index_model_name=index_model_name, iterations=iterations, **kw)
         loss = float(res.sse.sum())
         if best is None or loss < best[0]:
             best = (loss, res)

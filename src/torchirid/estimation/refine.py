@@ -157,27 +157,31 @@ class RefineResult:
 
 
 def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, rel_range=0.15, steps: int = 21,
-               bandwidth=4.0, passband="box", polarization="s", n_outer=1.0):
-    """Best constant index on a grid n_start·[1 − r, 1 + r] by total misfit of ``cube`` ``(P, A, B)``.
+               slopes=(0.0,), bandwidth=4.0, passband="box", polarization="s", n_outer=1.0):
+    """Best index n(λ) = A + B/λ_µm² on a grid by total misfit of ``cube`` ``(P, A, B)``.
 
-    For each grid value the pixel's optical thickness is kept (d·√(n²−s²) fixed), the three
-    nearest interference orders are tried and polished by :func:`d_only_gauss_newton`.
-    Guards against a biased eq. 12 estimate (dispersive films: Kobayashi et al.'s ZnS).
-    Returns ``(n_best, d_best (P,), grid, losses)``.
+    The grid: n(λ_mid) ∈ n_start·[1 − r, 1 + r] (``steps`` values) × B ∈ ``slopes`` (µm²;
+    ``(0,)``: constant index). For each grid value the pixel's optical thickness is kept
+    (d·√(n²−s²) fixed), the three nearest interference orders are tried and polished by
+    :func:`d_only_gauss_newton`. Guards against a biased eq. 12 estimate (dispersive films:
+    Kobayashi et al.'s ZnS). Returns ``(params (2,) = (A, B), d_best (P,), grid (N, 2), losses (N,))``.
     """
     dtype = cube.dtype
     lam = torch.as_tensor(wavelength, dtype=dtype)
     c = torch.as_tensor(cos_theta, dtype=dtype)
     s2 = (n_outer ** 2) * (1 - c * c)
-    grid = n_start * torch.linspace(1 - rel_range, 1 + rel_range, steps, dtype=dtype)
-    losses, ds = [], []
     lam_mid = float(lam.median())
-    for n in grid.tolist():
-        terms = band_terms(lam, c[:, None], n, n_substrate, bandwidth=bandwidth, passband=passband, n_outer=n_outer,
-                           polarization=polarization)
-        nc = float(torch.sqrt(n ** 2 - s2).mean())
-        scale = float(torch.sqrt(n_start ** 2 - s2).mean()) / nc
-        D = (thickness * scale)[:, None] + (lam_mid / (2 * nc)) * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
+    inv_mid = (1000.0 / lam_mid) ** 2
+    mids = n_start * torch.linspace(1 - rel_range, 1 + rel_range, steps, dtype=dtype)
+    grid = torch.tensor([[float(m) - b * inv_mid, b] for m in mids for b in slopes], dtype=dtype)
+    losses, ds = [], []
+    nc0 = float(torch.sqrt(n_start ** 2 - s2).mean())
+    for A_, B_ in grid.tolist():
+        n_mid = A_ + B_ * inv_mid
+        terms = band_terms(lam, c[:, None], lambda l: A_ + B_ * (1000.0 / l) ** 2, n_substrate, bandwidth=bandwidth,
+                           passband=passband, n_outer=n_outer, polarization=polarization)
+        nc = float(torch.sqrt(n_mid ** 2 - s2).mean())
+        D = (thickness * (nc0 / nc))[:, None] + (lam_mid / (2 * nc)) * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
         D = torch.where(D > 0, D, torch.full_like(D, math.nan))
         dd, sse = d_only_gauss_newton(cube, D, terms, iterations=3)
         best = sse.argmin(-1, keepdim=True)
@@ -185,7 +189,7 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
         ds.append(dd.gather(-1, best)[:, 0])
     losses = torch.tensor(losses, dtype=dtype)
     i = int(losses.argmin())
-    return float(grid[i]), ds[i], grid, losses
+    return grid[i], ds[i], grid, losses
 
 
 def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, *, index_model_name="constant",
