@@ -3,16 +3,22 @@ r"""The whole estimate: peak method → index scan → global order test → joi
 :func:`estimate_film` chains, for a cube ``(*, A, B)``:
 
 1. :func:`~torchirid.estimation.peak_method` — Kobayashi et al. eq. 8–14: a robust n and a
-   per-pixel d (eq. 14 over the admissible orders);
-2. :func:`~torchirid.estimation.refine.scan_index` on a seeded pixel sample — the best
-   constant n within ±15 % of eq. 12's (eq. 12 is biased for a dispersive film: the paper's
-   ZnS came out 2.674 for 2.37);
+   per-pixel d (eq. 14 over the admissible orders, scored on a decimated cube);
+2. on a seeded pixel sample (512), on a decimated cube (3 angles, every 3rd band):
+   :func:`~torchirid.estimation.refine.scan_index`, the best constant n within ±15 % of
+   eq. 12's (eq. 12 is biased for a dispersive film: the paper's ZnS came out 2.674 for
+   2.37), checked against an exhaustive (n, d) search on 128 pixels
+   (:func:`~torchirid.estimation.refine.grid_scan`) — when the peaks mislead (noise, films
+   with no extremum in range), the search restarts from the grid's best n;
+   for a dispersive model a second scan over (n(λ_mid), Cauchy slope B);
 3. on the same sample, the joint fit of the index model from the three global orders
    d, d ± T (T = λ/(2√(n² − sin²θ))), keeping the lowest misfit — a dispersive index and
    a shifted order can otherwise explain the same peaks;
-4. on the whole image, d from the three nearest orders at that index (batched Gauss–Newton),
-   then a few joint Levenberg–Marquardt iterations on every pixel
-   (:func:`~torchirid.estimation.refine_film`).
+4. on the whole image: d at that index from the three nearest orders (batched Gauss–Newton
+   on the decimated cube), an exhaustive thickness search for the pixels whose misfit stays
+   above 3× the sample's (all pixels when step 2 restarted), a polish on the full cube, then
+   ``final_iterations`` joint Levenberg–Marquardt iterations on every pixel
+   (:func:`~torchirid.estimation.refine_film`, with the optional smoothness term).
 
 :func:`film_metrics` scores an estimate against a synthetic truth as in Table 1 (n error,
 mean |d error|, mean ΔE*ab over angles under D65 / CIE 1931 2°, spectral RMSE).
