@@ -95,3 +95,16 @@ def test_float32_and_broadcast():
     R64 = band_reflectance(lam.double(), torch.tensor([[0.9], [0.7]], dtype=F64), 1.37,
                            torch.tensor([[300.0], [400.0]], dtype=F64), 1.64)
     assert (R.double() - R64).abs().max() < 1e-5
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+
+@settings(max_examples=25, deadline=None)
+@given(n=st.floats(1.2, 2.6), d=st.floats(20.0, 900.0), deg=st.floats(0.0, 60.0), lam=st.floats(420.0, 700.0))
+def test_fast_band_model_property(n, d, deg, lam):
+    c = math.cos(math.radians(deg))
+    w = torch.tensor([lam], dtype=F64)
+    ref = band_reflectance(w, c, n, d, 1.64, nodes=10)
+    fast = band_reflectance_fast(band_terms(w, c, n, 1.64), d)
+    assert abs(float(fast - ref)) < 1e-4

@@ -124,3 +124,16 @@ def test_hard_cases(sample, model, kw):
     est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256)
     m = film_metrics(est, cube)
     assert m["n_error"] <= 0.01 and m["d_error_mean"] <= 5.0
+
+
+def test_grid_scan_and_slope_scan_find_the_index():
+    from torchirid.estimation.refine import grid_scan, scan_index
+
+    cube = synthetic_cube("zns_500", height=4, width=4, seed=0, gaussian_noise=0.0, shot_noise=0.0)
+    Y = cube.clean.reshape(-1, 5, 81)
+    grid = torch.tensor([1.6, 2.0, 2.4, 2.8], dtype=F64)
+    losses, d = grid_scan(Y, cube.wavelength, cube.cos_theta, 1.64, grid)
+    assert int(losses.argmin()) == 2 and d.shape == (4, 16)
+    p, dd, g, l = scan_index(Y, d[2], 2.4, cube.wavelength, cube.cos_theta, 1.64, rel_range=0.05, steps=11,
+                             slopes=(0.0, 0.03, 0.06))
+    assert p.shape == (2,) and g.shape == (33, 2) and float(p[1]) > 0  # ZnS needs a positive Cauchy slope
