@@ -1,8 +1,6 @@
 import argparse
 import json
-import os
 
-import pytest
 
 from torchirid.estimation import cli, synthetic_cube
 from torchirid.estimation.cube_io import write_npz

@@ -3,7 +3,7 @@ import math
 import pytest
 import torch
 
-from torchirid.estimation import (band_reflectance_fast, band_terms, d_only_gauss_newton, estimate_film,
+from torchirid.estimation import (band_reflectance_fast, d_only_gauss_newton, estimate_film,
                                   film_metrics, index_model, refine_film, synthetic_cube)
 from torchirid.estimation.refine import _residual_parts, _smooth_terms, model_terms
 

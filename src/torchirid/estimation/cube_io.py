@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from .._io import atomic_write  # noqa: F401  (kept for symmetry with other writers)
 
 __all__ = ["Cube", "read_cube", "write_npz", "write_envi"]
 

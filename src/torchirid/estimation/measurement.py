@@ -26,7 +26,6 @@ cosine per sample (:func:`airy_terms`, :func:`reflectance_from_terms`).
 from __future__ import annotations
 
 import math
-from typing import Callable
 
 import numpy as np
 import torch

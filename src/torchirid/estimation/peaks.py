@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import torch
 
-from .. import _checks
 from .measurement import airy_terms, band_terms
 
 __all__ = [
