@@ -7,7 +7,7 @@ and device follow the inputs (float32 → complex64, float64 → complex128); po
 "s", "p" or "unpolarized" (mean of the s and p reflectances).
 """
 
-from . import color, export, fitting, ibl, layered, lut, materials, microfacet, optics, render, spectral
+from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, render, spectral
 from ._compile import compile_enabled, set_compile
 from .color import (
     DELTA_E_METHODS,

@@ -96,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
             "  torchirid thin-film                      # Kneiphof et al. 2019 Fig. 7: thin films under IBL\n"
             "  torchirid render-sphere                  # Hirayama 2000 Fig. 8: coated rough spheres\n"
             "  torchirid film-table --stack teapot --check  # Hirayama 2000 §5: k_r/k_t table → LUT .npz\n"
+            "  torchirid fit-film CUBE.npz --out fit/   # Kobayashi: film n and thickness map from a hyperspectral cube\n"
             "  torchirid spectrum --help                # all options"
         ),
     )
@@ -182,6 +183,7 @@ def build_parser() -> argparse.ArgumentParser:
     # by module path: the packages re-export functions of the same names as these modules
     importlib.import_module("torchirid.optics.reflectance_table").add_parser(sub)
     importlib.import_module("torchirid.render.sphere").add_parser(sub)
+    importlib.import_module("torchirid.estimation.cli").add_parser(sub)
     return parser
 
 
