@@ -44,7 +44,8 @@ from .layered import (
     transmissivity_lut,
 )
 from .fitting import load_scatterogram, match_scatterogram
-from .ibl import fitted_thin_film_xyz, filtered_thin_film_xyz, thin_film_xyz_fourier, uniform_thin_film_xyz
+from .ibl import (fitted_thin_film_xyz, filtered_thin_film_xyz, shade_thin_film_environment, thin_film_xyz_fourier,
+                  uniform_thin_film_xyz)
 from .lut import LUT
 from .render import scatterogram
 from .microfacet import (
@@ -140,6 +141,7 @@ __all__ = [
     "filtered_thin_film_xyz",
     "fitted_thin_film_xyz",
     "uniform_thin_film_xyz",
+    "shade_thin_film_environment",
     "FilmStack",
     "film_reflectance",
     "hirayama_stacks",

@@ -213,12 +213,33 @@ def test_constant_environment_mean_length_matches_1d_quadrature():
 
 
 def test_feeds_filtered_thin_film_xyz():
-    from torchirid.ibl import filtered_thin_film_xyz
+    """Sun-only map: the prefiltered moments at ω_r = reflect(ω_o, n) make eq. 20–29 use the sun's direction.
 
-    pre = prefilter_environment(synthetic_environment(16, 32), [0.1, 0.5], resolution=(4, 8))
+    An output texel ≈ 15° off the sun, α = 0.3: the lobe sees only the sun, so μ_ωi ≈ sun and
+    Σ ≈ 0, and the filtered colour equals Belcour–Barla's eq. 4 at cos θ1 = ⟨h, sun⟩ for the
+    view — not at the mirror value ⟨n, ω_o⟩ of the lobe's axis.
+    """
+    from torchirid.ibl import filtered_thin_film_xyz, thin_film_xyz_fourier
+
+    env = synthetic_environment(32, 64, sky=False)
+    pre = prefilter_environment(env, [0.05, 0.3], resolution=(16, 32))
     mu, cov = pre.mean_cov()
-    xyz = filtered_thin_film_xyz(pre.directions, mu, cov, 1.3, 400.0, complex(1.5, 0.0))
-    assert xyz.shape == (2, 4, 8, 3) and bool(torch.isfinite(xyz).all())
+    R = pre.directions.reshape(-1, 3)
+    off = torch.rad2deg(torch.acos((R @ SUN).clamp(-1, 1)))
+    k = int((off - 15.0).abs().argmin())
+    r, m, C = R[k], mu[1].reshape(-1, 3)[k], cov[1].reshape(-1, 3, 3)[k]
+    n = torch.nn.functional.normalize(torch.tensor([0.1, 0.0, 1.0], dtype=F64), dim=-1)
+    v = 2.0 * (r @ n) * n - r  # the view whose ideal reflection about n is r
+    assert float(v @ n) > 0.3 and 10.0 < float(off[k]) < 20.0
+    sun_hat = m / m.norm()
+    assert float(sun_hat @ SUN) > math.cos(math.radians(2.0)) and float(torch.linalg.eigvalsh(C).max()) < 1e-3
+    film = (1.3, 600.0, complex(2.0, 0.5))
+    xyz = filtered_thin_film_xyz(v, m, C, *film)
+    cos1_sun = torch.sqrt(0.5 * (1.0 + sun_hat @ v))
+    at_sun = thin_film_xyz_fourier(cos1_sun, *film, terms=2, sensitivity="exact")
+    at_mirror = thin_film_xyz_fourier(v @ n, *film, terms=2, sensitivity="exact")
+    err_sun, err_mirror = float((xyz - at_sun).abs().max()), float((xyz - at_mirror).abs().max())
+    assert err_sun < 1e-4 and err_mirror > 100 * err_sun  # measured 1.0e-5 vs 3.0e-2
 
 
 def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):

@@ -41,5 +41,6 @@ from .prefilter import (  # noqa: F401
     prefilter_environment,
     synthetic_environment,
 )
+from .shading import SHADING_METHODS, SHADING_OUTPUTS, shade_thin_film_environment  # noqa: F401
 
 __all__ = [name for name in dir() if not name.startswith("_")]
