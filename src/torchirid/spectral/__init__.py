@@ -10,6 +10,7 @@ from .correction import (
     fitted_coefficients,
 )
 from .cumulative import box_integrals, build_cumulative_cmf, cumulative_cmf
+from .envelope import bragg_xyz_envelope, envelope_weights, fringe_averaged_reflectance
 from .landmarks import bragg_landmarks, dispersion_parts
 from .piecewise import bragg_xyz_piecewise
 
@@ -22,10 +23,13 @@ __all__ = [
     "box_integrals",
     "bragg_landmarks",
     "bragg_xyz",
+    "bragg_xyz_envelope",
     "bragg_xyz_piecewise",
     "build_cumulative_cmf",
     "cumulative_cmf",
     "dispersion_parts",
+    "envelope_weights",
     "fitted_coefficients",
+    "fringe_averaged_reflectance",
     "spectral_samples",
 ]

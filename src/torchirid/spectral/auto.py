@@ -9,9 +9,9 @@ and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
    the smallest samples-per-fringe ρ(τ) above which *every* measured point has p95 ≤ τ is
    scaled to the query: K = max(64, ⌈ρ(τ) · F_query⌉). Its cost is the measured µs per
    colour interpolated in K.
-2. **piecewise** (only for mirrors in n1, real indices, no total internal reflection,
-   cells ≥ 10 — the setting it was measured in): a configuration qualifies when its p95 on
-   *both* measured grids is ≤ τ; its cost (per colour) does not grow with N.
+2. **piecewise** and **envelope** (only for mirrors in n1, real indices, no total internal
+   reflection, cells ≥ 10 — the setting they were measured in): a configuration qualifies when
+   its p95 on *both* measured grids is ≤ τ; their cost (per colour) does not grow with N.
 3. **spectral** always qualifies for τ ≥ its measured p95 (~0.01); below that nothing is
    guaranteed and spectral is used anyway. Its cost scales with its sample count.
 
@@ -108,7 +108,7 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
         many = bool((torch.as_tensor(cells) >= 10).all())
     if real and in_n1 and not tir and many:
         for e in entries:
-            if e["config"].get("method") != "piecewise":
+            if e["config"].get("method") not in ("piecewise", "envelope"):
                 continue
             p95 = max(e["grids"][g]["p95"] for g in data["grids"])
             if p95 <= tolerance:

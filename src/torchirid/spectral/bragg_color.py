@@ -26,6 +26,10 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     landmarks weighted by the envelope, integrated with cumulative CMF tables
     (:mod:`torchirid.spectral.piecewise`).
 
+``"envelope"`` — the piecewise method's fringe-averaged spectrum sampled at ``samples``
+    (default 64) nodes uniform in ω and integrated exactly as a piecewise-linear function (no
+    landmarks: :mod:`torchirid.spectral.envelope`); same scope as ``"piecewise"``.
+
 ``"auto"`` — the cheapest of the above that meets ``tolerance`` (ΔE2000, 95th percentile),
     chosen from measured error/cost tables (:mod:`torchirid.spectral.auto`).
 """
@@ -40,12 +44,13 @@ import torch
 from .. import _checks
 from ..color.convert import xyz_weights
 from ..optics.bragg import bragg_reflectance
+from .envelope import bragg_xyz_envelope
 from .piecewise import bragg_xyz_piecewise
 
 __all__ = ["BRAGG_XYZ_METHODS", "bragg_xyz", "spectral_samples"]
 
 #: method names accepted by :func:`bragg_xyz`
-BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise", "auto")
+BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise", "envelope", "auto")
 
 # points of the (batch × wavelength) reflectance evaluated at once: bounds memory (~64 MB)
 _CHUNK = 1 << 22
@@ -104,12 +109,14 @@ def bragg_xyz(
     Args:
         cos_theta, n1, n2, d1, d2, cells, n_host, polarization: as in
             :func:`torchirid.bragg_reflectance` (nm, cosines; broadcast together).
-        method: ``"spectral"`` (converged, default) or ``"sampled"`` (``samples``
-            wavelengths uniform in λ); see the module docstring.
+        method: ``"spectral"`` (converged, default), ``"sampled"`` (``samples``
+            wavelengths uniform in λ), ``"piecewise"``, ``"envelope"`` or ``"auto"``; see the
+            module docstring.
         observer, illuminant: names from :mod:`torchirid.color` (``"CIE 1931 2"``,
             ``"CIE 1964 10"``, ``"Stiles & Burch 1959 10"``; ``"D65"``, ``"D50"``, ``"A"``, ``"E"``).
         samples: number of wavelengths for ``"sampled"`` (required there); for
-            ``"spectral"`` it overrides the automatic count.
+            ``"spectral"`` it overrides the automatic count; for ``"envelope"`` the ω nodes
+            (default 64).
         samples_per_fringe, max_samples: the ``"spectral"`` sampling rule.
         wavelength_range: ``(λ_min, λ_max)`` in nm integrated over (default 380–780 nm).
         tolerance: ΔE2000 (95th percentile) that ``method="auto"`` must meet; it picks the
@@ -142,15 +149,21 @@ def bragg_xyz(
         options = dict(observer=observer, illuminant=illuminant, wavelength_range=(lo, hi))
         return bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_host=n_host, polarization=polarization,
                          **options, **choice["config"])
-    if method == "piecewise":
+    if method in ("piecewise", "envelope"):
         if n_host is not None:
             with torch.no_grad():
                 same = bool((torch.as_tensor(n_host) == torch.as_tensor(n1)).all())
             if not same:
-                raise ValueError("method='piecewise' models a mirror embedded in n1: n_host must be None or n1")
+                raise ValueError(f"method={method!r} models a mirror embedded in n1: n_host must be None or n1")
         if isinstance(n1, complex) or isinstance(n2, complex) or any(
                 torch.is_tensor(t) and t.is_complex() for t in (n1, n2)):
-            raise ValueError("method='piecewise' needs real n1 and n2 (lossless layers)")
+            raise ValueError(f"method={method!r} needs real n1 and n2 (lossless layers)")
+        if method == "envelope":
+            if samples is not None and (not isinstance(samples, int) or isinstance(samples, bool) or samples < 2):
+                raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
+            return bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, polarization=polarization,
+                                      samples=64 if samples is None else samples, observer=observer,
+                                      illuminant=illuminant, wavelength_range=(lo, hi))
         return bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, polarization=polarization, subdivisions=subdivisions,
                                    weights=weights,
                                    correction=correction, observer=observer, illuminant=illuminant,

@@ -75,6 +75,27 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
             raise ValueError(f"correction must be 'fitted', 'paper', 'none' or a pair (a, b); got {correction!r}")
     if weights not in ("averaged", "paper"):
         raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
+    mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "piecewise")
+    lo, hi = mirror["range"]
+    omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
+    dtype, device = mirror["A"].dtype, mirror["A"].device
+    table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=dtype, device=device)
+    white = table(omega=torch.tensor(omega_max, dtype=dtype, device=device))  # XYZ of R ≡ 1
+    w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))
+    xyz = _piecewise_xyz(mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], w_corr, omega_min, omega_max,
+                         subdivisions, table, weights, mirror["N"])
+    out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
+    return torch.where(mirror["grazing"].unsqueeze(-1), white.expand_as(out), out)
+
+
+def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, method):
+    """Validated parameters of a lossless mirror embedded in n1, in the ω form of
+    :mod:`torchirid.spectral.landmarks` (shared by the piecewise and envelope methods).
+
+    Returns a dict: ``cos`` (cos θ1 with grazing entries set to 1), ``grazing`` (cos θ1 = 0,
+    where R ≡ 1), ``n1``, ``n2``, ``N``, optical thicknesses ``A``, ``B`` (*,), and
+    ``delta`` = Ω/2 − 1, ``C_coef`` (|C|² = C_coef sin² ωB) with the polarizations as a
+    leading axis (P, *); ``range`` = (λ_min, λ_max)."""
     dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2)
     N = _checks.as_cells(cells, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
@@ -92,29 +113,23 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
     s2 = n1 * n1 * (1 - c * c)
     if bool((n2 * n2 - s2 < 0).any()):
-        raise ValueError("the piecewise method needs light propagating in n2 (no total internal reflection); "
+        raise ValueError(f"the {method} method needs light propagating in n2 (no total internal reflection); "
                          "use method='spectral'")
-    omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
-    table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=dtype, device=device)
-    white = table(omega=torch.tensor(omega_max, dtype=dtype, device=device))  # XYZ of R ≡ 1
-
     grazing = c == 0  # R = 1 at every wavelength: the colour of the perfect reflector
-    cs = torch.where(grazing, torch.ones_like(c), c)  # guard: the branch used at grazing is `white`
+    cs = torch.where(grazing, torch.ones_like(c), c)  # guard: the branch used at grazing is the white
     q1 = n1 * cs
     q2 = torch.sqrt(torch.clamp(n2 * n2 - n1 * n1 * (1 - cs * cs), min=0))
     A, B = q1 * d1, q2 * d2
-    w_corr = angular_correction(cs, n1, n2, coefficients=_coefficients(correction))
-    # the polarizations are one leading batch dimension P (landmarks depend on δ): one pass
+    # the polarizations are one leading batch dimension P: one pass for both
     etas = [(q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2)) for pol in _pols(polarization)]
-    batch = torch.broadcast_shapes(A.shape, B.shape, w_corr.shape, N.shape, *(e.shape for pair in etas for e in pair))
+    batch = torch.broadcast_shapes(A.shape, B.shape, N.shape, *(e.shape for pair in etas for e in pair))
     eta1 = torch.stack([e[0].expand(batch) for e in etas])
     eta2 = torch.stack([e[1].expand(batch) for e in etas])
     safe2 = torch.where(eta2 > 0, eta2, torch.ones_like(eta2))
     delta = (eta1 - eta2) ** 2 / (2 * eta1 * safe2)  # Ω/2 − 1
     C_coef = ((eta1 * eta1 - eta2 * eta2) / (2 * eta1 * safe2)) ** 2  # |C|² = C_coef sin²(ωB)
-    xyz = _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, subdivisions, table, weights, N)
-    out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
-    return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
+    return {"cos": cs, "grazing": grazing, "n1": n1, "n2": n2, "N": N, "A": A, "B": B, "delta": delta,
+            "C_coef": C_coef, "range": (lo, hi)}
 
 
 def _coefficients(correction):
