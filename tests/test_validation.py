@@ -292,3 +292,13 @@ def test_no_assert_statements_in_src():
             if re.match(pattern, line):
                 offenders.append(f"{path.relative_to(src)}:{lineno}: {line.strip()}")
     assert not offenders, "validation must raise ValueError, not assert:\n" + "\n".join(offenders)
+
+
+def test_python_sequences_are_built_in_the_working_dtype():
+    """Lists/tuples of Python floats become float64 directly, not float32 cast up (0.1 stays 0.1)."""
+    from torchirid import _checks
+
+    t = _checks.as_real([0.1, 0.7], "x", torch.float64, "cpu")
+    assert t.dtype == torch.float64 and t.tolist() == [0.1, 0.7]
+    with pytest.raises(ValueError, match="x must be real"):
+        _checks.as_real([1 + 2j], "x", torch.float64, "cpu")
