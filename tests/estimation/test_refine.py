@@ -137,3 +137,40 @@ def test_grid_scan_and_slope_scan_find_the_index():
     p, dd, g, l = scan_index(Y, d[2], 2.4, cube.wavelength, cube.cos_theta, 1.64, rel_range=0.05, steps=11,
                              slopes=(0.0, 0.03, 0.06))
     assert p.shape == (2,) and g.shape == (33, 2) and float(p[1]) > 0  # ZnS needs a positive Cauchy slope
+
+
+@pytest.mark.parametrize("model,theta", [("constant", [2.31]), ("cauchy", [2.25, 0.035]),
+                                         ("cauchy3", [2.27, 0.024, 0.0035])])
+@pytest.mark.parametrize("polarization", ["s", "unpolarized"])
+def test_lm_jacobian_is_the_exact_jacobian_of_the_residual(model, theta, polarization):
+    """The full Jacobian of an LM step (index parameters and every d) against torch.func.jacfwd
+    of the residual r(θ, d) = band_reflectance_fast(terms(θ), d) − y, band-width term included."""
+    from torchirid.estimation.refine import lm_jacobian
+
+    lam = torch.arange(400.0, 721.0, 8.0, dtype=F64)
+    c = torch.cos(torch.deg2rad(torch.tensor([10.0, 30.0, 50.0], dtype=F64)))
+    th = torch.tensor(theta, dtype=F64)
+    d = torch.tensor([180.0, 480.0, 530.0, 1210.0], dtype=F64)
+    y = 0.05 + 0.02 * torch.rand(4, 3, lam.numel(), dtype=F64, generator=torch.Generator().manual_seed(0))
+    kw = dict(bandwidth=6.0, polarization=polarization)
+
+    def residual(t, dd):  # written from the public forward model, not from refine's internals
+        terms = model_terms(t, model, lam, c, 1.64, **kw)
+        return band_reflectance_fast(tuple(x[:, None] for x in terms), dd[:, None, None]) - y
+
+    J_th, J_d = torch.func.jacfwd(residual, argnums=(0, 1))(th, d)  # (P, A, B, K), (P, A, B, P)
+    terms = model_terms(th, model, lam, c, 1.64, **kw)
+    dterms = torch.func.jacfwd(lambda t: model_terms(t, model, lam, c, 1.64, **kw))(th)
+    r, Jd, Jt = lm_jacobian(y, d, terms, dterms)
+    assert torch.allclose(r, residual(th, d), rtol=0, atol=1e-15)
+    assert torch.allclose(Jt, J_th, rtol=1e-10, atol=1e-12 * float(J_th.abs().max()))
+    eye = torch.eye(4, dtype=torch.bool)
+    assert float(J_d.movedim(-1, 1)[~eye].abs().max()) == 0.0  # d_p only moves pixel p
+    diag = torch.einsum("pabp->pab", J_d)
+    assert torch.allclose(Jd, diag, rtol=1e-10, atol=1e-12 * float(diag.abs().max()))
+    r0, Jd0, none = lm_jacobian(y, d, terms)  # thickness-only path (closed form)
+    assert none is None and torch.allclose(Jd0, diag, rtol=1e-10, atol=1e-12 * float(diag.abs().max()))
+    # the band-width term matters: dropping h changes the index Jacobian by more than the tolerance
+    no_h = tuple(t if i < 4 else torch.zeros_like(t) for i, t in enumerate(dterms))
+    _, _, Jt0 = lm_jacobian(y, d, terms, no_h)
+    assert float((Jt0 - J_th).norm() / J_th.norm()) > 1e-6

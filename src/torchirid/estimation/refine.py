@@ -12,11 +12,12 @@ weight μ_s over the 4-neighbours of an image (Kobayashi et al.'s third assumpti
 
 Each Gauss–Newton step is exact for the arrow-shaped normal matrix — one scalar block per
 pixel plus the K×K index block — by the Schur complement, so a 256 × 256 cube costs one
-Jacobian pass, not a 65 536-dimensional solve. The Jacobian in d is closed-form (R depends on
-d only through cos kd); the Jacobian of the terms (a, b, e, k) of
-:func:`~torchirid.estimation.airy_terms` with respect to θ is taken by forward-mode
-autograd (``torch.func.jacfwd``) on the small (polarization × angle × band × node) grid and
-chained with ∂R/∂(a, b, e, k) per sample.
+Jacobian pass, not a 65 536-dimensional solve. The Jacobian is exact (:func:`lm_jacobian`):
+the terms (a, b, e, k, h) of :func:`~torchirid.estimation.band_terms` are differentiated in θ
+by forward-mode autograd (``torch.func.jacfwd``) on the small (polarization × angle × band)
+grid, the elementwise partials of the band model in those terms and in d by one batched
+reverse-mode pass over the pixels, and the two chained — the band-width term h d² R''
+included (the tests compare the whole Jacobian with ``torch.func.jacfwd`` of the residual).
 
 d is multimodal (one basin per interference order): :func:`refine_film` keeps the order
 from its start, then re-tests every pixel at d ± one order period T = λ/(2√(n²−sin²θ)) in
@@ -35,7 +36,7 @@ from .. import _checks
 from .dispersion import INDEX_MODELS, index_model
 from .measurement import band_terms
 
-__all__ = ["RefineResult", "model_terms", "d_only_gauss_newton", "refine_film", "scan_index"]
+__all__ = ["RefineResult", "model_terms", "lm_jacobian", "d_only_gauss_newton", "refine_film", "scan_index"]
 
 
 def model_terms(params, index_model_name, wavelength, cos_theta, n_substrate, *, bandwidth=4.0, passband="box",
@@ -77,6 +78,59 @@ def _residual_parts(y, d, terms, with_jacobian=True):
 
 def a_size(terms) -> int:
     return terms[0].numel()
+
+
+def _band_model(terms, d):
+    """Elementwise fast band model R + h d² R'' (:func:`~torchirid.estimation.band_reflectance_fast`
+    before the mean over polarizations), broadcasting terms and d."""
+    a, b, e, k, h = terms
+    D = k * d
+    u, s = torch.cos(D), torch.sin(D)
+    g = 1 / (e + b * u)
+    E = e - a
+    return 1 - E * g - h * d * d * E * b * g * g * (u + 2 * b * s * s * g)
+
+
+def lm_jacobian(y, d, terms, dterms=None):
+    r"""Residual and its exact Jacobian for one Levenberg–Marquardt step, pixels ``y`` ``(p, A, B)``.
+
+    r_pab = R_b(θ_a; n_θ, d_p) − y_pab is the fast band model
+    (:func:`~torchirid.estimation.band_reflectance_fast`, band-width term h d² R'' included), an
+    elementwise function f(a, b, e, k, h, d) of the terms of :func:`model_terms` and the pixel's
+    d, averaged over polarizations. One reverse-mode autograd pass through f, with the terms and
+    d broadcast to the full ``(p, pol, A, B)`` grid, gives every elementwise partial ∂f/∂t at
+    once (the gradient of Σf with respect to an element is that element's own partial, f being
+    elementwise); then, exactly,
+
+    .. math:: ∂r_{pab}/∂d_p = \overline{∂f/∂d}, \qquad
+              ∂r_{pab}/∂θ_j = \overline{\textstyle\sum_t ∂f/∂t \; ∂t_{ab}/∂θ_j},
+
+    the bar the mean over polarizations and ``dterms`` = ∂t/∂θ on the small ``(pol, A, B)`` grid
+    (e.g. ``torch.func.jacfwd`` of :func:`model_terms`). ∂r/∂d is diagonal in the pixels (d_p
+    only moves pixel p), so it is returned as one value per sample.
+
+    Args:
+        y: ``(p, A, B)`` measured band reflectance (NaN-free); d: ``(p,)`` thickness (nm).
+        terms: (a, b, e, k, h), each ``(pol, A, B)``; dterms: their θ-Jacobians ``(pol, A, B, K)`` or None.
+
+    Returns:
+        ``(r, Jd, Jt)``: ``(p, A, B)``, ``(p, A, B)`` and ``(p, A, B, K)`` (None without ``dterms``).
+    """
+    if dterms is None:  # thickness only: the closed-form ∂r/∂d (same values, no graph)
+        r, Jd, _ = _residual_parts(y, d[:, None], terms)
+        return r[:, 0], Jd[:, 0], None
+    P = y.shape[0]
+    npol = terms[0].shape[0]
+    full = (P,) + tuple(terms[0].shape)
+    with torch.enable_grad():
+        dd = d.detach()[:, None, None, None].expand(full).requires_grad_(True)
+        leaves = [t.detach().expand(full).requires_grad_(True) for t in terms]
+        f = _band_model(leaves, dd)
+        grads = torch.autograd.grad(f.sum(), [dd] + leaves)
+    r = f.detach().sum(1) / npol - y
+    Jd = grads[0].sum(1) / npol
+    Jt = sum(torch.einsum("pxab,xabk->pabk", g, dt) for g, dt in zip(grads[1:], dterms)) / npol
+    return r, Jd, Jt
 
 
 def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step: float = 30.0):
@@ -266,29 +320,21 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
         terms = terms_of(theta)
         npol = terms[0].shape[0]
         if fit_index:
-            # ∂(a, b, e, k)/∂θ on the small (pol, A, B) grid by forward-mode autograd: 4 × (pol, A, B, K)
-            ja, jb, je, jk = torch.func.jacfwd(lambda th: terms_of(th)[:4])(theta)
+            # ∂(a, b, e, k, h)/∂θ on the small (pol, A, B) grid, once per iteration: 5 × (pol, A, B, K)
+            dterms = torch.func.jacfwd(terms_of)(theta)
             Htt_p = torch.empty(P, K, K, dtype=dtype)
             gt_p = torch.empty(P, K, dtype=dtype)
         Hdd = torch.empty(P, dtype=dtype)
         gd = torch.empty(P, dtype=dtype)
         Hdt = torch.zeros(P, K, dtype=dtype)
         for i0, i1 in _chunks(P, a_size(terms)):
-            dd = d[i0:i1, None]
-            r, Jd, (R, g, u, R1) = _residual_parts(Y[i0:i1], dd, terms)
+            r, Jd, Jt = lm_jacobian(Y[i0:i1], d[i0:i1], terms, dterms if fit_index else None)
             m = valid_y[i0:i1]
-            r = torch.where(m, r[:, 0], torch.zeros_like(r[:, 0]))
-            Jd = torch.where(m, Jd[:, 0], torch.zeros_like(Jd[:, 0]))
+            r = torch.where(m, r, torch.zeros_like(r))
+            Jd = torch.where(m, Jd, torch.zeros_like(Jd))
             Hdd[i0:i1] = (Jd * Jd).sum((-1, -2))
             gd[i0:i1] = (Jd * r).sum((-1, -2))
             if fit_index:
-                a, b, e, k, h = terms
-                # ∂R/∂(a, b, e, k) of the band-centre reflectance (the O(σ²) band term is left out
-                # of the index Jacobian: it only slows convergence, the misfit itself is exact)
-                E = e - a
-                Jt = (torch.einsum("pxab,xabk->pabk", g[:, 0], ja) + torch.einsum("pxab,xabk->pabk", (E * g * g * u)[:, 0], jb)
-                      - torch.einsum("pxab,xabk->pabk", (g * R)[:, 0], je)
-                      + torch.einsum("pxab,xabk->pabk", (R1 * dd[:, :, None, None, None])[:, 0], jk)) / npol
                 Jt = torch.where(m[..., None], Jt, torch.zeros_like(Jt))
                 Hdt[i0:i1] = torch.einsum("pab,pabk->pk", Jd, Jt)
                 Htt_p[i0:i1] = torch.einsum("pabk,pabl->pkl", Jt, Jt)
