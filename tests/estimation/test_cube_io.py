@@ -51,4 +51,55 @@ def test_bad_files(tmp_path):
     with pytest.raises(ValueError, match="shape"):
         write_npz(tmp_path / "y.npz", np.zeros((2, 2, 2, 3)), [1, 2, 3], [10])
     with pytest.raises(ValueError, match="angle"):
-        read_cube([str(tmp_path / "a.hdr")])
+        read_cube([str(tmp_path / "a.hdr"), str(tmp_path / "b.hdr")])
+
+
+def test_envi_single_file_angles_from_the_caller(tmp_path):
+    from spectral.io import envi
+
+    c = synthetic_cube("zns_500", height=2, width=3, seed=0, angles_deg=(10.0, 40.0))
+    H, W, A, B = c.cube.shape
+    md = {"wavelength": [f"{v / 1000:.7g}" for v in c.wavelength.repeat(A).tolist()], "wavelength units": "Micrometers",
+          "data ignore value": "-1"}
+    data = c.cube.reshape(H, W, A * B).numpy().astype(np.float32)
+    data[0, 0, :] = -1  # a dead pixel
+    envi.save_image(str(tmp_path / "s.hdr"), data, metadata=md, force=True, ext=".img")
+    r = read_cube(tmp_path / "s.hdr", angles_deg=[10.0, 40.0])
+    assert r.cube.shape == (2, 3, 2, 81) and torch.allclose(r.wavelength, c.wavelength, atol=1e-3)
+    assert r.cube[0, 0].isnan().all() and (r.cube[1:] - c.cube[1:]).abs().max() < 1e-7
+    with pytest.raises(ValueError, match="do not divide"):
+        read_cube(tmp_path / "s.hdr", angles_deg=[10.0, 20.0, 30.0, 40.0])
+    with pytest.raises(ValueError, match="repeat the same 54 wavelengths"):
+        read_cube(tmp_path / "s.hdr", angles_deg=[10.0, 20.0, 30.0])
+    with pytest.raises(ValueError, match="incidence angle"):
+        read_cube(tmp_path / "s.hdr")
+    # with the field in the header, given angles must agree
+    write_envi(tmp_path / "f.hdr", c.cube, c.wavelength, c.angles_deg)
+    assert read_cube(tmp_path / "f.hdr", angles_deg=[10.0, 40.0]).angles_deg.tolist() == [10.0, 40.0]
+    with pytest.raises(ValueError, match="disagrees"):
+        read_cube(tmp_path / "f.hdr", angles_deg=[10.0, 45.0])
+    p = tmp_path / "c.npz"
+    write_npz(p, c.cube, c.wavelength, c.angles_deg)
+    with pytest.raises(ValueError, match="disagrees"):
+        read_cube(p, angles_deg=[20.0, 40.0])
+
+
+def test_envi_per_angle_mismatches(tmp_path):
+    from spectral.io import envi
+
+    c = synthetic_cube("mgf2_600", height=2, width=2, seed=0, angles_deg=(10.0, 20.0))
+    wl = [str(v) for v in c.wavelength.tolist()]
+    envi.save_image(str(tmp_path / "a.hdr"), c.cube[:, :, 0].numpy().astype(np.float32), force=True, ext=".img",
+                    metadata={"wavelength": wl})
+    envi.save_image(str(tmp_path / "b.hdr"), c.cube[:, :1, 1].numpy().astype(np.float32), force=True, ext=".img",
+                    metadata={"wavelength": wl})
+    envi.save_image(str(tmp_path / "w.hdr"), c.cube[:, :, 1].numpy().astype(np.float32), force=True, ext=".img",
+                    metadata={"wavelength": [str(v + 1) for v in c.wavelength.tolist()]})
+    with pytest.raises(ValueError, match="lines x samples"):
+        read_cube([tmp_path / "a.hdr", tmp_path / "b.hdr"], angles_deg=[10, 20])
+    with pytest.raises(ValueError, match="same wavelengths"):
+        read_cube([tmp_path / "a.hdr", tmp_path / "w.hdr"], angles_deg=[10, 20])
+    with pytest.raises(ValueError, match="does not exist"):
+        read_cube([tmp_path / "a.hdr", tmp_path / "missing.hdr"], angles_deg=[10, 20])
+    with pytest.raises(ValueError, match="ENVI .hdr"):
+        read_cube([tmp_path / "a.hdr", tmp_path / "c.npz"], angles_deg=[10, 20])

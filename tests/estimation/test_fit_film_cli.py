@@ -33,3 +33,55 @@ def test_fit_film_bad_file(tmp_path, capsys):
     args = _parse(["fit-film", str(tmp_path / "nope.txt"), "--out", str(tmp_path / "o")])
     assert args.func(args) == 2
     assert "fit-film" in capsys.readouterr().err
+
+
+def _save_envi_per_angle(tmp_path, c, scale=1.0):
+    """One standard ENVI file per angle: only 'wavelength' (+ fwhm) in the header, as a camera writes it."""
+    import numpy as np
+    from spectral.io import envi
+
+    paths = []
+    for a, ang in enumerate(c.angles_deg.tolist()):
+        p = str(tmp_path / f"film_{ang:.0f}deg.hdr")
+        md = {"wavelength": [f"{v:.6g}" for v in c.wavelength.tolist()], "wavelength units": "Nanometers",
+              "fwhm": ["4"] * c.wavelength.numel()}
+        if scale != 1.0:
+            md["reflectance scale factor"] = str(scale)
+        envi.save_image(p, (c.cube[:, :, a].numpy() * scale).astype(np.float32), metadata=md, force=True, ext=".img")
+        paths.append(p)
+    return paths
+
+
+def test_fit_film_on_envi_files_one_per_angle(tmp_path, capsys):
+    c = synthetic_cube("mgf2_400", height=10, width=10, seed=2)
+    paths = _save_envi_per_angle(tmp_path, c, scale=10000.0)
+    out = tmp_path / "out"
+    # angles given in file order; the files need not be in increasing angle order
+    order = [2, 0, 4, 1, 3]
+    args = _parse(["fit-film", *[paths[i] for i in order], "--angles",
+                   *[str(c.angles_deg[i].item()) for i in order], "--index-model", "constant", "--out", str(out),
+                   "--threads", "1"])
+    assert args.func(args) == 0
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["angles_deg"] == c.angles_deg.tolist() and rep["shape"] == [10, 10, 5, 81]
+    assert abs(rep["n"] - 1.37) < 0.01 and rep["settings"]["bandwidth"] == 4.0
+    import numpy as np
+
+    d = np.load(out / "thickness_nm.npy")
+    assert np.abs(d - c.thickness.numpy()).mean() < 5.0  # float32 on disk, scaled by 10^4
+
+
+def test_fit_film_envi_angle_errors(tmp_path, capsys):
+    c = synthetic_cube("mgf2_400", height=3, width=3, seed=0, angles_deg=(10.0, 30.0, 50.0))
+    paths = _save_envi_per_angle(tmp_path, c)
+    for extra, msg in [([], "angles_deg must give the incidence angle of each of the 3"),
+                       (["--angles", "10", "30"], "3 angle(s), one per ENVI file"),
+                       (["--angles", "10", "30", "95"], "[0, 90)"),
+                       (["--angles", "10", "30", "30"], "distinct")]:
+        args = _parse(["fit-film", *paths, "--out", str(tmp_path / "o"), *extra])
+        assert args.func(args) == 2
+        assert msg in capsys.readouterr().err
+    # a single camera file without an 'incidence angle' field needs --angles
+    args = _parse(["fit-film", paths[0], "--out", str(tmp_path / "o")])
+    assert args.func(args) == 2
+    assert "incidence angle" in capsys.readouterr().err

@@ -29,11 +29,18 @@ def add_parser(sub) -> argparse.ArgumentParser:
             "Estimate the refractive index (shared) and the per-pixel thickness of a thin film on a\n"
             "known substrate from a hyperspectral cube seen at several incidence angles (Kobayashi et al.,\n"
             "peak-wavelength method eq. 8-14, then a joint least-squares refinement).\n\n"
-            "CUBE is a .npz (cube (H, W, A, B), wavelength_nm, angle_deg) or an ENVI .hdr whose bands\n"
-            "carry 'wavelength' and 'incidence angle' fields (angle-major)."
+            "CUBE is a .npz (cube (H, W, A, B), wavelength_nm, angle_deg), or an ENVI .hdr whose bands\n"
+            "carry 'wavelength' (angle-major when several angles share one file) with the angles from\n"
+            "--angles or a per-band 'incidence angle' field, or several ENVI .hdr files, one per angle,\n"
+            "with --angles giving each file's angle in the same order:\n"
+            "  torchirid fit-film a10.hdr a20.hdr a30.hdr a40.hdr a50.hdr --angles 10 20 30 40 50 --out fit/"
         ),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("cube", metavar="CUBE", help=".npz or ENVI .hdr cube")
+    p.add_argument("cube", metavar="CUBE", nargs="+", help=".npz cube, ENVI .hdr cube, or one ENVI .hdr per angle")
+    p.add_argument("--angles", type=float, nargs="+", default=None, metavar="DEG",
+                   help="incidence angles in degrees: one per CUBE file, or one per block of bands of a single "
+                        "ENVI file without an 'incidence angle' field")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--n-substrate", type=float, default=1.64, metavar="N", help="substrate index (PET: 1.64)")
     p.add_argument("--polarization", choices=("s", "p", "unpolarized"), default="s")
@@ -75,7 +82,8 @@ def run(args) -> int:
     if args.threads:
         torch.set_num_threads(args.threads)
     try:
-        cube = read_cube(args.cube)
+        paths = args.cube if len(args.cube) > 1 else args.cube[0]
+        cube = read_cube(paths, angles_deg=args.angles)
     except (OSError, ValueError) as exc:
         print(f"fit-film: {exc}", file=sys.stderr)
         return 2
@@ -98,7 +106,8 @@ def run(args) -> int:
     _png(os.path.join(args.out, "thickness.png"), d, f"thickness, n = {est.n:.4f}", "d (nm)")
     _png(os.path.join(args.out, "fit_error.png"), est.rms, "RMS residual per pixel", "reflectance", cmap="magma")
     report = {
-        "cube": os.fspath(args.cube),
+        "cube": [os.fspath(c) for c in args.cube] if len(args.cube) > 1 else os.fspath(args.cube[0]),
+        "angles_deg": cube.angles_deg.tolist(),
         "shape": list(cube.cube.shape),
         "n": est.n,
         "n_reference_wavelength_nm": 589.3,

@@ -8,9 +8,12 @@ A cube is ``(H, W, A, B)`` band reflectance with ``wavelength`` ``(B,)`` in nm a
   ground truth for synthetic cubes) and ``meta`` (a JSON string, e.g. polarization,
   n_substrate).
 * ENVI: one image of H lines × W samples × A·B bands (angle-major: band index a·B + b), with
-  the standard ``wavelength`` and ``fwhm`` header fields per band and a ``incidence angle``
-  field per band (degrees). A list of ENVI files, one per angle, with ``angles_deg`` given,
-  is read as well.
+  the standard ``wavelength`` (``wavelength units`` nanometers or micrometers) and ``fwhm``
+  header fields per band. The angles come either from a per-band ``incidence angle`` field
+  (degrees; written by :func:`write_envi`, not an ENVI standard field) or from ``angles_deg``
+  (one value per angle block). A list of ENVI files, one per angle (each H × W × B), is read
+  with ``angles_deg`` giving each file's angle. The standard ``reflectance scale factor``
+  (stored value = reflectance × factor) and ``data ignore value`` (→ NaN) are honoured.
 """
 
 from __future__ import annotations
@@ -87,15 +90,49 @@ def write_envi(path_hdr, cube, wavelength, angles_deg, *, bandwidth=None) -> Non
     envi.save_image(os.fspath(path_hdr), data, metadata=md, force=True, ext=".img")
 
 
+def _check_angles(angles_deg, count=None, what=""):
+    """Validated incidence angles (degrees) as float64 numpy, or None."""
+    if angles_deg is None:
+        return None
+    ang = np.asarray(angles_deg, dtype=np.float64).reshape(-1)
+    if count is not None and ang.size != count:
+        raise ValueError(f"angles_deg must give {count} angle(s){what}; got {ang.size}")
+    if not np.all(np.isfinite(ang)) or np.any(ang < 0) or np.any(ang >= 90):
+        raise ValueError(f"angles_deg must be incidence angles in [0, 90) degrees; got {ang.tolist()}")
+    if np.unique(ang).size != ang.size:
+        raise ValueError(f"angles_deg must be distinct; got {ang.tolist()}")
+    return ang
+
+
+_WAVELENGTH_UNITS = {"nm": 1.0, "nanometers": 1.0, "nanometer": 1.0, "um": 1000.0, "µm": 1000.0,
+                     "micrometers": 1000.0, "micrometer": 1000.0, "microns": 1000.0}
+
+
 def _read_envi_one(path):
     from spectral.io import envi
 
-    img = envi.open(os.fspath(path))
-    data = np.asarray(img.load(), dtype=np.float64)
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise ValueError(f"ENVI header {p!r} does not exist")
+    try:
+        img = envi.open(p)
+    except Exception as exc:  # spectral raises its own error types for bad headers / missing data files
+        raise ValueError(f"cannot read ENVI file {p!r}: {exc}") from exc
+    data = np.asarray(img.load(scale=False), dtype=np.float64)  # raw values: the ignore value is in file units
+    if data.ndim == 2:
+        data = data[:, :, None]
     md = img.metadata
     wl = np.asarray([float(v) for v in md.get("wavelength", [])])
     if wl.size != data.shape[-1]:
-        raise ValueError(f"ENVI file {os.fspath(path)!r} must give one 'wavelength' per band")
+        raise ValueError(f"ENVI file {p!r} must give one 'wavelength' per band ({data.shape[-1]}); got {wl.size}")
+    units = str(md.get("wavelength units", "nm")).strip().lower()
+    if units not in _WAVELENGTH_UNITS:
+        raise ValueError(f"ENVI file {p!r}: wavelength units must be nanometers or micrometers; got {units!r}")
+    wl = wl * _WAVELENGTH_UNITS[units]
+    if "data ignore value" in md:
+        data[data == float(md["data ignore value"])] = np.nan  # dead pixels → NaN (the fits skip them)
+    if "reflectance scale factor" in md:
+        data = data / float(md["reflectance scale factor"])
     ang = md.get("incidence angle")
     fwhm = md.get("fwhm")
     return data, wl, (None if ang is None else np.asarray([float(v) for v in ang])), (
@@ -103,7 +140,20 @@ def _read_envi_one(path):
 
 
 def read_cube(path, *, angles_deg=None) -> Cube:
-    """Read a cube from .npz, an ENVI header, or a list of ENVI headers (one per angle, ``angles_deg`` given).
+    """Read a cube from .npz, an ENVI header, or a list of ENVI headers (one per angle).
+
+    Args:
+        path: a ``.npz`` file, an ENVI ``.hdr`` file (its data file beside it), or a list of
+            ``.hdr`` files, one per incidence angle (module docstring).
+        angles_deg: incidence angles in degrees, [0, 90), distinct: one per file for a list;
+            one per block of bands for an ENVI file without an ``incidence angle`` field;
+            optional otherwise (then it must agree with the file).
+
+    Returns:
+        :class:`Cube` with the angles sorted increasingly.
+
+    Raises:
+        ValueError: unreadable or inconsistent files, missing or mismatched angles.
 
     Example:
         >>> import tempfile, os, torch
@@ -112,16 +162,29 @@ def read_cube(path, *, angles_deg=None) -> Cube:
         >>> tuple(read_cube(p).cube.shape)
         (2, 3, 2, 4)
     """
+    if isinstance(path, (list, tuple)) and len(path) == 1:
+        path = path[0]
     if isinstance(path, (list, tuple)):
-        if angles_deg is None or len(angles_deg) != len(path):
-            raise ValueError("angles_deg must give one angle per ENVI file")
-        parts = [_read_envi_one(p) for p in path]
+        if any(not os.fspath(q).endswith(".hdr") for q in path):
+            raise ValueError("several cube files must all be ENVI .hdr files, one per incidence angle")
+        if angles_deg is None:
+            raise ValueError(f"angles_deg must give the incidence angle of each of the {len(path)} ENVI files")
+        ang = _check_angles(angles_deg, len(path), f", one per ENVI file ({len(path)} files)")
+        parts = [_read_envi_one(q) for q in path]
         wl = parts[0][1]
-        if any(p[1].shape != wl.shape or not np.allclose(p[1], wl) for p in parts):
-            raise ValueError("every ENVI file must have the same wavelengths")
-        cube = np.stack([p[0] for p in parts], axis=2)
-        return Cube(torch.from_numpy(cube), torch.from_numpy(wl), torch.as_tensor(angles_deg, dtype=torch.float64),
-                    parts[0][3]).sorted()
+        for i, (q, part) in enumerate(zip(path, parts)):
+            if part[0].shape[:2] != parts[0][0].shape[:2]:
+                raise ValueError(f"every ENVI file must have the same lines x samples; {os.fspath(q)!r} has "
+                                 f"{part[0].shape[:2]}, {os.fspath(path[0])!r} {parts[0][0].shape[:2]}")
+            if part[1].shape != wl.shape or not np.allclose(part[1], wl):
+                raise ValueError(f"every ENVI file must have the same wavelengths; {os.fspath(q)!r} differs")
+            if part[2] is not None and np.unique(part[2]).size > 1:
+                raise ValueError(f"ENVI file {os.fspath(q)!r} holds several incidence angles; give one file per angle")
+            if part[2] is not None and not np.isclose(part[2][0], ang[i]):
+                raise ValueError(f"angles_deg disagrees with the 'incidence angle' of {os.fspath(q)!r} "
+                                 f"({part[2][0]:g} deg)")
+        cube = np.stack([part[0] for part in parts], axis=2)
+        return Cube(torch.from_numpy(cube), torch.from_numpy(wl), torch.from_numpy(ang), parts[0][3]).sorted()
     p = os.fspath(path)
     if p.endswith(".npz"):
         with np.load(p, allow_pickle=False) as z:
@@ -135,18 +198,34 @@ def read_cube(path, *, angles_deg=None) -> Cube:
             th = torch.from_numpy(z["thickness_nm"].astype(np.float64)) if "thickness_nm" in z else None
             meta = json.loads(str(z["meta"])) if "meta" in z else {}
         _check_shapes(cube, wl, ang)
+        ang_arg = _check_angles(angles_deg)
+        if ang_arg is not None and (ang_arg.size != ang.numel() or not np.allclose(ang_arg, ang.numpy())):
+            raise ValueError(f"angles_deg {ang_arg.tolist()} disagrees with the angle_deg {ang.tolist()} stored in {p!r}")
         return Cube(cube, wl, ang, bw, th, meta).sorted()
     if p.endswith(".hdr"):
         data, wl_all, ang_all, bw = _read_envi_one(p)
+        ang_arg = _check_angles(angles_deg)
         if ang_all is None:
-            if angles_deg is None or len(angles_deg) != 1:
-                raise ValueError("an ENVI file without an 'incidence angle' field needs angles_deg=[one angle]")
-            ang_all = np.full(wl_all.shape, float(angles_deg[0]))
-        angles = list(dict.fromkeys(ang_all.tolist()))
-        A = len(angles)
-        B = wl_all.size // A
-        if A * B != wl_all.size or not np.allclose(ang_all, np.repeat(angles, B)):
-            raise ValueError("ENVI bands must be angle-major: all bands of one angle, then the next")
+            if ang_arg is None:
+                raise ValueError(f"ENVI file {p!r} has no per-band 'incidence angle' field: give angles_deg "
+                                 "(one angle per block of bands, angle-major)")
+            A = ang_arg.size
+            if wl_all.size % A:
+                raise ValueError(f"angles_deg: {A} angles do not divide the {wl_all.size} bands of {p!r}")
+            B = wl_all.size // A
+            if not np.allclose(wl_all.reshape(A, B), wl_all[None, :B]):
+                raise ValueError(f"ENVI file {p!r} with {A} angles must repeat the same {B} wavelengths per angle "
+                                 "(angle-major bands)")
+            angles = ang_arg.tolist()
+        else:
+            angles = list(dict.fromkeys(ang_all.tolist()))
+            A = len(angles)
+            B = wl_all.size // A
+            if A * B != wl_all.size or not np.allclose(ang_all, np.repeat(angles, B)):
+                raise ValueError("ENVI bands must be angle-major: all bands of one angle, then the next")
+            if ang_arg is not None and (ang_arg.size != A or not np.allclose(ang_arg, angles)):
+                raise ValueError(f"angles_deg {ang_arg.tolist()} disagrees with the 'incidence angle' field of "
+                                 f"{p!r} ({angles})")
         cube = data.reshape(data.shape[0], data.shape[1], A, B)
         return Cube(torch.from_numpy(cube), torch.from_numpy(wl_all[:B].copy()), torch.tensor(angles, dtype=torch.float64),
                     bw).sorted()
