@@ -85,3 +85,19 @@ def test_fit_film_envi_angle_errors(tmp_path, capsys):
     args = _parse(["fit-film", paths[0], "--out", str(tmp_path / "o")])
     assert args.func(args) == 2
     assert "incidence angle" in capsys.readouterr().err
+
+
+def test_fit_film_default_auto_index_on_zns(tmp_path, capsys):
+    c = synthetic_cube("zns_500", height=12, width=12, seed=0)
+    p = tmp_path / "zns.npz"
+    write_npz(p, c.cube, c.wavelength, c.angles_deg, bandwidth=4.0, thickness=c.thickness, meta={"n_true": 2.367})
+    args = _parse(["fit-film", str(p), "--out", str(tmp_path / "auto"), "--threads", "1"])
+    assert args.index_model == "auto" and args.func(args) == 0
+    rep = json.loads((tmp_path / "auto" / "report.json").read_text())
+    assert rep["index_model"] in ("cauchy", "cauchy3") and rep["warnings"] == []
+    assert rep["n_error"] < 0.01 and rep["thickness_error_nm"]["mean"] < 5
+    assert set(rep["index_selection"]) == {"constant", "cauchy", "cauchy3"}
+    capsys.readouterr()
+    args = _parse(["fit-film", str(p), "--out", str(tmp_path / "const"), "--index-model", "constant"])
+    assert args.func(args) == 0
+    assert "warning" in capsys.readouterr().err and "noise level" in (tmp_path / "const" / "report.json").read_text()

@@ -174,3 +174,43 @@ def test_lm_jacobian_is_the_exact_jacobian_of_the_residual(model, theta, polariz
     no_h = tuple(t if i < 4 else torch.zeros_like(t) for i, t in enumerate(dterms))
     _, _, Jt0 = lm_jacobian(y, d, terms, no_h)
     assert float((Jt0 - J_th).norm() / J_th.norm()) > 1e-6
+
+
+def test_noise_level_matches_the_added_noise():
+    from torchirid.estimation.estimate import noise_level
+
+    for name in ("mgf2_400", "zns_500"):
+        cube = synthetic_cube(name, height=12, width=12, seed=4, gaussian_noise=0.01, shot_noise=0.0)
+        true = float((cube.cube - cube.clean).std())
+        assert abs(noise_level(cube.cube) - true) < 0.1 * true
+    assert noise_level(torch.full((3, 7), math.nan, dtype=F64)) != noise_level(torch.zeros(3, 7))  # NaN: no data
+    with pytest.raises(ValueError, match="5 bands"):
+        noise_level(torch.zeros(3, 4))
+
+
+def test_auto_index_model_picks_dispersion_for_zns_and_warns_for_a_constant_index():
+    """Synthetic ZnS (Debenham dispersion, 500 nm, 1 % noise): the constant index fails far
+    above the noise (n 2.41, ~110 nm off) and says so; "auto" picks a Cauchy model by BIC and meets the bars."""
+    cube = synthetic_cube("zns_500", height=24, width=24, seed=0)
+    with pytest.warns(RuntimeWarning, match="noise level"):
+        bad = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="constant", sample=256)
+    assert bad.settings["residual_to_noise"] > 3 and film_metrics(bad, cube)["d_error_mean"] > 20
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=256)
+    sel = est.settings["index_selection"]
+    assert set(sel) == {"constant", "cauchy", "cauchy3"} and est.settings["index_model_requested"] == "auto"
+    assert est.index_model in ("cauchy", "cauchy3") and sel[est.index_model]["bic"] == min(v["bic"] for v in sel.values())
+    assert est.settings["residual_to_noise"] < 1.5
+    m = film_metrics(est, cube)
+    assert m["n_error"] <= 0.01 and m["d_error_mean"] <= 5.0
+
+
+def test_auto_index_model_keeps_a_constant_index_for_mgf2():
+    cube = synthetic_cube("mgf2_600", height=16, width=16, seed=1)
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=128)
+    assert est.index_model == "constant" and abs(est.n - 1.37) < 0.005
+    with pytest.raises(ValueError, match="auto"):
+        estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="sellmeier")

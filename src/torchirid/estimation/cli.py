@@ -13,6 +13,7 @@ import argparse
 import json
 import os
 import sys
+import warnings
 
 import numpy as np
 import torch
@@ -47,8 +48,9 @@ def add_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--bandwidth", type=float, default=None, metavar="NM",
                    help="band width in nm (default: from the file, else 4)")
     p.add_argument("--passband", choices=("box", "gaussian"), default="box")
-    p.add_argument("--index-model", choices=("constant", "cauchy", "cauchy3"), default="constant",
-                   help="film index model (cauchy3 for a dispersive film such as ZnS)")
+    p.add_argument("--index-model", choices=("auto", "constant", "cauchy", "cauchy3"), default="auto",
+                   help="film index model: auto (default) fits constant, cauchy and cauchy3 on a pixel sample and "
+                        "keeps the least BIC; cauchy3 for a dispersive film such as ZnS")
     p.add_argument("--thickness-range", type=float, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
     p.add_argument("--smoothness", type=float, default=0.0, help="spatial smoothness weight (reflectance²/nm²)")
     p.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's)")
@@ -91,16 +93,21 @@ def run(args) -> int:
     os.makedirs(args.out, exist_ok=True)
     bar = tqdm(desc="torchirid fit-film", unit="step", delay=2.0, file=sys.stderr, leave=False)
     try:
-        est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, args.n_substrate,
-                            index_model_name=args.index_model, bandwidth=bw, passband=args.passband,
-                            polarization=args.polarization, thickness_range=tuple(args.thickness_range),
-                            smoothness=args.smoothness, seed=args.seed,
-                            progress=lambda name: (bar.set_postfix_str(name), bar.update(1)))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", RuntimeWarning)
+            est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, args.n_substrate,
+                                index_model_name=args.index_model, bandwidth=bw, passband=args.passband,
+                                polarization=args.polarization, thickness_range=tuple(args.thickness_range),
+                                smoothness=args.smoothness, seed=args.seed,
+                                progress=lambda name: (bar.set_postfix_str(name), bar.update(1)))
     except ValueError as exc:
         print(f"fit-film: {exc}", file=sys.stderr)
         return 2
     finally:
         bar.close()
+    notes = [str(w.message) for w in caught]
+    for note in notes:
+        print(f"fit-film: warning: {note}", file=sys.stderr)
     d = est.thickness
     np.save(os.path.join(args.out, "thickness_nm.npy"), d.numpy())
     _png(os.path.join(args.out, "thickness.png"), d, f"thickness, n = {est.n:.4f}", "d (nm)")
@@ -116,6 +123,10 @@ def run(args) -> int:
         "n_peak_method": est.n_peak,
         "thickness_nm": {"mean": float(d.mean()), "min": float(d.min()), "max": float(d.max()), "std": float(d.std())},
         "rms_residual_mean": float(est.rms.mean()),
+        "noise_level": est.settings["noise_level"],
+        "residual_to_noise": est.settings["residual_to_noise"],
+        "index_selection": est.settings["index_selection"],
+        "warnings": notes,
         "timings_s": est.timings,
         "settings": dict(est.settings, bandwidth=bw, thickness_range=list(args.thickness_range)),
     }
@@ -127,5 +138,6 @@ def run(args) -> int:
             report["n_error"] = abs(est.n - float(cube.meta["n_true"]))
     with open(os.path.join(args.out, "report.json"), "w") as f:
         json.dump(report, f, indent=1, default=float)
-    print(f"n = {est.n:.4f}, mean d = {float(d.mean()):.1f} nm, {est.timings['total']:.1f} s → {args.out}")
+    print(f"n = {est.n:.4f} ({est.index_model}), mean d = {float(d.mean()):.1f} nm, {est.timings['total']:.1f} s "
+          f"→ {args.out}")
     return 0

@@ -20,6 +20,18 @@ r"""The whole estimate: peak method → index scan → global order test → joi
    ``final_iterations`` joint Levenberg–Marquardt iterations on every pixel
    (:func:`~torchirid.estimation.refine_film`, with the optional smoothness term).
 
+``index_model_name="auto"`` runs stage 3 for every model of
+:data:`~torchirid.estimation.INDEX_MODELS` on the sample (stage 2 and the dispersive scan are
+shared) and keeps the one of least Bayesian information criterion over the sample's N
+samples, BIC = N ln(SSE/N) + K ln N (the per-pixel thicknesses are common to all models and
+cancel): a dispersive film such as ZnS then gets a Cauchy model, a non-dispersive one keeps
+the constant index unless dispersion pays for its parameters.
+
+After the fit the per-pixel RMS residual is compared with the noise level of the data
+(:func:`noise_level`); a median ratio above ``NOISE_WARNING_RATIO`` warns (``RuntimeWarning``)
+— the model does not explain the data (wrong index model, absorbing film, wrong substrate or
+angles).
+
 :func:`film_metrics` scores an estimate against a synthetic truth as in Table 1 (n error,
 mean |d error|, mean ΔE*ab over angles under D65 / CIE 1931 2°, spectral RMSE).
 """
@@ -28,6 +40,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import torch
@@ -39,7 +52,11 @@ from .measurement import band_terms, band_reflectance_fast
 from .peaks import peak_method
 from .refine import d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
 
-__all__ = ["FilmEstimate", "estimate_film", "film_metrics", "model_cube"]
+__all__ = ["INDEX_CHOICES", "NOISE_WARNING_RATIO", "FilmEstimate", "estimate_film", "film_metrics", "model_cube",
+           "noise_level"]
+
+INDEX_CHOICES = ("auto",) + tuple(INDEX_MODELS)  # what estimate_film / fit-film accept
+NOISE_WARNING_RATIO = 3.0  # median RMS residual / noise level above which estimate_film warns
 
 
 @dataclass
@@ -72,6 +89,34 @@ def _sse_at(cube, d, terms):
     return cube_sse(cube, terms, d).sum()
 
 
+def noise_level(cube) -> float:
+    r"""Noise standard deviation of a cube ``(*, B)`` estimated from its spectra (reflectance units).
+
+    The 4th difference along the bands, Δ⁴y_b = y_{b−2} − 4y_{b−1} + 6y_b − 4y_{b+1} + y_{b+2},
+    multiplies white noise of standard deviation σ by √70 and a smooth spectrum of fringe
+    period T bands by (2 sin(π/T))⁴ (≈ 0.01 at T = 20 bands): so σ̂ = 1.4826 · median|Δ⁴y| / √70
+    (the MAD, robust to outliers and peaks). An upper bound when the fringes are only a few
+    bands wide. NaN samples are skipped; NaN when no 5 consecutive finite bands exist.
+
+    Example (white noise of σ = 0.01 on a smooth spectrum):
+        >>> import torch
+        >>> g = torch.Generator().manual_seed(0)
+        >>> lam = torch.linspace(400, 720, 81, dtype=torch.float64)
+        >>> y = 0.1 + 0.05 * torch.cos(lam / 30) + 0.01 * torch.randn(200, 81, generator=g, dtype=torch.float64)
+        >>> round(noise_level(y), 3)
+        0.01
+    """
+    y = torch.as_tensor(cube)
+    if y.ndim < 1 or y.shape[-1] < 5:
+        raise ValueError(f"cube must have at least 5 bands on its last axis; got shape {tuple(y.shape)}")
+    y = y.to(torch.float64) if not y.is_floating_point() else y
+    d4 = y[..., :-4] - 4 * y[..., 1:-3] + 6 * y[..., 2:-2] - 4 * y[..., 3:-1] + y[..., 4:]
+    d4 = d4[~d4.isnan()]
+    if d4.numel() == 0:
+        return math.nan
+    return float(1.482602218505602 * d4.abs().median() / math.sqrt(70.0))
+
+
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
                   passband: str = "box", polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5),
                   thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
@@ -82,7 +127,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         cube: ``(*, A, B)`` band reflectance (e.g. ``(H, W, A, B)``), angles sorted by increasing θ.
         wavelength: ``(B,)`` uniformly spaced band centres (nm); cos_theta ``(A,)``.
         n_substrate: real substrate index (known, as in the paper: PET 1.64).
-        index_model_name: ``"constant"`` or a dispersive ``"cauchy"`` / ``"cauchy3"``.
+        index_model_name: ``"constant"``, a dispersive ``"cauchy"`` / ``"cauchy3"``, or ``"auto"``
+            (the model of least BIC on the sample, module docstring; ~1.5× the index stage).
         bandwidth, passband: the camera's band model.
         sample: pixels used for the index search (stages 2–3).
         final_iterations: joint iterations on the full image (0: index from the sample only).
@@ -91,8 +137,9 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     Returns:
         :class:`FilmEstimate`.
     """
-    if index_model_name not in INDEX_MODELS:
-        raise ValueError(f"index_model_name must be one of {_checks.names(tuple(INDEX_MODELS))}; got {index_model_name!r}")
+    if index_model_name not in INDEX_CHOICES:
+        raise ValueError(f"index_model_name must be one of {_checks.names(INDEX_CHOICES)}; got {index_model_name!r}")
+    requested = index_model_name
     y = torch.as_tensor(cube)
     if y.ndim < 3:
         raise ValueError(f"cube must have shape (*, A, B) with at least one pixel axis; got {tuple(y.shape)}")
@@ -152,26 +199,41 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     def period(n):
         return lam_mid / (2 * float(torch.sqrt(n * n - s2).mean()))
 
-    theta0 = torch.tensor([n_scan], dtype=dtype)
-    if INDEX_MODELS[index_model_name] > 1:
-        # dispersive model: a second scan over (n(λ_mid), dn/d(1/λ²)) around the constant index;
-        # a thick dispersive film otherwise falls into a wrong (index slope, order) pair
-        p2, d_scan, _, _ = scan_index(yd, d_scan, n_scan, lam[b_sel], c[a_sel], ns, rel_range=0.05, steps=11,
-                                      slopes=tuple(0.015 * i for i in range(7)), **kw)
-        theta0 = torch.cat([p2, torch.zeros(INDEX_MODELS[index_model_name] - 2, dtype=dtype)])
-        n_scan = float(index_model(torch.tensor(lam_mid, dtype=dtype), theta0, index_model_name))
-    # 3. global order hypotheses with the full index model
-    best = None
-    T = period(n_scan)
-    for j in (0.0, -1.0, 1.0):
-        start = d_scan + j * T
-        if bool((start <= 0).any()):
-            continue
-        res = refine_film(ys, lam, c, ns, start, theta0, index_model_name=index_model_name, iterations=iterations, **kw)
-        loss = float(res.sse.sum())
-        if best is None or loss < best[0]:
-            best = (loss, res)
-        step("order hypothesis")
+    candidates = tuple(INDEX_MODELS) if index_model_name == "auto" else (index_model_name,)
+    n_obs = int((~ys.isnan()).sum())  # samples in the BIC (NaN samples do not count)
+    slope_scan = None
+    selection = {}
+    for model in candidates:
+        K = INDEX_MODELS[model]
+        theta0, d_start, n_start = torch.tensor([n_scan], dtype=dtype), d_scan, n_scan
+        if K > 1:
+            # dispersive model: a second scan over (n(λ_mid), dn/d(1/λ²)) around the constant index;
+            # a thick dispersive film otherwise falls into a wrong (index slope, order) pair
+            if slope_scan is None:  # shared by the Cauchy models
+                slope_scan = scan_index(yd, d_scan, n_scan, lam[b_sel], c[a_sel], ns, rel_range=0.05, steps=11,
+                                        slopes=tuple(0.015 * i for i in range(7)), **kw)[:2]
+            p2, d_start = slope_scan
+            theta0 = torch.cat([p2, torch.zeros(K - 2, dtype=dtype)])
+            n_start = float(index_model(torch.tensor(lam_mid, dtype=dtype), theta0, model))
+        # 3. global order hypotheses with the full index model
+        best_m = None
+        T = period(n_start)
+        for j in (0.0, -1.0, 1.0):
+            start = d_start + j * T
+            if bool((start <= 0).any()):
+                continue
+            res = refine_film(ys, lam, c, ns, start, theta0, index_model_name=model, iterations=iterations, **kw)
+            loss = float(res.sse.sum())
+            if best_m is None or loss < best_m[0]:
+                best_m = (loss, res)
+            step("order hypothesis")
+        sse_m = max(best_m[0], torch.finfo(dtype).tiny)
+        bic = n_obs * math.log(sse_m / max(n_obs, 1)) + K * math.log(max(n_obs, 2))
+        selection[model] = dict(sse=best_m[0], bic=bic, params=best_m[1].params.tolist(), result=best_m)
+    index_model_name = min(selection, key=lambda m: selection[m]["bic"])
+    best = selection[index_model_name].pop("result")
+    for v in selection.values():
+        v.pop("result", None)
     theta = best[1].params
     times["index"] = time.perf_counter() - t1
     # 4. full image: d at that index from the three nearest orders, then joint polish
@@ -218,9 +280,19 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
     n_ref = float(index_model(torch.tensor(REFERENCE_WAVELENGTH, dtype=dtype), theta, index_model_name))
+    rms = (sse / (A * B)).sqrt()
+    sigma = noise_level(Y)
+    ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
+    if ratio > NOISE_WARNING_RATIO:
+        warnings.warn(f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data "
+                      f"({sigma:.2g}); the {index_model_name!r} index model does not explain the cube — try "
+                      f"index_model_name='auto' or 'cauchy3' (dispersive film), or check the substrate index, "
+                      f"angles and polarization", RuntimeWarning, stacklevel=2)
     return FilmEstimate(params=theta, index_model=index_model_name, n=n_ref, thickness=d.reshape(batch),
-                        rms=(sse / (A * B)).sqrt().reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness,
+                        rms=rms.reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness,
                         timings=times, settings=dict(kw, n_substrate=ns, index_model=index_model_name, index_start='grid' if restarted else 'peaks',
+                                                     index_model_requested=requested, index_selection=selection,
+                                                     noise_level=sigma, residual_to_noise=ratio,
                                                      exhaustive_pixels=int(bad.sum()),
                                                      smoothness=smoothness, sample=sample, seed=seed))
 
