@@ -8,7 +8,7 @@ Levenberg–Marquardt refinement (:mod:`.refine`), the whole pipeline and Table-
 """
 
 from .dispersion import INDEX_MODELS, fit_index_model, index_model, index_model_size, sellmeier_index, zns_index
-from .estimate import FilmEstimate, estimate_film, film_metrics, model_cube
+from .estimate import INDEX_CHOICES, FilmEstimate, estimate_film, film_metrics, model_cube, noise_level
 from .measurement import (
     airy_terms,
     band_nodes,
@@ -27,16 +27,16 @@ from .peaks import (
     thickness_candidates,
     track_extrema,
 )
-from .refine import RefineResult, d_only_gauss_newton, refine_film, scan_index
+from .refine import RefineResult, d_only_gauss_newton, lm_jacobian, refine_film, scan_index
 from .synthetic import SAMPLES, FilmSample, SyntheticCube, synthetic_cube
 
 __all__ = [
     "INDEX_MODELS", "fit_index_model", "index_model", "index_model_size", "sellmeier_index", "zns_index",
-    "FilmEstimate", "estimate_film", "film_metrics", "model_cube",
+    "INDEX_CHOICES", "FilmEstimate", "estimate_film", "film_metrics", "model_cube", "noise_level",
     "airy_terms", "band_nodes", "band_reflectance", "band_reflectance_fast", "band_terms", "band_variance",
     "reflectance_from_terms",
     "PeakResult", "detect_extrema", "index_from_peak_pair", "index_from_tracks", "peak_method",
     "thickness_candidates", "track_extrema",
-    "RefineResult", "d_only_gauss_newton", "refine_film", "scan_index",
+    "RefineResult", "d_only_gauss_newton", "lm_jacobian", "refine_film", "scan_index",
     "SAMPLES", "FilmSample", "SyntheticCube", "synthetic_cube",
 ]
