@@ -18,7 +18,7 @@ phase φ = ω(A + B), where with γ = (A − B)/(A + B) and k = δ/(2 + δ) (δ 
 
     1 − x = (2 + δ) sin²(φ/2) − δ sin²(γφ/2),   1 + x = (2 + δ) cos²(φ/2) − δ cos²(γφ/2),
 
-(two sines per evaluation), and each landmark has a narrow a-priori bracket: a gap edge lies
+(evaluated as k₀ + k₁ cos φ + k₂ cos γφ in the bisection, whose steps need only the sign), and each landmark has a narrow a-priori bracket: a gap edge lies
 within 2 asin √k of its mode (sin²(u/2) = k sin²(…) ≤ k, u = φ − mπ) and an Airy point within
 asin k of the midpoint between modes (cos φ = k cos γφ). Modes are padded to the largest count
 in the batch; padded entries are NaN in :func:`bragg_landmarks`'s output.
@@ -85,7 +85,8 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
     Every Airy point and gap edge between modes m and m + 1 lies in [ω_m, ω_{m+1}]: there
     1 ∓ x (the sign for mode m) is ≤ 0 only in gap m, 1 ± x (for mode m + 1) only in gap
     m + 1, and x changes sign once; so one batched bisection finds all three kinds, on
-    g = c₀ + c₁ sin²(φ/2 + p) − c₂ sin²(γφ/2 + p) (φ = ωL, p ∈ {0, π/2}) with per-root
+    g = c₀ + c₁ sin²(φ/2 + p) − c₂ sin²(γφ/2 + p) (φ = ωL, p ∈ {0, π/2}; evaluated as
+    k₀ + k₁ cos φ + k₂ cos γφ) with per-root
     coefficients chosen so that g ≤ 0 left of the root and > 0 right of it, each in its
     a-priori bracket (module docstring).
     """
@@ -113,8 +114,14 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
     c0 = torch.cat([zero, -sgn, zero], 0)
     c1 = scale * (2 + delta)
     c2 = scale * delta
-    p = torch.cat([od, zero, ev], 0) * (math.pi / 2)
-    half_gamma = 0.5 * (A - B) / (A + B)
+    # sin²(y + p) = (1 − s cos 2y)/2 with s = cos 2p = ±1 (p ∈ {0, π/2}): g is evaluated as
+    # k0 + k1 cos φ + k2 cos γφ, two cosines and three more ops per bisection step. Only the sign
+    # of g steers the bisection, so the cancellation at its root costs ~ε·(2 + δ)/|g'| in φ.
+    s = 1 - 2 * torch.cat([od, zero, ev], 0)
+    k0 = c0 + 0.5 * (c1 - c2)
+    k1 = -0.5 * s * c1
+    k2 = 0.5 * s * c2
+    gamma = (A - B) / (A + B)
     k = delta / (2 + delta)
     w_edge = (2 * torch.asin(torch.sqrt(k))).expand_as(ev)
     w_airy = torch.asin(k).expand_as(ev)
@@ -123,9 +130,7 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
     h = torch.cat([w_edge, 2 * w_airy, w_edge], 0)
 
     def g(phi):
-        s1 = torch.sin(torch.add(p, phi, alpha=0.5))
-        s2 = torch.sin(torch.addcmul(p, half_gamma, phi))
-        return torch.addcmul(torch.addcmul(c0, c1, s1 * s1), c2, s2 * s2, value=-1)
+        return torch.addcmul(torch.addcmul(k0, k1, torch.cos(phi)), k2, torch.cos(gamma * phi))
 
     for _ in range(iterations):
         h = 0.5 * h
