@@ -81,7 +81,10 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     dtype, device = mirror["A"].dtype, mirror["A"].device
     table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=dtype, device=device)
     white = table(omega=torch.tensor(omega_max, dtype=dtype, device=device))  # XYZ of R ≡ 1
-    w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))
+    if weights == "paper":
+        w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))
+    else:  # the fringe-averaged weights do not use the correction
+        w_corr = torch.ones((), dtype=dtype, device=device)
     xyz = _piecewise_xyz(mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], w_corr, omega_min, omega_max,
                          subdivisions, table, weights, mirror["N"])
     out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
