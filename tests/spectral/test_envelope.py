@@ -97,6 +97,13 @@ def test_scope_errors():
         ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="envelope", samples=1)
     with pytest.raises(ValueError, match="cos_theta"):
         ti.bragg_xyz(t64([1.5]), 1.0, 1.5, 125.0, 375.0, 20, method="envelope")
+    with pytest.raises(ValueError, match="observer"):
+        ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="envelope", observer="CIE 2031")
+    # the public weights are a copy: changing them leaves the method's cached weights alone
+    W = envelope_weights(64)
+    before = ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="envelope")
+    W.zero_()
+    assert torch.equal(ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="envelope"), before)
 
 
 def test_gradcheck_and_finite_gradients_at_hard_cases():

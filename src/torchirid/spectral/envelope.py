@@ -156,7 +156,7 @@ def envelope_weights(samples: int, *, observer: str = "CIE 1931 2", illuminant: 
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
-    return _hat_weights(samples, observer, illuminant, lo, hi, dtype, torch.device(device))
+    return _hat_weights(samples, observer, illuminant, lo, hi, dtype, torch.device(device)).clone()  # cache stays intact
 
 
 def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells=20, *, polarization: str = "unpolarized", samples: int = 64,
@@ -190,8 +190,7 @@ def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells=20, *, polarization: str
     lo, hi = mirror["range"]
     A, B, delta, C_coef, N = mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], mirror["N"]
     dtype, device = A.dtype, A.device
-    W = envelope_weights(samples, observer=observer, illuminant=illuminant, wavelength_range=(lo, hi),
-                         dtype=dtype, device=device)
+    W = _hat_weights(samples, observer, illuminant, lo, hi, dtype, device)  # cached; read only
     omega = torch.linspace(2 * math.pi / hi, 2 * math.pi / lo, samples, dtype=dtype, device=device)
     R = _fringe_averaged(omega, A, B, delta, C_coef, N)  # (P, *, K)
     xyz = R @ W  # (P, *, 3)
