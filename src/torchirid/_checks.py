@@ -66,12 +66,12 @@ def as_real(x, name: str, dtype, device) -> torch.Tensor:
         raise ValueError(f"{name} must be a real number, got a bool")
     if isinstance(x, numbers.Real):
         return torch.as_tensor(float(x), dtype=dtype, device=device)
-    if isinstance(x, (list, tuple)):  # sequences of Python numbers: built in dtype, not via float32
+    try:
         t = torch.as_tensor(x, device=device)
-        if not (t.is_complex() or t.dtype == torch.bool):
-            t = torch.as_tensor(x, dtype=dtype, device=device)
-    else:
-        t = torch.as_tensor(x, device=device)
+        if isinstance(x, (list, tuple)) and not (t.is_complex() or t.dtype == torch.bool):
+            t = torch.as_tensor(x, dtype=dtype, device=device)  # Python numbers built in dtype, not via float32
+    except (TypeError, ValueError, RuntimeError) as exc:
+        raise ValueError(f"{name} must be real numbers; got {x!r}") from exc
     if t.is_complex():
         raise ValueError(f"{name} must be real, got a complex tensor")
     if t.dtype == torch.bool:

@@ -264,11 +264,6 @@ def prefilter_environment(env, alphas, *, resolution=(32, 64)) -> PrefilteredEnv
     with torch.no_grad():
         if bool((e < 0).any()):
             raise ValueError("env must be >= 0 (radiance)")
-    if isinstance(alphas, (list, tuple)):  # build a list in the target dtype (as_real would go via float32)
-        try:
-            alphas = torch.as_tensor(alphas, dtype=dtype, device=device)
-        except (TypeError, ValueError, RuntimeError) as exc:
-            raise ValueError(f"alphas must be real numbers; got {alphas!r}") from exc
     a = _checks.as_real(alphas, "alphas", dtype, device)
     if a.ndim > 1:
         raise ValueError(f"alphas must be a scalar or 1-D; got shape {tuple(a.shape)}")
