@@ -40,7 +40,7 @@ import torch
 from .. import _checks
 from ..optics.bragg import _yeh
 from .cumulative import cumulative_cmf
-from .piecewise import _embedded_mirror, _parts
+from .piecewise import _embedded_mirror, _envelope, _fringe_mean, _parts
 
 __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectance"]
 
@@ -81,13 +81,7 @@ def _fringe_averaged(omega, A, B, delta, C_coef, N, trailing=True):
     omx, opx, sin_b = _parts(omega, Ax, Bx, dx)
     C2 = Cx * (sin_b * sin_b)  # |C|²
     sin2 = torch.clamp(omx * opx, min=0)  # sin² KΛ outside the gaps (0 inside)
-    den = C2 + sin2
-    pos_den = den > 0
-    # 1 − R^e = sin²KΛ / (|C|² + sin²KΛ); den = 0 only where both vanish (a closed gap's mode)
-    one_minus = torch.where(pos_den, sin2 / torch.where(pos_den, den, torch.ones_like(den)), torch.zeros_like(den))
-    pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1: the gap edges and inside)
-    fringe_mean = 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
-                                  torch.zeros_like(one_minus))
+    fringe_mean = _fringe_mean(_envelope(C2, sin2))
     eps = torch.minimum(omx, opx)  # 1 − |cos KΛ|: < 0 inside a gap
     gap_R = _yeh(C2, torch.ones_like(C2), eps, Nx, safe=torch.is_grad_enabled())
     return torch.where(eps < 0, gap_R, fringe_mean)

@@ -263,6 +263,21 @@ def _parts(omega, A, B, delta):
     return torch.addcmul(prod, sh, sh, value=2), torch.addcmul(-prod, ch, ch, value=2), sin_b
 
 
+def _envelope(C2, sin2):
+    """R^e = |C|² / (|C|² + sin² KΛ) (eq. 11); 0 where both vanish (a closed gap's mode)."""
+    den = C2 + sin2
+    return torch.where(den > 0, C2 / torch.where(den > 0, den, torch.ones_like(den)), torch.zeros_like(den))
+
+
+def _fringe_mean(envelope):
+    """Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
+    ⟨C² sin²φ / (C² sin²φ + sin²KΛ)⟩_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e)."""
+    one_minus = 1 - envelope
+    pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1: gap edges and inside)
+    return 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
+                           torch.zeros_like(one_minus))
+
+
 def _layout(A, B, delta, C_coef, N, landmarks, omega_min, omega_max, s, averaged, static=False):
     """The boxes between the sorted landmarks: ``(lo, width, gap, gap_weight, n_sub, cum)``
     (*, J) — left end, width, inside a gap, the weight there, and the number of sub-boxes
@@ -319,20 +334,13 @@ def _fill(A, B, delta, C_coef, w_corr, lo, width, gap, gap_weight, n_sub, cum, T
     omx_s, opx_s, sin_bs = _parts(sub_mid, Ax, Bx, dx)
     C2 = Cx * (sin_bs * sin_bs)
     sin2 = torch.clamp(omx_s * opx_s, min=0)  # sin² KΛ, ≥ 0 outside the gaps
-    den = C2 + sin2
-    envelope = torch.where(den > 0, C2 / torch.where(den > 0, den, torch.ones_like(den)), torch.zeros_like(den))
+    envelope = _envelope(C2, sin2)
     gap_t = at(gap)
     if not averaged:
         weight = torch.where(gap_t, torch.ones_like(envelope), w_corr.unsqueeze(-1) * envelope)
     else:
-        # averaged: Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
-        # <C² sin²φ / (C² sin²φ + sin²KΛ)>_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e);
-        # inside the gaps the weight of :func:`_layout`
-        one_minus = 1 - envelope
-        pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1, inside gaps: not used)
-        fringe_mean = 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
-                                      torch.zeros_like(one_minus))
-        weight = torch.where(gap_t, at(gap_weight), fringe_mean)
+        # averaged: the fringe mean 1 − √(1 − R^e); inside the gaps the weight of :func:`_layout`
+        weight = torch.where(gap_t, at(gap_weight), _fringe_mean(envelope))
     weight = torch.where(valid, weight, torch.zeros_like(weight))
     edges = torch.cat([left, torch.full_like(left[..., :1], omega_max)], dim=-1)  # (*, T + 1)
     C = _lookup(packed, omega0, step, edges)  # (*, T + 1, 3) cumulative CMF at every sub-box edge
