@@ -158,9 +158,7 @@ def bragg_xyz(
         if isinstance(n1, complex) or isinstance(n2, complex) or any(
                 torch.is_tensor(t) and t.is_complex() for t in (n1, n2)):
             raise ValueError(f"method={method!r} needs real n1 and n2 (lossless layers)")
-        if method == "envelope":
-            if samples is not None and (not isinstance(samples, int) or isinstance(samples, bool) or samples < 2):
-                raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
+        if method == "envelope":  # (bragg_xyz_envelope validates samples)
             return bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, polarization=polarization,
                                       samples=64 if samples is None else samples, observer=observer,
                                       illuminant=illuminant, wavelength_range=(lo, hi))
