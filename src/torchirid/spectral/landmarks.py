@@ -76,11 +76,12 @@ def _counts(omega_min, omega_max, A, B):
     return m, z, z_hi
 
 
-def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
+def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS, missing=float("nan")):
     """Landmarks from the mode numbers of :func:`_counts` (no data-dependent sizes or host
     syncs: usable inside ``torch.compile(fullgraph=True)``).
 
-    Returns ``(modes, airy, edges_lo, edges_hi)`` as in :func:`bragg_landmarks`.
+    Returns ``(modes, airy, edges_lo, edges_hi)`` as in :func:`bragg_landmarks`, with
+    ``missing`` (NaN by default) in place of the landmarks that are not there.
 
     Every Airy point and gap edge between modes m and m + 1 lies in [ω_m, ω_{m+1}]: there
     1 ∓ x (the sign for mode m) is ≤ 0 only in gap m, 1 ± x (for mode m + 1) only in gap
@@ -92,7 +93,6 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
     """
     Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
     Lx = Ax + Bx
-    nan = float("nan")
     modes = m * math.pi / Lx  # ω_m (eq. 13); m = 0 is ω = 0, where x = 1
     even = torch.remainder(m, 2) == 0  # x(ω_m) ≥ 1 for even m, ≤ −1 for odd m (appendix A)
     ev = even[..., :-1].to(A.dtype)  # parity of the lower mode of each bracket (1 even, 0 odd)
@@ -139,9 +139,10 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
     b = a + h
     roots = _secant(a, b, g(a), g(b)).movedim(0, -1) / Lx
     up, airy, down = roots.split(m.shape[-1] - 1, dim=-1)
-    pad = torch.full_like(modes[..., :1], nan)
-    edges_hi = torch.cat([up, pad], dim=-1)  # upper edge (larger ω) of the gap around each mode
-    edges_lo = torch.cat([pad, down], dim=-1)  # lower edge
+    # the gaps around the first and last modes (at or beyond the range ends) extend past them:
+    # their outer edges, not searched, are clipped to the range below
+    edges_hi = torch.cat([up, torch.full_like(modes[..., :1], math.inf)], dim=-1)  # upper edge (larger ω)
+    edges_lo = torch.cat([torch.full_like(modes[..., :1], -math.inf), down], dim=-1)  # lower edge
     # a closed gap (|x(ω_m)| = 1, e.g. p polarization at Brewster's angle): both edges at the mode
     omx_m, opx_m = dispersion_parts(modes, Ax, Bx, dx)
     closed = torch.where(even, omx_m, opx_m) >= 0
@@ -151,20 +152,20 @@ def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS):
 
     def in_range(w, ok):
         keep = (w >= omega_min) & (w <= omega_max) & ok
-        return torch.where(keep, w, torch.full_like(w, nan))
+        return torch.where(keep, w, missing)
 
     return (in_range(modes, real_mode), in_range(airy, True),
             # gaps straddling the range ends are clipped to it (they still start/end a box)
-            torch.where(real_mode, edges_lo.clamp(omega_min, omega_max), torch.full_like(modes, nan)),
-            torch.where(real_mode, edges_hi.clamp(omega_min, omega_max), torch.full_like(modes, nan)))
+            torch.where(real_mode, edges_lo.clamp(omega_min, omega_max), missing),
+            torch.where(real_mode, edges_hi.clamp(omega_min, omega_max), missing))
 
 
-def _zeros(omega_min, omega_max, B, z, z_hi):
-    """Zero points ω_z = zπ/B (eq. 12) of the numbers ``z`` of :func:`_counts`, NaN-padded."""
+def _zeros(omega_min, omega_max, B, z, z_hi, missing=float("nan")):
+    """Zero points ω_z = zπ/B (eq. 12) of the numbers ``z`` of :func:`_counts`, padded with ``missing``."""
     safe_B = torch.where(B > 0, B, torch.ones_like(B)).unsqueeze(-1)
     zeros = z * math.pi / safe_B
     keep = (zeros >= omega_min) & (zeros <= omega_max) & (z <= z_hi.unsqueeze(-1)) & (B.unsqueeze(-1) > 0)
-    return torch.where(keep, zeros, torch.full_like(zeros, float("nan")))
+    return torch.where(keep, zeros, missing)
 
 
 def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITERATIONS):

@@ -224,23 +224,26 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
             L += (_zeros(omega_min, omega_max, B.detach(), z, z_hi),)
         landmarks = _attach(dict(zip(("modes", "airy", "edges_lo", "edges_hi", "zeros"), L), m=m),
                             A, B, delta, omega_min, omega_max)
-        boxes = _layout(A, B, delta, C_coef, N, landmarks, omega_min, omega_max, s, averaged)
-        return _fill(A, B, delta, C_coef, w_corr, *boxes, _compact_length(boxes[-1]), omega_max, *tab, averaged)
+        landmarks = [torch.where(torch.isnan(w), omega_max, w) for w in landmarks]  # padding: empty boxes
+        boxes = _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged)
+        return _fill(A, B, delta, C_coef, w_corr, *boxes, _compact_length(boxes[0]), *tab, averaged)
     with torch.no_grad():
         # two stages around one host sync (the compact sub-box count T); each ~100–200 small
         # elementwise ops: one fused kernel each when compiled (opt-in, torchirid.set_compile)
         front = _compile.kernel("piecewise_landmarks", _front, _front_static, m.numel())
-        boxes = front(A, B, delta, C_coef, N, m, z, z_hi, omega_min, omega_max, s, averaged, ITERATIONS)
-        T = _compact_length(boxes[-1])
+        boxes = front(A, B, delta, C_coef, N, w_corr, m, z, z_hi, omega_min, omega_max, s, averaged, ITERATIONS)
+        T = _compact_length(boxes[0])
         fill = _compile.kernel("piecewise_boxes", _fill, _fill, m.numel())
-        return fill(A, B, delta, C_coef, w_corr, *boxes, T, omega_max, *tab, averaged)
+        return fill(A, B, delta, C_coef, w_corr, *boxes, T, *tab, averaged)
 
 
-def _front(A, B, delta, C_coef, N, m, z, z_hi, omega_min, omega_max, s, averaged, iterations, static=False):
+def _front(A, B, delta, C_coef, N, w_corr, m, z, z_hi, omega_min, omega_max, s, averaged, iterations,
+           static=False):
     """Landmarks (:func:`_landmarks`, :func:`_zeros`) and the box layout (:func:`_layout`)."""
-    _, airy, e_lo, e_hi = _landmarks(omega_min, omega_max, A, B, delta, m, iterations)
-    zeros = _zeros(omega_min, omega_max, B, z, z_hi)
-    return _layout(A, B, delta, C_coef, N, (airy, e_lo, e_hi, zeros), omega_min, omega_max, s, averaged, static)
+    _, airy, e_lo, e_hi = _landmarks(omega_min, omega_max, A, B, delta, m, iterations, missing=omega_max)
+    zeros = _zeros(omega_min, omega_max, B, z, z_hi, missing=omega_max)
+    return _layout(A, B, delta, C_coef, N, w_corr, (airy, e_lo, e_hi, zeros), omega_min, omega_max, s, averaged,
+                   static)
 
 
 def _front_static(*args):
@@ -248,9 +251,10 @@ def _front_static(*args):
     return _front(*args, static=True)
 
 
-def _compact_length(cum):
-    """T = the largest sub-box count of the batch (one host sync)."""
-    return int(cum[..., -1].max()) if cum.numel() else 0
+def _compact_length(start):
+    """T = the largest sub-box count of the batch (one host sync): the start of the last box
+    (the empty sentinel of :func:`_layout`)."""
+    return int(start[..., -1].max()) if start.numel() else 0
 
 
 def _parts(omega, A, B, delta):
@@ -278,70 +282,80 @@ def _fringe_mean(envelope):
                            torch.zeros_like(one_minus))
 
 
-def _layout(A, B, delta, C_coef, N, landmarks, omega_min, omega_max, s, averaged, static=False):
-    """The boxes between the sorted landmarks: ``(lo, width, gap, gap_weight, n_sub, cum)``
-    (*, J) — left end, width, inside a gap, the weight there, and the number of sub-boxes
-    n_j (1 in a gap, max(1, s − m) outside, m the mode just below the box; 0 for empty boxes)
-    with its cumulative sum along the boxes."""
+def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged, static=False):
+    """The boxes between the sorted landmarks, as the recipe of their sub-boxes (*, J):
+    ``(start, base, step, gap_weight, band)``.
+
+    Box j has n_j sub-boxes (1 in a gap, max(1, s − m) outside, m the mode just below the box;
+    0 for empty boxes) numbered from ``start`` = n_0 + … + n_{j−1} on; sub-box t of the colour
+    (t ≥ start_j) has its left end at ``base`` + t · ``step`` (step = width / n_j). Its weight
+    is ``gap_weight`` + ``band`` · (the pass-band weight at its centre): in a gap (band = 0) the
+    box's weight (1, or with ``averaged`` the exact finite-N reflectance at the gap centre),
+    outside (gap_weight = 0, band = 1 or the angular correction w̃ for the paper's weights)
+    the envelope or its fringe mean. The last box is an empty sentinel at ω_max, so sub-box
+    numbers past a colour's own count land on it (zero width).
+
+    ``landmarks`` = (airy, edges_lo, edges_hi, zeros) with ω_max for the missing ones. A
+    gap is the box that starts at its lower edge (its weight rides along through the sort):
+    no other landmark lies inside a gap.
+    """
     airy, e_lo, e_hi, zeros = landmarks
-    ends = torch.stack(torch.broadcast_tensors(torch.full_like(A, omega_min), torch.full_like(A, omega_max)), -1)
-    b = torch.cat([ends, e_lo, e_hi, airy, zeros], dim=-1)
-    b = torch.where(torch.isnan(b), torch.full_like(b, omega_max), b)  # padding → empty boxes at the end
-    b, _ = torch.sort(b, dim=-1)
-    lo, hi = b[..., :-1], b[..., 1:]  # (*, J) boxes
     Ax, Bx, dx, Cx = (t.unsqueeze(-1) for t in (A, B, delta, C_coef))
-    mid = 0.5 * (lo + hi)
-    omx, opx, sin_b = _parts(mid, Ax, Bx, dx)
-    eps = torch.minimum(omx, opx)
-    gap = eps <= 0  # |cos KΛ| ≥ 1 at the box centre
-    m_box = torch.floor(mid * (Ax + Bx) / math.pi)
-    n_sub = torch.where(gap, torch.ones_like(m_box), torch.clamp(s - m_box, min=1))
-    n_sub = torch.where(hi > lo, n_sub, torch.zeros_like(n_sub)).to(torch.int64)
-    cum = torch.cumsum(n_sub, dim=-1)  # sub-boxes of boxes 0..j
+    one = torch.ones_like(e_lo[..., :1])
     if averaged:
-        # inside the gaps the exact finite-N reflectance at the box centre (never subdivided)
+        # inside the gaps the exact finite-N reflectance at the gap centre (never subdivided)
         from ..optics.bragg import _yeh  # the closed form's stable Chebyshev evaluation
 
+        omx, opx, sin_b = _parts(0.5 * (e_lo + e_hi), Ax, Bx, dx)
         C2_mid = Cx * (sin_b * sin_b)
-        gap_weight = _yeh(C2_mid, torch.ones_like(C2_mid), eps, N[..., None], safe=torch.is_grad_enabled(),
-                          static=static)
+        gap_weight = _yeh(C2_mid, torch.ones_like(C2_mid), torch.minimum(omx, opx), N[..., None],
+                          safe=torch.is_grad_enabled(), static=static)
     else:
-        gap_weight = torch.ones_like(lo)
-    return lo, hi - lo, gap, gap_weight, n_sub, cum
+        gap_weight = torch.ones_like(e_lo)
+    # tag of each landmark as the left end of a box: the gap weight (≥ 0) for a lower gap edge, else −1
+    tag_lo = torch.where(e_hi > e_lo, gap_weight, -1.0)
+    before = 1 + e_hi.shape[-1] + airy.shape[-1] + zeros.shape[-1]
+    b = torch.cat([one * omega_min, e_hi, airy, zeros, e_lo, one * omega_max, one * omega_max], dim=-1)
+    tags = torch.cat([(-one).expand(one.shape[:-1] + (before,)), tag_lo, -one, -one], dim=-1)
+    # stable: of equal landmarks a lower gap edge comes last (the box it starts is the gap, not
+    # an empty one; e.g. a gap clipped at ω_min), the two ω_max ends after all (the sentinel)
+    b, order = torch.sort(b, dim=-1, stable=True)
+    tag = torch.gather(tags, -1, order[..., :-1])
+    lo, width = b[..., :-1], b[..., 1:] - b[..., :-1]  # (*, J) boxes, the last one the sentinel
+    m_box = torch.floor(torch.addcmul(lo, width, one, value=0.5) * ((Ax + Bx) / math.pi))
+    in_gap = tag >= 0
+    n_sub = torch.where(in_gap, one, torch.clamp(s - m_box, min=1)) * (width > 0)
+    cum = torch.cumsum(n_sub, dim=-1)
+    start = cum - n_sub  # sub-boxes of boxes 0..j−1 (exact: small integers)
+    step = width / torch.clamp(n_sub, min=1)
+    base = lo - start * step
+    band = torch.where(in_gap, 0.0, w_corr.unsqueeze(-1) if not averaged else one)
+    return start, base, step, torch.clamp(tag, min=0), band
 
 
-def _fill(A, B, delta, C_coef, w_corr, lo, width, gap, gap_weight, n_sub, cum, T, omega_max, packed, omega0, step,
-          averaged):
+def _fill(A, B, delta, C_coef, w_corr, start, base, step, gap_weight, band, T, packed, omega0, h, averaged):
     """XYZ of the boxes of :func:`_layout`, each cut into its sub-boxes.
 
     The sub-boxes are laid out compactly, T per colour (T = the largest count in the batch,
-    :func:`_compact_length`; shorter lists are padded with empty sub-boxes at ω_max)."""
-    t = torch.arange(T, device=A.device).expand(cum.shape[:-1] + (T,)).contiguous()
-    j = torch.searchsorted(cum, t, right=True)  # the box of sub-box t
-    valid = j < cum.shape[-1]
-    j = j.clamp(max=cum.shape[-1] - 1)
+    :func:`_compact_length`; shorter lists end with empty sub-boxes at ω_max)."""
+    t = torch.arange(T + 1, dtype=start.dtype, device=start.device).expand(start.shape[:-1] + (T + 1,))
+    j = torch.searchsorted(start, t.contiguous(), right=True) - 1  # the box of sub-box t: the last starting ≤ t
 
     def at(v):
-        return torch.take_along_dim(v, j, dim=-1)
+        return torch.gather(v, -1, j)
 
+    step_t = at(step)
+    left = torch.addcmul(at(base), t, step_t)  # (*, T + 1): left ends (t = T: ω_max)
+    mid = torch.add(left, step_t, alpha=0.5)
     Ax, Bx, dx, Cx = (t_.unsqueeze(-1) for t_ in (A, B, delta, C_coef))
-    n_t = at(n_sub)
-    k = (t - (at(cum) - n_t)).to(A.dtype)  # index of the sub-box in its box
-    inv_n = 1 / torch.where(valid, n_t, torch.ones_like(n_t)).to(A.dtype)
-    lo_t, width_t = at(lo), at(width)
-    left = torch.where(valid, torch.addcmul(lo_t, width_t, k * inv_n), torch.full_like(lo_t, omega_max))
-    sub_mid = torch.addcmul(lo_t, width_t, (k + 0.5) * inv_n)  # (*, T)
-    omx_s, opx_s, sin_bs = _parts(sub_mid, Ax, Bx, dx)
-    C2 = Cx * (sin_bs * sin_bs)
-    sin2 = torch.clamp(omx_s * opx_s, min=0)  # sin² KΛ, ≥ 0 outside the gaps
-    envelope = _envelope(C2, sin2)
-    gap_t = at(gap)
-    if not averaged:
-        weight = torch.where(gap_t, torch.ones_like(envelope), w_corr.unsqueeze(-1) * envelope)
-    else:
-        # averaged: the fringe mean 1 − √(1 − R^e); inside the gaps the weight of :func:`_layout`
-        weight = torch.where(gap_t, at(gap_weight), _fringe_mean(envelope))
-    weight = torch.where(valid, weight, torch.zeros_like(weight))
-    edges = torch.cat([left, torch.full_like(left[..., :1], omega_max)], dim=-1)  # (*, T + 1)
-    C = _lookup(packed, omega0, step, edges)  # (*, T + 1, 3) cumulative CMF at every sub-box edge
+    omx, opx, sin_b = _parts(mid, Ax, Bx, dx)
+    C2 = Cx * (sin_b * sin_b)
+    tiny = torch.finfo(C2.dtype).tiny  # guard: R^e = 0 where |C|² and sin² KΛ vanish (a closed gap's mode)
+    sin2 = torch.clamp(omx * opx, min=0).add_(tiny)  # sin² KΛ (≥ 0 outside the gaps)
+    if averaged:  # the fringe mean 1 − √(1 − R^e) (:func:`_fringe_mean`), > 0 under the root
+        inner = 1 - torch.sqrt(sin2 / (C2 + sin2))
+    else:  # the envelope R^e (eq. 11, :func:`_envelope`)
+        inner = C2 / (C2 + sin2)
+    weight = torch.addcmul(at(gap_weight), at(band), inner)[..., :-1]
+    C = _lookup(packed, omega0, h, left)  # (*, T + 1, 3) cumulative CMF at every sub-box edge
     return (weight.unsqueeze(-1) * (C[..., 1:, :] - C[..., :-1, :])).sum(dim=-2)
