@@ -41,20 +41,13 @@ def dispersion_parts(omega, A, B, delta):
     return 2 * sh * sh + prod, 2 * ch * ch - prod
 
 
-def _secant(lo, hi, f_lo, f_hi):
-    """One secant (false-position) step in the final bracket [lo, hi] of a bisection: the error
-    falls from ~2^-k to ~(2^-k)² of the initial bracket (the midpoint if the step fails)."""
-    den = f_hi - f_lo
-    ok = (den != 0) & torch.isfinite(den)
-    x = lo - f_lo * (hi - lo) / torch.where(ok, den, torch.ones_like(den))
-    inside = ok & (x >= lo) & (x <= hi)
-    return torch.where(inside, x, 0.5 * (lo + hi))
-
-
-#: bisection halvings of :func:`bragg_landmarks` (of the a-priori brackets of the module
-#: docstring, at most π wide in φ; with the final secant step every landmark of a stress set
-#: with grazing angles and δ up to 10³ lies within 1e-5 of its converged position, relative)
-ITERATIONS = 12
+#: bisection halvings of the a-priori brackets (module docstring, at most π wide in φ) before
+#: the Newton steps of :func:`_roots`
+HALVINGS = 4
+#: Newton steps after the halvings: every landmark of a stress set with grazing angles
+#: (cos θ down to 1e-6) and δ up to 10¹⁰ within 2e-6 (relative) of its converged position
+NEWTON_STEPS = 3
+ITERATIONS = HALVINGS  # (the name of the halvings in bragg_landmarks' signature)
 
 
 def _counts(omega_min, omega_max, A, B):
@@ -76,99 +69,99 @@ def _counts(omega_min, omega_max, A, B):
     return m, z, z_hi
 
 
-def _landmarks(omega_min, omega_max, A, B, delta, m, iterations=ITERATIONS, missing=float("nan")):
-    """Landmarks from the mode numbers of :func:`_counts` (no data-dependent sizes or host
-    syncs: usable inside ``torch.compile(fullgraph=True)``).
+def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
+    """Gap edges and Airy points between the consecutive modes ``m (*, M)`` of :func:`_counts`
+    (no data-dependent sizes or host syncs: usable inside ``torch.compile(fullgraph=True)``).
 
-    Returns ``(modes, airy, edges_lo, edges_hi)`` as in :func:`bragg_landmarks`, with
-    ``missing`` (NaN by default) in place of the landmarks that are not there.
+    Returns ω (nm⁻¹) of ``(up, airy, down)``, each ``(*, M − 1)``: for modes m_j, m_{j+1}
+    the upper edge of gap m_j, the Airy point between them and the lower edge of gap m_{j+1}
+    (a closed gap's edges are its mode; the "gap" of m = 0, ω = 0, has its upper edge at 0).
 
-    Every Airy point and gap edge between modes m and m + 1 lies in [ω_m, ω_{m+1}]: there
-    1 ∓ x (the sign for mode m) is ≤ 0 only in gap m, 1 ± x (for mode m + 1) only in gap
-    m + 1, and x changes sign once; so one batched bisection finds all three kinds, on
-    g = c₀ + c₁ sin²(φ/2 + p) − c₂ sin²(γφ/2 + p) (φ = ωL, p ∈ {0, π/2}; evaluated as
-    k₀ + k₁ cos φ + k₂ cos γφ) with per-root
-    coefficients chosen so that g ≤ 0 left of the root and > 0 right of it, each in its
-    a-priori bracket (module docstring).
+    Every root has one equation F(φ) = sin(β₁φ + c₁) + K sin(β₂φ + c₂) = 0 in the phase
+    φ = ω(A + B), with F ≤ 0 left of the root and ≥ 0 right of it in its a-priori bracket
+    (module docstring):
+
+    * upper edge of gap M (u = φ − Mπ ≥ 0): sin(u/2) = √k |S(φ)|, S = sin(γφ/2 + p_M)
+      (p_M = π/2 for odd M) — the square root of (2 + δ) sin²(φ/2 + p_M) = δ sin²(γφ/2 + p_M),
+      i.e. 1 ∓ x = 0; |S| is taken with the sign S has at the mode, which it keeps up to the
+      edge (where S = 0, 1 ∓ x > 0), so F is smooth and its root simple even where the gap
+      closes (no double root);
+    * lower edge (u = Mπ − φ): the same, F negated;
+    * Airy point, φ = (m + ½)π + v: sin v = (−1)^(m+1) k cos γφ (x = 0).
+
+    ``halvings`` bisection steps on the sign of F shrink every bracket by 2^halvings, then
+    ``steps`` Newton steps start at the bracket midpoint, each kept inside the bracket.
     """
-    Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
-    Lx = Ax + Bx
-    modes = m * math.pi / Lx  # ω_m (eq. 13); m = 0 is ω = 0, where x = 1
-    even = torch.remainder(m, 2) == 0  # x(ω_m) ≥ 1 for even m, ≤ −1 for odd m (appendix A)
-    ev = even[..., :-1].to(A.dtype)  # parity of the lower mode of each bracket (1 even, 0 odd)
-    od = 1 - ev
-    sgn = ev - od  # +1 for even m, −1 for odd m
-    # per root, in order (u = φ − mπ; all ≤ 0 left of the root, > 0 right of it):
-    # * the upper edge of gap m: 1 − x (even m), 1 + x (odd m) = (2 + δ) sin²(φ/2 + p) − δ sin²(γφ/2 + p)
-    #   with p = 0 (even), π/2 (odd); in u ∈ [0, 2 asin √k];
-    # * the Airy point: −x (even m), x (odd m) = sgn ((2 + δ) sin²(φ/2) − δ sin²(γφ/2) − 1);
-    #   in φ ∈ mπ + π/2 ± asin k;
-    # * the lower edge of gap m + 1: −(1 + x) (even m), −(1 − x) (odd m), p = π/2 (even m), 0 (odd m);
-    #   in φ ∈ [(m + 1)π − 2 asin √k, (m + 1)π]
-    # the bisection runs with the root axis first, (3(M − 1), *): the batch axes, long and
-    # contiguous, are innermost (vectorised when compiled)
-    ev, od, sgn = (t.movedim(-1, 0) for t in (ev, od, sgn))
-    zero = torch.zeros_like(ev)
-    one = zero + 1
-    scale = torch.cat([one, sgn, -one], 0)
-    c0 = torch.cat([zero, -sgn, zero], 0)
-    c1 = scale * (2 + delta)
-    c2 = scale * delta
-    # sin²(y + p) = (1 − s cos 2y)/2 with s = cos 2p = ±1 (p ∈ {0, π/2}): g is evaluated as
-    # k0 + k1 cos φ + k2 cos γφ, two cosines and three more ops per bisection step. Only the sign
-    # of g steers the bisection, so the cancellation at its root costs ~ε·(2 + δ)/|g'| in φ.
-    s = 1 - 2 * torch.cat([od, zero, ev], 0)
-    k0 = c0 + 0.5 * (c1 - c2)
-    k1 = -0.5 * s * c1
-    k2 = 0.5 * s * c2
-    gamma = (A - B) / (A + B)
+    half = 0.5 * math.pi
+    L = A + B
+    gamma = (A - B) / L
     k = delta / (2 + delta)
-    w_edge = (2 * torch.asin(torch.sqrt(k))).expand_as(ev)
-    w_airy = torch.asin(k).expand_as(ev)
-    base = m[..., :-1].movedim(-1, 0) * math.pi
-    a = torch.cat([base, base + (0.5 * math.pi - w_airy), base + (math.pi - w_edge)], 0)  # the root is in [a, a + h]
-    h = torch.cat([w_edge, 2 * w_airy, w_edge], 0)
+    rk = torch.sqrt(k)
+    # the root axis first, (3(M − 1), *): the batch axes, long and contiguous, are innermost
+    base = m.movedim(-1, 0) * math.pi  # (M, *) mode phases Mπ
+    p = torch.remainder(m.movedim(-1, 0), 2) * half  # p_M: π/2 for odd M
+    rho = torch.sign(torch.sin(torch.addcmul(p, gamma, base, value=0.5)))  # sign of S at each mode
+    lo_m, hi_m, p_lo, p_hi = base[:-1], base[1:], p[:-1], p[1:]
+    j = lo_m.shape[0]
+    w_edge = (2 * torch.asin(rk)).expand_as(lo_m)
+    w_airy = torch.asin(k).expand_as(lo_m)
+    a = torch.cat([lo_m, lo_m + half - w_airy, hi_m - w_edge])  # the root is in [a, a + h]
+    h = torch.cat([w_edge, 2 * w_airy, w_edge])
+    shape = (3 * j,) + (1,) * gamma.dim()
+    beta1 = torch.tensor([0.5] * j + [1.0] * j + [0.5] * j, dtype=a.dtype, device=a.device).view(shape)
+    beta2 = beta1 * gamma
+    c1 = torch.cat([lo_m, lo_m + half, hi_m]) * (-beta1)
+    c2 = torch.cat([p_lo, torch.full_like(p_lo, half), p_hi])
+    # K: −√k ρ (upper edges), (−1)^m k (Airy: 1 − 4p/2π = ±1), +√k ρ (lower edges, F negated)
+    K = torch.cat([-rk * rho[:-1], k * (1 - p_lo / half * 2), rk * rho[1:]])
 
-    def g(phi):
-        return torch.addcmul(torch.addcmul(k0, k1, torch.cos(phi)), k2, torch.cos(gamma * phi))
+    def parts(phi):
+        return torch.addcmul(c1, beta1, phi), torch.addcmul(c2, beta2, phi)
 
-    for _ in range(iterations):
-        h = 0.5 * h
-        mid = a + h
-        a = torch.where(g(mid) <= 0, mid, a)  # the root is in [mid, mid + h]
-    b = a + h
-    roots = _secant(a, b, g(a), g(b)).movedim(0, -1) / Lx
-    up, airy, down = roots.split(m.shape[-1] - 1, dim=-1)
-    # the gaps around the first and last modes (at or beyond the range ends) extend past them:
-    # their outer edges, not searched, are clipped to the range below
-    edges_hi = torch.cat([up, torch.full_like(modes[..., :1], math.inf)], dim=-1)  # upper edge (larger ω)
-    edges_lo = torch.cat([torch.full_like(modes[..., :1], -math.inf), down], dim=-1)  # lower edge
-    # a closed gap (|x(ω_m)| = 1, e.g. p polarization at Brewster's angle): both edges at the mode
-    omx_m, opx_m = dispersion_parts(modes, Ax, Bx, dx)
-    closed = torch.where(even, omx_m, opx_m) >= 0
-    real_mode = m >= 1
-    edges_hi = torch.where(closed, modes, edges_hi)
-    edges_lo = torch.where(closed, modes, edges_lo)
-
-    def in_range(w, ok):
-        keep = (w >= omega_min) & (w <= omega_max) & ok
-        return torch.where(keep, w, missing)
-
-    return (in_range(modes, real_mode), in_range(airy, True),
-            # gaps straddling the range ends are clipped to it (they still start/end a box)
-            torch.where(real_mode, edges_lo.clamp(omega_min, omega_max), missing),
-            torch.where(real_mode, edges_hi.clamp(omega_min, omega_max), missing))
+    for i in range(halvings):
+        t1, t2 = parts(torch.add(a, h, alpha=0.5 ** (i + 1)))
+        F = torch.addcmul(torch.sin(t1), K, torch.sin(t2))
+        # the root is in [mid, mid + h/2^(i+1)] where F(mid) < 0, else in [a, mid]
+        a = torch.addcmul(torch.add(a, h, alpha=0.5 ** (i + 2)), h, torch.sign(F), value=-(0.5 ** (i + 2)))
+    width = h * 0.5 ** halvings
+    b = a + width
+    phi = torch.add(a, width, alpha=0.5)
+    Kb2 = K * beta2
+    for _ in range(steps):
+        t1, t2 = parts(phi)
+        F = torch.addcmul(torch.sin(t1), K, torch.sin(t2))
+        dF = torch.addcmul(beta1 * torch.cos(t1), Kb2, torch.cos(t2))
+        phi = torch.clamp(phi - F / dF, a, b)
+    if steps:  # guard: 0/0 (F' = 0 at a root) leaves the bracket midpoint
+        phi = torch.where(torch.isnan(phi), torch.add(a, width, alpha=0.5), phi)
+    up, airy, down = (phi / L).movedim(0, -1).split(j, dim=-1)
+    return up, airy, down
 
 
-def _zeros(omega_min, omega_max, B, z, z_hi, missing=float("nan")):
-    """Zero points ω_z = zπ/B (eq. 12) of the numbers ``z`` of :func:`_counts`, padded with ``missing``."""
+def _zeros(omega_min, omega_max, B, z, z_hi):
+    """Zero points ω_z = zπ/B (eq. 12) of the numbers ``z`` of :func:`_counts`, NaN-padded."""
     safe_B = torch.where(B > 0, B, torch.ones_like(B)).unsqueeze(-1)
     zeros = z * math.pi / safe_B
     keep = (zeros >= omega_min) & (zeros <= omega_max) & (z <= z_hi.unsqueeze(-1)) & (B.unsqueeze(-1) > 0)
-    return torch.where(keep, zeros, missing)
+    return torch.where(keep, zeros, float("nan"))
 
 
-def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITERATIONS):
+def clamped_landmarks(omega_min, omega_max, A, B, delta, m, z, halvings=HALVINGS, steps=NEWTON_STEPS):
+    """``(airy, edges_lo, edges_hi, zeros)`` as :func:`bragg_landmarks`, but every landmark
+    clamped into [ω_min, ω_max] instead of NaN-padded (what lies outside, or is padding, sits
+    on a range end: zero-width boxes for :mod:`torchirid.spectral.piecewise`); the outer
+    edges of the gaps around the first and last modes, not searched, are the range ends."""
+    up, airy, down = _roots(A, B, delta, m, halvings, steps)
+    end = torch.full_like(up[..., :1], math.inf)
+    edges_hi = torch.cat([up, end], dim=-1).clamp(omega_min, omega_max)
+    edges_lo = torch.cat([-end, down], dim=-1).clamp(omega_min, omega_max)
+    # z beyond the range, and B = 0 (no zero points), land above ω_max
+    zeros = (z * math.pi / B.unsqueeze(-1).clamp(min=torch.finfo(B.dtype).tiny)).clamp(omega_min, omega_max)
+    return airy.clamp(omega_min, omega_max), edges_lo, edges_hi, zeros
+
+
+def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = HALVINGS,
+                    newton_steps: int = NEWTON_STEPS):
     r"""Modes, Airy points, band-gap edges and zero points of a Bragg mirror in [ω_min, ω_max].
 
     Args:
@@ -176,10 +169,10 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITER
         A, B: optical thicknesses n1 d1 cos θ1 and n2 d2 cos θ2 (nm), real ≥ 0, any
             broadcasting batch shape (angles × parameters × polarizations).
         delta: Ω/2 − 1 = (η1 − η2)²/(2 η1 η2) ≥ 0 for the polarization (batch-broadcast).
-        iterations: bisection halvings of the a-priori brackets (module docstring) before the
-            final secant step; 12 put every landmark within ~1e-5 (relative) of its exact
-            position in the worst cases (grazing, large δ), ~3e-8 for δ ≲ 0.1: a colour moves by
-            ≲ 1e-4 ΔE2000 — pass more for other uses.
+        iterations: bisection halvings of the a-priori brackets (module docstring) before
+            ``newton_steps`` Newton steps (each kept in the bracket): the defaults 4 and 3 put
+            every landmark within 2e-6 (relative) of its exact position on a stress set with
+            grazing angles (cos θ down to 1e-6) and δ up to 10¹⁰, ~1e-12 for ordinary mirrors.
 
     Returns:
         dict of tensors, batch shape ``(*,)`` first:
@@ -188,7 +181,7 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITER
         ``edges_hi (*, M)`` (the gap around each mode), ``zeros (*, Z)`` (eq. 12; NaN-padded).
         Every landmark returned lies in [ω_min, ω_max] or is NaN (gaps and Airy points are
         found on the modes just outside the range too and clipped, so partial gaps at the
-        range ends are complete).
+        range ends are complete; a closed gap has both edges at its mode).
 
     Example (quarter-wave stack n = 1 / 1.5 designed for 600 nm: the gap around 600 nm):
         >>> import math, torch
@@ -200,8 +193,24 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = ITER
         >>> [round(2 * math.pi / float(L[k][1]), 1) for k in ("edges_hi", "edges_lo")]  # gap in nm
         [531.8, 688.2]
     """
+    for name, v in (("iterations", iterations), ("newton_steps", newton_steps)):
+        if not isinstance(v, int) or isinstance(v, bool) or v < 0:
+            raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
     A, B, delta = torch.broadcast_tensors(torch.as_tensor(A), torch.as_tensor(B), torch.as_tensor(delta))
     m, z, z_hi = _counts(omega_min, omega_max, A, B)
-    modes, airy, e_lo, e_hi = _landmarks(omega_min, omega_max, A, B, delta, m, iterations)
+    up, airy, down = _roots(A, B, delta, m, iterations, newton_steps)
+    nan = float("nan")
+    modes = m * math.pi / (A + B).unsqueeze(-1)  # ω_m (eq. 13); m = 0 is ω = 0
+    real = m >= 1
+    end = torch.full_like(modes[..., :1], math.inf)
+    # the gaps around the first and last modes (at or beyond the range ends) extend past them:
+    # their outer edges, not searched, are clipped to the range
+    e_hi = torch.where(real, torch.cat([up, end], dim=-1).clamp(omega_min, omega_max), nan)
+    e_lo = torch.where(real, torch.cat([-end, down], dim=-1).clamp(omega_min, omega_max), nan)
+
+    def in_range(w, ok=True):
+        return torch.where((w >= omega_min) & (w <= omega_max) & ok, w, nan)
+
     zeros = _zeros(omega_min, omega_max, B, z, z_hi)
-    return {"modes": modes, "m": m, "airy": airy, "edges_lo": e_lo, "edges_hi": e_hi, "zeros": zeros}
+    return {"modes": in_range(modes, real), "m": m, "airy": in_range(airy), "edges_lo": e_lo, "edges_hi": e_hi,
+            "zeros": zeros}

@@ -40,7 +40,7 @@ import torch
 from .. import _checks, _compile
 from .correction import angular_correction
 from .cumulative import cumulative_cmf
-from .landmarks import ITERATIONS, _counts, _landmarks, _zeros, dispersion_parts
+from .landmarks import HALVINGS, NEWTON_STEPS, _counts, clamped_landmarks, dispersion_parts
 
 __all__ = ["bragg_xyz_piecewise"]
 
@@ -141,15 +141,17 @@ def _coefficients(correction):
     return correction
 
 
-def _attach(L, A, B, delta, omega_min, omega_max):
+def _attach(landmarks, m, A, B, delta, omega_min, omega_max):
     """Landmarks with gradients: the implicit-function theorem on their defining equations.
 
     For a root ω* of f(ω; θ) found by bisection, ω* − (f(ω*; θ) − f(ω*; θ̄)) / ∂_ω f(ω*; θ̄)
-    (θ̄ detached) has the value ω* and the derivative −∂_θ f / ∂_ω f. Landmarks clipped to
-    the range ends, and touching (closed) gaps where ∂_ω f = 0, keep no gradient.
+    (θ̄ detached) has the value ω* and the derivative −∂_θ f / ∂_ω f. Landmarks on the range
+    ends (clipped there by :func:`~torchirid.spectral.landmarks.clamped_landmarks`), and
+    touching (closed) gaps where ∂_ω f = 0, keep no gradient.
     """
     Ax, Bx, dx = (t.unsqueeze(-1) for t in (A, B, delta))
-    even = torch.remainder(L["m"], 2) == 0
+    even = torch.remainder(m, 2) == 0
+    airy, e_lo, e_hi, zeros = landmarks
 
     def x_half(w, a, b_, d):  # x = ((1 + x) − (1 − x)) / 2, from the product forms
         omx, opx = dispersion_parts(w, a, b_, d)
@@ -160,7 +162,7 @@ def _attach(L, A, B, delta, omega_min, omega_max):
         return torch.where(even, omx, opx)
 
     def attach(w, f):
-        ok = ~torch.isnan(w) & (w > omega_min) & (w < omega_max)  # clipped to the range: constant
+        ok = (w > omega_min) & (w < omega_max)  # clipped to the range: constant
         w0 = torch.where(ok, w, torch.zeros_like(w)).detach().requires_grad_(True)
         with torch.enable_grad():
             fw = f(w0, Ax.detach(), Bx.detach(), dx.detach())
@@ -172,14 +174,12 @@ def _attach(L, A, B, delta, omega_min, omega_max):
         moved = w0 - (f_live - f_live.detach()) / safe
         return torch.where(usable, moved, w)
 
-    airy = attach(L["airy"], x_half)
-    e_lo = attach(L["edges_lo"], edge_f)
-    e_hi = attach(L["edges_hi"], edge_f)
+    airy = attach(airy, x_half)
+    e_lo = attach(e_lo, edge_f)
+    e_hi = attach(e_hi, edge_f)
     # zero points ω_z = zπ/B (eq. 12) are explicit in B
-    zeros = L["zeros"]
-    pad = torch.isnan(zeros)
-    z0 = torch.where(pad, torch.zeros_like(zeros), zeros)  # guard: NaN padding must not reach backward
-    zeros = torch.where(pad, zeros, z0 * (Bx.detach() / Bx))
+    inside = (zeros > omega_min) & (zeros < omega_max)
+    zeros = torch.where(inside, zeros * (Bx.detach() / Bx), zeros)
     return airy, e_lo, e_hi, zeros
 
 
@@ -215,35 +215,31 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
     """XYZ ``(P, *, 3)`` of the boxes; ``delta``, ``C_coef`` carry the polarizations in front."""
     A, B, delta, C_coef, w_corr, N = torch.broadcast_tensors(A, B, delta, C_coef, w_corr, N.to(A.dtype))
     with torch.no_grad():
-        m, z, z_hi = _counts(omega_min, omega_max, A, B)  # data-dependent sizes: eager, one sync
+        m, z, _ = _counts(omega_min, omega_max, A, B)  # data-dependent sizes: eager, one sync
     tab = _packed(table)
     averaged = weights == "averaged"
     if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta, C_coef, w_corr)):
-        with torch.no_grad():  # landmark positions by bisection
-            L = _landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach(), m)
-            L += (_zeros(omega_min, omega_max, B.detach(), z, z_hi),)
-        landmarks = _attach(dict(zip(("modes", "airy", "edges_lo", "edges_hi", "zeros"), L), m=m),
-                            A, B, delta, omega_min, omega_max)
-        landmarks = [torch.where(torch.isnan(w), omega_max, w) for w in landmarks]  # padding: empty boxes
+        with torch.no_grad():  # landmark positions by bisection and Newton steps
+            landmarks = clamped_landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach(), m, z)
+        landmarks = _attach(landmarks, m, A, B, delta, omega_min, omega_max)
         boxes = _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged)
         return _fill(A, B, delta, C_coef, w_corr, *boxes, _compact_length(boxes[0]), *tab, averaged)
     with torch.no_grad():
         # two stages around one host sync (the compact sub-box count T); each ~100–200 small
         # elementwise ops: one fused kernel each when compiled (opt-in, torchirid.set_compile)
         front = _compile.kernel("piecewise_landmarks", _front, _front_static, m.numel())
-        boxes = front(A, B, delta, C_coef, N, w_corr, m, z, z_hi, omega_min, omega_max, s, averaged, ITERATIONS)
+        boxes = front(A, B, delta, C_coef, N, w_corr, m, z, omega_min, omega_max, s, averaged, HALVINGS, NEWTON_STEPS)
         T = _compact_length(boxes[0])
         fill = _compile.kernel("piecewise_boxes", _fill, _fill, m.numel())
         return fill(A, B, delta, C_coef, w_corr, *boxes, T, *tab, averaged)
 
 
-def _front(A, B, delta, C_coef, N, w_corr, m, z, z_hi, omega_min, omega_max, s, averaged, iterations,
+def _front(A, B, delta, C_coef, N, w_corr, m, z, omega_min, omega_max, s, averaged, halvings, steps,
            static=False):
-    """Landmarks (:func:`_landmarks`, :func:`_zeros`) and the box layout (:func:`_layout`)."""
-    _, airy, e_lo, e_hi = _landmarks(omega_min, omega_max, A, B, delta, m, iterations, missing=omega_max)
-    zeros = _zeros(omega_min, omega_max, B, z, z_hi, missing=omega_max)
-    return _layout(A, B, delta, C_coef, N, w_corr, (airy, e_lo, e_hi, zeros), omega_min, omega_max, s, averaged,
-                   static)
+    """Landmarks (:func:`~torchirid.spectral.landmarks.clamped_landmarks`) and the box layout
+    (:func:`_layout`)."""
+    landmarks = clamped_landmarks(omega_min, omega_max, A, B, delta, m, z, halvings, steps)
+    return _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged, static)
 
 
 def _front_static(*args):
@@ -295,7 +291,7 @@ def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, 
     the envelope or its fringe mean. The last box is an empty sentinel at ω_max, so sub-box
     numbers past a colour's own count land on it (zero width).
 
-    ``landmarks`` = (airy, edges_lo, edges_hi, zeros) with ω_max for the missing ones. A
+    ``landmarks`` = (airy, edges_lo, edges_hi, zeros), clamped into [ω_min, ω_max]. A
     gap is the box that starts at its lower edge (its weight rides along through the sort):
     no other landmark lies inside a gap.
     """
