@@ -80,7 +80,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
     dtype, device = mirror["A"].dtype, mirror["A"].device
     table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=dtype, device=device)
-    white = table(omega=torch.tensor(omega_max, dtype=dtype, device=device))  # XYZ of R ≡ 1
+    white = _packed(table)[3]  # XYZ of R ≡ 1: C̄(ω_max), the table's last node
     if weights == "paper":
         w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))
     else:  # the fringe-averaged weights do not use the correction
@@ -88,7 +88,10 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     xyz = _piecewise_xyz(mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], w_corr, omega_min, omega_max,
                          subdivisions, table, weights, mirror["N"])
     out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
-    return torch.where(mirror["grazing"].unsqueeze(-1), white.expand_as(out), out)
+    grazing = mirror["grazing"]
+    if not bool(grazing.any()):
+        return out
+    return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
 
 
 def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, method):
@@ -187,14 +190,15 @@ _PACKED: dict = {}
 
 
 def _packed(table):
-    """``(P, ω₀, h)``: the cumulative table uniform in ω (first node ω₀, step h) as rows
-    P[i] = (C̄(ω_i), C̄(ω_{i+1}) − C̄(ω_i)) of its n − 1 cells (one gather per lookup)."""
+    """``(P, ω₀, h, C̄(ω_n))``: the cumulative table uniform in ω (first node ω₀, step h) as rows
+    P[i] = (C̄(ω_i), C̄(ω_{i+1}) − C̄(ω_i)) of its n − 1 cells (one gather per lookup), and its
+    value at the last node."""
     key = id(table)
     hit = _PACKED.get(key)
     if hit is None or hit[0] is not table:
         grid, v = table.axes["omega"], table.values
         packed = torch.cat([v[:-1], v[1:] - v[:-1]], dim=-1).contiguous()
-        hit = (table, (packed, float(grid[0]), float(grid[-1] - grid[0]) / (grid.numel() - 1)))
+        hit = (table, (packed, float(grid[0]), float(grid[-1] - grid[0]) / (grid.numel() - 1), v[-1].clone()))
         _PACKED[key] = hit
     return hit[1]
 
@@ -216,7 +220,7 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
     A, B, delta, C_coef, w_corr, N = torch.broadcast_tensors(A, B, delta, C_coef, w_corr, N.to(A.dtype))
     with torch.no_grad():
         m, z, _ = _counts(omega_min, omega_max, A, B)  # data-dependent sizes: eager, one sync
-    tab = _packed(table)
+    tab = _packed(table)[:3]
     averaged = weights == "averaged"
     if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta, C_coef, w_corr)):
         with torch.no_grad():  # landmark positions by bisection and Newton steps
@@ -278,6 +282,19 @@ def _fringe_mean(envelope):
                            torch.zeros_like(one_minus))
 
 
+def _gap_reflectance(C2, eps, N):
+    r"""Yeh's finite-N R inside a band gap (ε = 1 − |cos KΛ| ≤ 0, the gap branch of
+    :func:`torchirid.optics.bragg._yeh` with Q = 1): with e = −ε, |W| = e(2 + e),
+    t = log1p(√|W| + e) (|cos KΛ| = cosh t) and m = expm1(−2Nt),
+    R = |C|² m² / (|C|² m² + 4|W|(1 + m)) — no overflow for any N; both terms are O(e) as
+    e → 0, where R → |C|²N²/(|C|²N² + 1) (e ≥ 1e-30 keeps 0/0 away: a closed gap's box is empty)."""
+    e = torch.clamp(-eps, min=1e-30)
+    W = e * (2 + e)
+    m = torch.expm1((-2 * N) * torch.log1p(torch.sqrt(W) + e))
+    num = C2 * (m * m)
+    return num / torch.addcmul(num, 4 * W, 1 + m)
+
+
 def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged, static=False):
     """The boxes between the sorted landmarks, as the recipe of their sub-boxes (*, J):
     ``(start, base, step, gap_weight, band)``.
@@ -300,12 +317,8 @@ def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, 
     one = torch.ones_like(e_lo[..., :1])
     if averaged:
         # inside the gaps the exact finite-N reflectance at the gap centre (never subdivided)
-        from ..optics.bragg import _yeh  # the closed form's stable Chebyshev evaluation
-
         omx, opx, sin_b = _parts(0.5 * (e_lo + e_hi), Ax, Bx, dx)
-        C2_mid = Cx * (sin_b * sin_b)
-        gap_weight = _yeh(C2_mid, torch.ones_like(C2_mid), torch.minimum(omx, opx), N[..., None],
-                          safe=torch.is_grad_enabled(), static=static)
+        gap_weight = _gap_reflectance(Cx * (sin_b * sin_b), torch.minimum(omx, opx), N[..., None])
     else:
         gap_weight = torch.ones_like(e_lo)
     # tag of each landmark as the left end of a box: the gap weight (≥ 0) for a lower gap edge, else −1
