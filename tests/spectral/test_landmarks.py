@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 import torch
 
 import torchirid as ti
@@ -77,7 +78,7 @@ def test_batched_over_angles_equals_one_by_one():
 
 
 def test_default_iterations_are_accurate_enough():
-    # the default 12 halvings (of the a-priori brackets) + a secant step: landmarks within 1e-5 (relative)
+    # the default 4 halvings (of the a-priori brackets) + 3 Newton steps: landmarks within 1e-5 (relative)
     A = torch.linspace(50, 900, 60, dtype=F64)
     B = torch.linspace(900, 60, 60, dtype=F64)
     d = torch.full_like(A, 0.08)
@@ -85,7 +86,7 @@ def test_default_iterations_are_accurate_enough():
     got = bragg_landmarks(W_MIN, W_MAX, A, B, d)
     for k in ("airy", "edges_lo", "edges_hi"):
         rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
-        assert rel.max() <= 1e-5
+        assert rel.max() <= 1e-12
 
 
 def test_default_iterations_hold_at_grazing_and_large_contrast():
@@ -102,4 +103,39 @@ def test_default_iterations_hold_at_grazing_and_large_contrast():
     for k in ("airy", "edges_lo", "edges_hi"):
         assert torch.equal(torch.isnan(got[k]), torch.isnan(ref[k]))
         rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
+        assert rel.max() <= 1e-9
+
+
+def test_default_iterations_hold_at_extreme_grazing():
+    # cos θ down to 1e-6 (δ up to ~1e10, k → 1, γ → −1: the edges and Airy points are ill-conditioned)
+    rng = np.random.default_rng(3)
+    rows = []
+    for _ in range(1500):
+        n2, period, f = rng.uniform(1.01, 4.0), rng.uniform(100, 1100), rng.uniform(0.02, 0.98)
+        c = max(rng.uniform() ** 3, 1e-6)
+        rows.append(_setup(c, 1.0, n2, f * period, (1 - f) * period, "s" if rng.uniform() < 0.5 else "p"))
+    A, B, d = (t64([r[k] for r in rows]) for k in range(3))
+    ref = bragg_landmarks(W_MIN, W_MAX, A, B, d, iterations=80, newton_steps=0)  # plain bisection
+    got = bragg_landmarks(W_MIN, W_MAX, A, B, d)
+    for k in ("airy", "edges_lo", "edges_hi"):
+        assert torch.equal(torch.isnan(got[k]), torch.isnan(ref[k]))
+        rel = torch.nan_to_num((got[k] - ref[k]).abs() / ref[k].abs(), nan=0.0)
         assert rel.max() <= 1e-5
+
+
+def test_gaps_closed_by_the_layers_sit_on_their_modes():
+    # A = B (γ = 0): every even-order gap closes (sin(γφ/2) = 0 at the mode), the odd ones stay open
+    L = bragg_landmarks(W_MIN, W_MAX, t64([200.0]), t64([200.0]), t64([0.08]))
+    even = (L["m"] % 2 == 0) & ~torch.isnan(L["modes"])
+    assert even.any()
+    assert torch.equal(L["edges_lo"][even], L["modes"][even]) and torch.equal(L["edges_hi"][even], L["modes"][even])
+    L = bragg_landmarks(W_MIN, W_MAX, t64([150.0]), t64([150.0]), t64([0.08]))  # mode 1 at 600 nm: open
+    ok = ~torch.isnan(L["modes"])
+    assert (L["edges_hi"][ok] - L["edges_lo"][ok] > 1e-4).all()
+
+
+def test_iteration_counts_are_validated():
+    with pytest.raises(ValueError, match="newton_steps"):
+        bragg_landmarks(W_MIN, W_MAX, t64([200.0]), t64([150.0]), t64([0.08]), newton_steps=-1)
+    with pytest.raises(ValueError, match="iterations"):
+        bragg_landmarks(W_MIN, W_MAX, t64([200.0]), t64([150.0]), t64([0.08]), iterations=2.5)

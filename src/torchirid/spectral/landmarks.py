@@ -11,17 +11,22 @@ relation (eq. 8) reads x(ω) = cos KΛ = cos ωA cos ωB − ½ Ω sin ωA sin �
   its neighbouring Airy points;
 * **zero points** ω_z = zπ/B, z ∈ ℕ⁺ (eq. 12), where the envelope vanishes (r1 = 0).
 
-Airy points and edges are found by one batched bisection (all kinds, modes, angles,
-parameters and polarizations at once; 12 halvings and a final secant step by default) in the
-phase φ = ω(A + B), where with γ = (A − B)/(A + B) and k = δ/(2 + δ) (δ = (η1 − η2)²/(2η1η2)
-= Ω/2 − 1 ≥ 0) the product forms without cancellation near |x| = 1 read
+Airy points and edges are found together (all kinds, modes, angles, parameters and
+polarizations in one batch) in the phase φ = ω(A + B), where with γ = (A − B)/(A + B) and
+k = δ/(2 + δ) (δ = (η1 − η2)²/(2η1η2) = Ω/2 − 1 ≥ 0) the product forms without cancellation
+near |x| = 1 read
 
     1 − x = (2 + δ) sin²(φ/2) − δ sin²(γφ/2),   1 + x = (2 + δ) cos²(φ/2) − δ cos²(γφ/2),
 
-(evaluated as k₀ + k₁ cos φ + k₂ cos γφ in the bisection, whose steps need only the sign), and each landmark has a narrow a-priori bracket: a gap edge lies
-within 2 asin √k of its mode (sin²(u/2) = k sin²(…) ≤ k, u = φ − mπ) and an Airy point within
-asin k of the midpoint between modes (cos φ = k cos γφ). Modes are padded to the largest count
-in the batch; padded entries are NaN in :func:`bragg_landmarks`'s output.
+and x = ((2 + δ) cos φ − δ cos γφ)/2. Each landmark has a narrow a-priori bracket: a gap
+edge lies within 2 asin √k of its mode (sin²(u/2) = k sin²(…) ≤ k, u = φ − mπ) and an Airy
+point within asin k of the midpoint between modes (cos φ = k cos γφ). In its bracket every
+root solves one smooth equation with a simple root — for an edge the square root of the
+product form, sin(u/2) = √k |sin(γφ/2 + p)| with the sign the sine has at the mode (so the
+root stays simple where a gap closes) — which 4 bisection halvings on its sign and 3 Newton
+steps kept inside the bracket solve to ~1e-12 for ordinary mirrors and within 2e-6
+(relative) at grazing incidence with δ up to 10¹⁰ (:func:`_roots`). Modes are padded to the
+largest count in the batch; padded entries are NaN in :func:`bragg_landmarks`'s output.
 """
 
 from __future__ import annotations
@@ -86,7 +91,7 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
       i.e. 1 ∓ x = 0; |S| is taken with the sign S has at the mode, which it keeps up to the
       edge (where S = 0, 1 ∓ x > 0), so F is smooth and its root simple even where the gap
       closes (no double root);
-    * lower edge (u = Mπ − φ): the same, F negated;
+    * lower edge (u = Mπ − φ): the same in ψ = −φ;
     * Airy point, φ = (m + ½)π + v: sin v = (−1)^(m+1) k cos γφ (x = 0).
 
     ``halvings`` bisection steps on the sign of F shrink every bracket by 2^halvings, then
@@ -105,15 +110,18 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
     j = lo_m.shape[0]
     w_edge = (2 * torch.asin(rk)).expand_as(lo_m)
     w_airy = torch.asin(k).expand_as(lo_m)
-    a = torch.cat([lo_m, lo_m + half - w_airy, hi_m - w_edge])  # the root is in [a, a + h]
+    # lower edges are solved in ψ = −φ (their equation then reads like an upper edge's, and the
+    # bracket starts exactly at the mode: a closed gap's edges land on it bit for bit)
+    a = torch.cat([lo_m, lo_m + half - w_airy, -hi_m])  # the root is in [a, a + h]
     h = torch.cat([w_edge, 2 * w_airy, w_edge])
     shape = (3 * j,) + (1,) * gamma.dim()
     beta1 = torch.tensor([0.5] * j + [1.0] * j + [0.5] * j, dtype=a.dtype, device=a.device).view(shape)
-    beta2 = beta1 * gamma
-    c1 = torch.cat([lo_m, lo_m + half, hi_m]) * (-beta1)
+    sigma = torch.tensor([1.0] * (2 * j) + [-1.0] * j, dtype=a.dtype, device=a.device).view(shape)
+    beta2 = (beta1 * sigma) * gamma
+    c1 = torch.cat([lo_m, lo_m + half, hi_m]) * (-beta1 * sigma)
     c2 = torch.cat([p_lo, torch.full_like(p_lo, half), p_hi])
-    # K: −√k ρ (upper edges), (−1)^m k (Airy: 1 − 4p/2π = ±1), +√k ρ (lower edges, F negated)
-    K = torch.cat([-rk * rho[:-1], k * (1 - p_lo / half * 2), rk * rho[1:]])
+    # K: −√k ρ (edges), (−1)^m k (Airy points: 1 − 2p/(π/2) = ±1)
+    K = torch.cat([-rk * rho[:-1], k * (1 - p_lo / half * 2), -rk * rho[1:]])
 
     def parts(phi):
         return torch.addcmul(c1, beta1, phi), torch.addcmul(c2, beta2, phi)
@@ -121,8 +129,8 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
     for i in range(halvings):
         t1, t2 = parts(torch.add(a, h, alpha=0.5 ** (i + 1)))
         F = torch.addcmul(torch.sin(t1), K, torch.sin(t2))
-        # the root is in [mid, mid + h/2^(i+1)] where F(mid) < 0, else in [a, mid]
-        a = torch.addcmul(torch.add(a, h, alpha=0.5 ** (i + 2)), h, torch.sign(F), value=-(0.5 ** (i + 2)))
+        # the root is in [mid, mid + h/2^(i+1)] where F(mid) < 0, else in [a, mid] (a kept exactly)
+        a = torch.addcmul(a, h, 1 - torch.sign(F), value=0.5 ** (i + 2))
     width = h * 0.5 ** halvings
     b = a + width
     phi = torch.add(a, width, alpha=0.5)
@@ -134,6 +142,7 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
         phi = torch.clamp(phi - F / dF, a, b)
     if steps:  # guard: 0/0 (F' = 0 at a root) leaves the bracket midpoint
         phi = torch.where(torch.isnan(phi), torch.add(a, width, alpha=0.5), phi)
+    L = sigma * L
     up, airy, down = (phi / L).movedim(0, -1).split(j, dim=-1)
     return up, airy, down
 
