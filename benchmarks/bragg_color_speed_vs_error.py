@@ -13,7 +13,7 @@ under D65; the error reference is ``method="spectral"`` at its default sampling,
 samples per fringe, itself checked against 2×, 384):
 
 * ``sampled`` with K ∈ {16, 32, …, 2048} wavelengths uniform in λ;
-* ``piecewise`` with s ∈ {1 ("app."), 2, 3, 4, 5, 8} and weights="paper" (the published
+* ``piecewise`` with s ∈ {1 ("app."), 2, 3, 4, 5, 8, 12, 16} and weights="paper" (the published
   weights w̃·R^e, with correction="paper" and "fitted") and weights="averaged" (the default);
 * ``spectral`` with its defaults (the speed-up baseline; its error is against the 2× refinement).
 
@@ -118,7 +118,7 @@ GRIDS = {
 FRACTIONS = [round(0.1 * i, 1) for i in range(1, 10)]
 ANGLES = list(range(90))
 SAMPLES = (16, 32, 64, 128, 256, 512, 1024, 2048)
-SUBDIVISIONS = (1, 2, 3, 4, 5, 8)
+SUBDIVISIONS = (1, 2, 3, 4, 5, 8, 12, 16)
 ENVELOPE_SAMPLES = (16, 24, 32, 48, 64, 96, 128)
 FAST = ("piecewise", "envelope")  # the approximations whose place on the front is the question
 WEIGHTINGS = (("paper", "paper"), ("paper", "fitted"), ("averaged", "fitted"))
