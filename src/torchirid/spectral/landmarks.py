@@ -23,8 +23,8 @@ edge lies within 2 asin √k of its mode (sin²(u/2) = k sin²(…) ≤ k, u = �
 point within asin k of the midpoint between modes (cos φ = k cos γφ). In its bracket every
 root solves one smooth equation with a simple root — for an edge the square root of the
 product form, sin(u/2) = √k |sin(γφ/2 + p)| with the sign the sine has at the mode (so the
-root stays simple where a gap closes) — which 4 bisection halvings on its sign and 3 Newton
-steps kept inside the bracket solve to ~1e-12 for ordinary mirrors and within 2e-6
+root stays simple where a gap closes) — which 5 Newton steps from the bracket midpoint, each
+kept inside the bracket, solve to ~1e-14 for ordinary mirrors and within 1e-7
 (relative) at grazing incidence with δ up to 10¹⁰ (:func:`_roots`). Modes are padded to the
 largest count in the batch; padded entries are NaN in :func:`bragg_landmarks`'s output.
 """
@@ -47,12 +47,12 @@ def dispersion_parts(omega, A, B, delta):
 
 
 #: bisection halvings of the a-priori brackets (module docstring, at most π wide in φ) before
-#: the Newton steps of :func:`_roots`
-HALVINGS = 4
+#: the Newton steps of :func:`_roots` (none needed: Newton kept in the bracket converges)
+HALVINGS = 0
 #: Newton steps after the halvings: every landmark of a stress set with grazing angles
-#: (cos θ down to 1e-6) and δ up to 10¹⁰ within 2e-6 (relative) of its converged position
-NEWTON_STEPS = 3
-ITERATIONS = HALVINGS  # (the name of the halvings in bragg_landmarks' signature)
+#: (cos θ down to 1e-6) and δ up to 10¹⁰ within 1e-7 (relative) of its converged position,
+#: of Fourneau's Fig. 4 grid within 1e-14
+NEWTON_STEPS = 5
 
 
 def _counts(omega_min, omega_max, A, B):
@@ -108,42 +108,42 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
     rho = torch.sign(torch.sin(torch.addcmul(p, gamma, base, value=0.5)))  # sign of S at each mode
     lo_m, hi_m, p_lo, p_hi = base[:-1], base[1:], p[:-1], p[1:]
     j = lo_m.shape[0]
-    w_edge = (2 * torch.asin(rk)).expand_as(lo_m)
+    # each root in its own variable x, with F(x) = sin(x + c₁) + K sin(β₂x + c₂): upper edges in
+    # ψ = φ/2, Airy points in φ, lower edges in ψ = −φ/2 (their equation then reads like an
+    # upper edge's and the bracket starts exactly at the mode: a closed gap's edges land on it
+    # bit for bit); ω = x / (L·scale), scale = ½, 1, −½
+    x_up, x_airy, x_down = 0.5 * lo_m, lo_m + half, -0.5 * hi_m
+    w_edge = torch.asin(rk).expand_as(lo_m)  # half the edge bracket in φ
     w_airy = torch.asin(k).expand_as(lo_m)
-    # lower edges are solved in ψ = −φ (their equation then reads like an upper edge's, and the
-    # bracket starts exactly at the mode: a closed gap's edges land on it bit for bit)
-    a = torch.cat([lo_m, lo_m + half - w_airy, -hi_m])  # the root is in [a, a + h]
+    a = torch.cat([x_up, x_airy - w_airy, x_down])  # the root is in [a, a + h]
     h = torch.cat([w_edge, 2 * w_airy, w_edge])
+    c1 = -torch.cat([x_up, x_airy, x_down])
     shape = (3 * j,) + (1,) * gamma.dim()
-    beta1 = torch.tensor([0.5] * j + [1.0] * j + [0.5] * j, dtype=a.dtype, device=a.device).view(shape)
-    sigma = torch.tensor([1.0] * (2 * j) + [-1.0] * j, dtype=a.dtype, device=a.device).view(shape)
-    beta2 = (beta1 * sigma) * gamma
-    c1 = torch.cat([lo_m, lo_m + half, hi_m]) * (-beta1 * sigma)
+    scale = torch.tensor([0.5] * j + [1.0] * j + [-0.5] * j, dtype=a.dtype, device=a.device).view(shape)
+    beta2 = torch.sign(scale) * gamma  # S = sin(γψ + p) for the edges (γ/2 per unit of φ), cos γφ for Airy points
     c2 = torch.cat([p_lo, torch.full_like(p_lo, half), p_hi])
-    # K: −√k ρ (edges), (−1)^m k (Airy points: 1 − 2p/(π/2) = ±1)
-    K = torch.cat([-rk * rho[:-1], k * (1 - p_lo / half * 2), -rk * rho[1:]])
+    # K: −√k ρ (edges), (−1)^m k (Airy points: 1 − 4p/π = ±1)
+    rk = -rk
+    K = torch.cat([rk * rho[:-1], k * (1 - p_lo * (4 / math.pi)), rk * rho[1:]])
 
-    def parts(phi):
-        return torch.addcmul(c1, beta1, phi), torch.addcmul(c2, beta2, phi)
+    def F(x):
+        return torch.addcmul(torch.sin(x + c1), K, torch.sin(torch.addcmul(c2, beta2, x)))
 
     for i in range(halvings):
-        t1, t2 = parts(torch.add(a, h, alpha=0.5 ** (i + 1)))
-        F = torch.addcmul(torch.sin(t1), K, torch.sin(t2))
         # the root is in [mid, mid + h/2^(i+1)] where F(mid) < 0, else in [a, mid] (a kept exactly)
-        a = torch.addcmul(a, h, 1 - torch.sign(F), value=0.5 ** (i + 2))
-    width = h * 0.5 ** halvings
-    b = a + width
-    phi = torch.add(a, width, alpha=0.5)
+        a = torch.addcmul(a, h, 1 - torch.sign(F(torch.add(a, h, alpha=0.5 ** (i + 1)))), value=0.5 ** (i + 2))
+    if halvings:
+        h = h * 0.5 ** halvings
+    b = a + h
+    x = torch.add(a, h, alpha=0.5)
     Kb2 = K * beta2
     for _ in range(steps):
-        t1, t2 = parts(phi)
-        F = torch.addcmul(torch.sin(t1), K, torch.sin(t2))
-        dF = torch.addcmul(beta1 * torch.cos(t1), Kb2, torch.cos(t2))
-        phi = torch.clamp(phi - F / dF, a, b)
+        t1, t2 = x + c1, torch.addcmul(c2, beta2, x)
+        dF = torch.addcmul(torch.cos(t1), Kb2, torch.cos(t2))
+        x = torch.clamp(torch.addcdiv(x, torch.addcmul(torch.sin(t1), K, torch.sin(t2)), dF, value=-1), a, b)
     if steps:  # guard: 0/0 (F' = 0 at a root) leaves the bracket midpoint
-        phi = torch.where(torch.isnan(phi), torch.add(a, width, alpha=0.5), phi)
-    L = sigma * L
-    up, airy, down = (phi / L).movedim(0, -1).split(j, dim=-1)
+        x = torch.where(torch.isnan(x), torch.add(a, h, alpha=0.5), x)
+    up, airy, down = (x / (scale * L)).movedim(0, -1).split(j, dim=-1)
     return up, airy, down
 
 
@@ -179,8 +179,8 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = HALV
             broadcasting batch shape (angles × parameters × polarizations).
         delta: Ω/2 − 1 = (η1 − η2)²/(2 η1 η2) ≥ 0 for the polarization (batch-broadcast).
         iterations: bisection halvings of the a-priori brackets (module docstring) before
-            ``newton_steps`` Newton steps (each kept in the bracket): the defaults 4 and 3 put
-            every landmark within 2e-6 (relative) of its exact position on a stress set with
+            ``newton_steps`` Newton steps (each kept in the bracket): the defaults 0 and 5 put
+            every landmark within 1e-7 (relative) of its exact position on a stress set with
             grazing angles (cos θ down to 1e-6) and δ up to 10¹⁰, ~1e-12 for ordinary mirrors.
 
     Returns:

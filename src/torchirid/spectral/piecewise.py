@@ -22,8 +22,8 @@ propagating in n2 (the paper's setting); other mirrors raise ``ValueError`` — 
 models large N (the paper assumes ≥ 95 % reflectance in the gaps). Gradients flow through
 the box weights, the correction and the landmark positions (implicit-function theorem).
 
-Cost: the landmarks of both polarizations are found in one batch (4 halvings and 3 Newton
-steps, :mod:`torchirid.spectral.landmarks`; ~150 small elementwise ops), clamped into the
+Cost: the landmarks of both polarizations are found in one batch (5 Newton steps
+in a-priori brackets, :mod:`torchirid.spectral.landmarks`; ~150 small elementwise ops), clamped into the
 range (no padding masks), sorted once with the gap weights riding along, and the sub-boxes
 are laid out compactly (only the non-empty ones, padded to the largest count in the batch
 with zero-width ones) and integrated against the cumulative table in one gather and one
