@@ -29,7 +29,8 @@ def test_smoothness_gradient_matches_autograd():
     val, g, _ = _smooth_terms(d.detach(), 0.7)
     dx, dy = d[:, 1:] - d[:, :-1], d[1:] - d[:-1]
     auto = torch.autograd.grad(0.7 * ((dx ** 2).sum() + (dy ** 2).sum()), d)[0]
-    assert torch.allclose(g, auto, atol=1e-13) and abs(float(val) - 0.7 * float((dx ** 2).sum() + (dy ** 2).sum())) < 1e-12
+    expected = 0.7 * float(((dx ** 2).sum() + (dy ** 2).sum()).detach())
+    assert torch.allclose(g, auto, atol=1e-13) and abs(float(val) - expected) < 1e-12
 
 
 def test_refine_recovers_index_and_thickness_from_a_perturbed_start():
