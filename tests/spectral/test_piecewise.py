@@ -77,3 +77,25 @@ def test_gradients_through_landmarks_match_finite_differences():
         h = 1e-4 * max(1.0, abs(base[name]))
         fd = (f(p.detach() + h).sum() - f(p.detach() - h).sum()) / (2 * h)
         assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-3 * abs(float(fd)) + 1e-7
+
+
+@pytest.mark.parametrize("pol", ["s", "p"])
+def test_gap_weights_are_yehs_reflectance_inside_the_gaps(pol):
+    # the gap branch of the closed form used for the gap boxes, against bragg_reflectance, from
+    # the gap centre to within 1e-9 of its edges, for N = 20 … 10^6 (no overflow)
+    from torchirid.spectral.landmarks import bragg_landmarks
+    from torchirid.spectral.piecewise import _embedded_mirror, _gap_reflectance, _parts
+
+    c, d1, d2 = t64(0.6), 130.0, 170.0
+    mir = _embedded_mirror(c, 1.0, 1.5, d1, d2, 20, pol, (380.0, 780.0), "piecewise")
+    A, B, delta, C_coef = mir["A"], mir["B"], mir["delta"][0], mir["C_coef"][0]
+    L = bragg_landmarks(2 * math.pi / 780, 2 * math.pi / 380, A, B, delta)
+    ok = ~torch.isnan(L["modes"]) & (L["edges_hi"] - L["edges_lo"] > 0)
+    lo, hi = L["edges_lo"][ok][0], L["edges_hi"][ok][0]
+    f = t64([1e-9, 1e-4, 0.1, 0.5, 0.9, 1 - 1e-4, 1 - 1e-9])
+    w = lo + f * (hi - lo)
+    omx, opx, sin_b = _parts(w, A, B, delta)
+    for N in (20, 1000, 10 ** 6):
+        got = _gap_reflectance(C_coef * sin_b ** 2, torch.minimum(omx, opx), t64(float(N)))
+        ref = ti.bragg_reflectance(2 * math.pi / w, c, 1.0, 1.5, d1, d2, N, polarization=pol)
+        assert torch.allclose(got, ref, rtol=1e-9, atol=1e-12)

@@ -82,17 +82,17 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
     the upper edge of gap m_j, the Airy point between them and the lower edge of gap m_{j+1}
     (a closed gap's edges are its mode; the "gap" of m = 0, ω = 0, has its upper edge at 0).
 
-    Every root has one equation F(φ) = sin(β₁φ + c₁) + K sin(β₂φ + c₂) = 0 in the phase
-    φ = ω(A + B), with F ≤ 0 left of the root and ≥ 0 right of it in its a-priori bracket
-    (module docstring):
+    Every root has one equation F(x) = sin(x + c₁) + K sin(β₂x + c₂) = 0 in its own variable x
+    (a multiple of the phase φ = ω(A + B)), with F ≤ 0 left of the root and ≥ 0 right of it in
+    its a-priori bracket (module docstring):
 
     * upper edge of gap M (u = φ − Mπ ≥ 0): sin(u/2) = √k |S(φ)|, S = sin(γφ/2 + p_M)
       (p_M = π/2 for odd M) — the square root of (2 + δ) sin²(φ/2 + p_M) = δ sin²(γφ/2 + p_M),
       i.e. 1 ∓ x = 0; |S| is taken with the sign S has at the mode, which it keeps up to the
       edge (where S = 0, 1 ∓ x > 0), so F is smooth and its root simple even where the gap
       closes (no double root);
-    * lower edge (u = Mπ − φ): the same in ψ = −φ;
-    * Airy point, φ = (m + ½)π + v: sin v = (−1)^(m+1) k cos γφ (x = 0).
+    * lower edge (u = Mπ − φ): the same (x = ψ = −φ/2; upper edges: x = φ/2);
+    * Airy point, φ = (m + ½)π + v: sin v = (−1)^(m+1) k cos γφ, i.e. cos KΛ = 0 (x = φ).
 
     ``halvings`` bisection steps on the sign of F shrink every bracket by 2^halvings, then
     ``steps`` Newton steps start at the bracket midpoint, each kept inside the bracket.

@@ -23,11 +23,11 @@ models large N (the paper assumes ≥ 95 % reflectance in the gaps). Gradients f
 the box weights, the correction and the landmark positions (implicit-function theorem).
 
 Cost: the landmarks of both polarizations are found in one batch (5 Newton steps
-in a-priori brackets, :mod:`torchirid.spectral.landmarks`; ~150 small elementwise ops), clamped into the
+in a-priori brackets, :mod:`torchirid.spectral.landmarks`; ~100 small elementwise ops), clamped into the
 range (no padding masks), sorted once with the gap weights riding along, and the sub-boxes
 are laid out compactly (only the non-empty ones, padded to the largest count in the batch
 with zero-width ones) and integrated against the cumulative table in one gather and one
-batched matrix product: ~400 ops per call in all.
+batched matrix product: ~380 ops per call in all.
 With :func:`torchirid.set_compile` the two stages around the one host sync (the compact
 length) are two compiled kernels (landmarks + box layout; sub-boxes + table lookup, its final
 sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8,
@@ -150,7 +150,7 @@ def _coefficients(correction):
 def _attach(landmarks, m, A, B, delta, omega_min, omega_max):
     """Landmarks with gradients: the implicit-function theorem on their defining equations.
 
-    For a root ω* of f(ω; θ) found by bisection, ω* − (f(ω*; θ) − f(ω*; θ̄)) / ∂_ω f(ω*; θ̄)
+    For a root ω* of f(ω; θ) found numerically, ω* − (f(ω*; θ) − f(ω*; θ̄)) / ∂_ω f(ω*; θ̄)
     (θ̄ detached) has the value ω* and the derivative −∂_θ f / ∂_ω f. Landmarks on the range
     ends (clipped there by :func:`~torchirid.spectral.landmarks.clamped_landmarks`), and
     touching (closed) gaps where ∂_ω f = 0, keep no gradient.
@@ -224,7 +224,7 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
     tab = _packed(table)[:3]
     averaged = weights == "averaged"
     if torch.is_grad_enabled() and any(t.requires_grad for t in (A, B, delta, C_coef, w_corr)):
-        with torch.no_grad():  # landmark positions by bisection and Newton steps
+        with torch.no_grad():  # landmark positions by Newton steps
             landmarks = clamped_landmarks(omega_min, omega_max, A.detach(), B.detach(), delta.detach(), m, z)
         landmarks = _attach(landmarks, m, A, B, delta, omega_min, omega_max)
         boxes = _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, averaged)
