@@ -8,9 +8,9 @@ from .thin_film import thin_film_reflectance
 from .film_reflectance import (FilmStack, film_reflectance, hirayama_stacks, smooth_directions,
                                smooth_radiance, stack_indices)
 from .reflectance_table import interpolation_error, reflectance_table, table_reflectance
-from .rough_surface import (coherent_attenuation, effective_roughness, he_directional_diffuse, he_shadowing,
-                            rough_multilayer_diffuse, rough_multilayer_reflectance, roughness_factor,
-                            stack_transmittance_to_last_film)
+from .he_torrance import (coherent_attenuation, effective_roughness, he_directional_diffuse, he_shadowing,
+                          roughness_factor)
+from .rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance, stack_transmittance_to_last_film
 
 __all__ = [
     "BraggMirror",
