@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import math
 import os
 import sys
@@ -179,10 +178,10 @@ def build_parser() -> argparse.ArgumentParser:
     sp.set_defaults(func=_cmd_spectrum, parser=sp)
     _add_gradients_parser(sub)
     _add_scatterogram_parser(sub)
-    _add_thin_film_parser(sub)
     # by module path: the packages re-export functions of the same names as these modules
     importlib.import_module("torchirid.optics.reflectance_table").add_parser(sub)
     importlib.import_module("torchirid.render.sphere").add_parser(sub)
+    importlib.import_module("torchirid.render.thin_film_ibl").add_parser(sub)
     importlib.import_module("torchirid.estimation.cli").add_parser(sub)
     return parser
 
@@ -511,83 +510,6 @@ def _cmd_scatterogram(args: argparse.Namespace) -> int:
         return 1
     print(png_path)
     print(npz_path)
-    return 0
-
-
-def _add_thin_film_parser(sub) -> None:
-    sp = sub.add_parser(
-        "thin-film",
-        formatter_class=_HelpFormatter,
-        help="thin film on a rough surface under uniform light: Kneiphof et al. 2019 Fig. 7 comparison → .png + .npz + .json",
-        description=(
-            "Compare real-time approximations of a thin film on a rough GGX surface under\n"
-            "uniform illumination against the converged ground truth (Kneiphof et al. 2019,\n"
-            "Fig. 7): Belcour–Barla at the ideal reflection direction (the 'original'),\n"
-            "Kneiphof's filtered eq. 20–29 with the exact light moments, eq. 29 with the exact\n"
-            "path-difference moments, and torchirid's fitted light-mixture table.\n"
-            "Two panels: θo × √α at --thickness, and θo × d ∈ [0, --max-thickness] at --alpha.\n\n"
-            "Writes <out>/<name>.png (the image grid with ΔE2000 mean / p95 per method),\n"
-            "<out>/<name>_roughness.npz and <out>/<name>_thickness.npz (XYZ of every method,\n"
-            "ΔE2000 maps, albedo, axes, params) and <out>/<name>.json (the ΔE2000 table)."
-        ),
-        epilog=(
-            "examples:\n"
-            "  torchirid thin-film                                   # Fig. 7's material, 32 × 32 per panel\n"
-            "  torchirid thin-film --resolution 64 --n-film 1.5 --base 0.2+3j"
-        ),
-    )
-    sp.add_argument("--n-film", type=_positive, default=1.3, metavar="N", help="film index η2 (real, >= 1)")
-    sp.add_argument("--base", type=_index, default=complex(2.0, 0.5), metavar="N",
-                    help="base index η3 + iκ3, e.g. 2+0.5j (non-dispersive)")
-    sp.add_argument("--thickness", type=_positive, default=600.0, metavar="NM", help="film thickness of the roughness panel")
-    sp.add_argument("--alpha", type=_positive, default=0.25, metavar="A", help="GGX roughness of the thickness panel")
-    sp.add_argument("--max-thickness", type=_positive, default=1000.0, metavar="NM", help="end of the thickness axis")
-    sp.add_argument("--resolution", type=_count, default=32, metavar="CELLS", help="cells per axis of each panel")
-    sp.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
-    sp.add_argument("--name", default="thin_film", metavar="STEM", help="file stem")
-    sp.add_argument("--dpi", type=_count, default=150, metavar="DPI", help="resolution of the PNG")
-    sp.set_defaults(func=_cmd_thin_film, parser=sp)
-
-
-def _cmd_thin_film(args: argparse.Namespace) -> int:
-    parser: argparse.ArgumentParser = args.parser
-    _check_name(parser, args.name)
-    if args.resolution < 2:
-        parser.error("--resolution must be >= 2")
-    if args.n_film < 1.0:
-        parser.error("--n-film must be >= 1 (the outer medium is air)")
-    from tqdm.auto import tqdm
-
-    from torchirid.render.thin_film_ibl import (save_thin_film_ibl_npz, save_thin_film_ibl_png,
-                                                 thin_film_ibl_comparison)
-
-    panels = []
-    try:
-        for panel in tqdm(("roughness", "thickness"), desc="thin-film panels", disable=None):
-            panels.append(thin_film_ibl_comparison(panel, resolution=args.resolution, n_film=args.n_film,
-                                                   thickness=args.thickness, alpha=args.alpha,
-                                                   n_substrate=args.base, max_thickness=args.max_thickness))
-    except ValueError as e:
-        parser.error(str(e))
-    out = Path(args.out)
-    report = {p.panel: {"stats": p.stats(), "seconds": p.seconds, "params": p.params} for p in panels}
-    paths = [out / f"{args.name}.png", out / f"{args.name}_roughness.npz", out / f"{args.name}_thickness.npz",
-             out / f"{args.name}.json"]
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        save_thin_film_ibl_png(panels, paths[0], dpi=args.dpi)
-        save_thin_film_ibl_npz(panels[0], paths[1])
-        save_thin_film_ibl_npz(panels[1], paths[2])
-        from torchirid._io import atomic_write
-        atomic_write(paths[3], lambda f: f.write(json.dumps(report, indent=2, sort_keys=True).encode()))
-    except OSError as e:
-        print(f"{PROG}: error: cannot write to {out}: {e}", file=sys.stderr)
-        return 1
-    for p in panels:
-        for k, st in p.stats().items():
-            print(f"{p.panel:9s} {k:10s} ΔE2000 mean {st['mean']:6.2f}  p95 {st['p95']:6.2f}  max {st['max']:6.2f}")
-    for path in paths:
-        print(path)
     return 0
 
 
