@@ -52,7 +52,7 @@ def _labs(lab1, lab2) -> tuple[torch.Tensor, torch.Tensor]:
                 f"{name} must have shape (*, 3) (L*, a*, b* on the last axis); got shape {tuple(t.shape)}"
             )
     try:
-        torch.broadcast_shapes(lab1.shape, lab2.shape)
+        _checks.broadcast_shapes(lab1.shape, lab2.shape)
     except RuntimeError as exc:
         raise ValueError(
             f"lab1 and lab2 must broadcast together; got shapes {tuple(lab1.shape)} and {tuple(lab2.shape)}"

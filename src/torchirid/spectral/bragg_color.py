@@ -195,8 +195,8 @@ def bragg_xyz(
     args = [trailing(x) for x in (cos_theta, n1, n2, d1, d2)]
     host = None if n_host is None else trailing(n_host)
     Nw = N.unsqueeze(-1) if N.ndim else N
-    batch = torch.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
-                                   *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
+    batch = _checks.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
+                                     *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
     step = max(1, _CHUNK // max(1, math.prod(batch)))
     xyz = None
     for k in range(0, samples, step):  # chunks over wavelength bound the memory, not a loop over samples

@@ -131,7 +131,7 @@ def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_
     A, B = q1 * d1, q2 * d2
     # the polarizations are one leading batch dimension P: one pass for both
     etas = [(q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2)) for pol in _pols(polarization)]
-    batch = torch.broadcast_shapes(A.shape, B.shape, N.shape, *(e.shape for pair in etas for e in pair))
+    batch = _checks.broadcast_shapes(A.shape, B.shape, N.shape, *(e.shape for pair in etas for e in pair))
     eta1 = torch.stack([e[0].expand(batch) for e in etas])
     eta2 = torch.stack([e[1].expand(batch) for e in etas])
     safe2 = torch.where(eta2 > 0, eta2, torch.ones_like(eta2))
