@@ -368,7 +368,9 @@ def _fill(A, B, delta, C_coef, w_corr, start, base, step, gap_weight, band, T, p
     C2 = Cx * (sin_b * sin_b)
     tiny = torch.finfo(C2.dtype).tiny  # guard: R^e = 0 where |C|² and sin² KΛ vanish (a closed gap's mode)
     sin2 = torch.clamp(omx * opx, min=0).add_(tiny)  # sin² KΛ (≥ 0 outside the gaps)
-    if averaged:  # the fringe mean 1 − √(1 − R^e) (:func:`_fringe_mean`), > 0 under the root
+    # the fringe mean 1 − √(1 − R^e) of :func:`_fringe_mean` (and R^e of :func:`_envelope`) without
+    # their where-guards: sub-box centres never sit on a gap edge, and sin² ≥ tiny keeps 0/0 away
+    if averaged:
         inner = 1 - torch.sqrt(sin2 / (C2 + sin2))
     else:  # the envelope R^e (eq. 11, :func:`_envelope`)
         inner = C2 / (C2 + sin2)
