@@ -7,9 +7,11 @@ it passes the checks and propagates through the physics.
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from typing import Sequence
+
 
 import torch
 
@@ -49,6 +51,27 @@ def resolve_dtype_device(*args) -> tuple[torch.dtype, torch.device]:
     if device is None:
         device = torch.device("cpu")
     return dtype, device
+
+
+def normal_tensors(fn):
+    """Decorator for cache builders: run ``fn`` outside :func:`torch.inference_mode` (so a
+    cache first filled by a call in inference mode holds ordinary tensors, usable with autograd)."""
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        with torch.inference_mode(False):
+            return fn(*args, **kwargs)
+
+    return run
+
+
+def use_inference_mode(*values) -> bool:
+    """Whether a function may run its body in :func:`torch.inference_mode` (and copy the
+    result out of it): no gradient can flow from ``values`` (grad mode off, or no tensor
+    among them requires grad) and inference mode is not on already."""
+    if torch.is_inference_mode_enabled():
+        return False
+    return not torch.is_grad_enabled() or not any(isinstance(v, torch.Tensor) and v.requires_grad for v in values)
 
 
 def complex_dtype(real_dtype: torch.dtype) -> torch.dtype:

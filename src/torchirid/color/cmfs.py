@@ -37,6 +37,7 @@ import functools
 import numpy as np
 import torch
 
+from .. import _checks
 from .._checks import names
 
 __all__ = [
@@ -153,16 +154,19 @@ def _tensors(wl, v, dtype, device):
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors
 def _cmfs_tensor(observer: str, space: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_cmfs_numpy(observer, space), dtype, device)
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors
 def _illuminant_tensor(name: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_illuminant_numpy(name), dtype, device)
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors
 def _product_tensor(observer: str, illuminant: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_product_numpy(observer, illuminant), dtype, device)
 
@@ -180,6 +184,7 @@ def _white_numpy(illuminant: str, observer: str) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors
 def _white_tensor(illuminant: str, observer: str, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
     return torch.as_tensor(_white_numpy(illuminant, observer), dtype=torch.float64).to(dtype=dtype, device=device)
 

@@ -171,7 +171,8 @@ class _RealCell:
         # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
         # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal))
         tiny = torch.finfo(lam.dtype).tiny ** 0.5
-        guarded = static or bool((torch.minimum(q1.min(), q2.min()) < tiny))  # q1, q2 ≥ 0 here
+        guarded = static or (q1.numel() > 0 and q2.numel() > 0  # (an empty batch has no min)
+                             and bool(torch.minimum(q1.min(), q2.min()) < tiny))  # q1, q2 ≥ 0 here
         self.sin_a, sa_q1 = _sin_over_q(self.a, q1, k0 * d1, guarded)
         self.sin_b, sb_q2 = _sin_over_q(self.b, q2, k0 * d2, guarded)
         if guarded:

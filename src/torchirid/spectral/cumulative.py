@@ -342,6 +342,7 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors
 def _cached(observer: str, illuminant: str, lo: float, hi: float, dtype: torch.dtype,
             device: torch.device) -> LUT:
     if dtype == torch.float64 and device == torch.device("cpu"):

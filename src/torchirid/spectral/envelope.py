@@ -46,6 +46,7 @@ __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectanc
 
 
 @functools.lru_cache(maxsize=64)
+@_checks.normal_tensors
 def _hat_weights(samples, observer, illuminant, lo, hi, dtype, device):
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
     table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=torch.float64, device="cpu")

@@ -143,8 +143,8 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
         x = torch.clamp(torch.addcdiv(x, torch.addcmul(torch.sin(t1), K, torch.sin(t2)), dF, value=-1), a, b)
     if steps:  # guard: 0/0 (F' = 0 at a root) leaves the bracket midpoint
         x = torch.where(torch.isnan(x), torch.add(a, h, alpha=0.5), x)
-    up, airy, down = (x / (scale * L)).movedim(0, -1).split(j, dim=-1)
-    return up, airy, down
+    roots = (x / (scale * L)).movedim(0, -1)
+    return roots[..., :j], roots[..., j:2 * j], roots[..., 2 * j:]  # (not split: j = 0 for an empty batch)
 
 
 def _zeros(omega_min, omega_max, B, z, z_hi):
@@ -161,7 +161,7 @@ def clamped_landmarks(omega_min, omega_max, A, B, delta, m, z, halvings=HALVINGS
     on a range end: zero-width boxes for :mod:`torchirid.spectral.piecewise`); the outer
     edges of the gaps around the first and last modes, not searched, are the range ends."""
     up, airy, down = _roots(A, B, delta, m, halvings, steps)
-    end = torch.full_like(up[..., :1], math.inf)
+    end = up.new_full(up.shape[:-1] + (1,), math.inf)  # (not up[..., :1]: no roots when M = 1)
     edges_hi = torch.cat([up, end], dim=-1).clamp(omega_min, omega_max)
     edges_lo = torch.cat([-end, down], dim=-1).clamp(omega_min, omega_max)
     # z beyond the range, and B = 0 (no zero points), land above ω_max

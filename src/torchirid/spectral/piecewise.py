@@ -78,6 +78,19 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
             raise ValueError(f"correction must be 'fitted', 'paper', 'none' or a pair (a, b); got {correction!r}")
     if weights not in ("averaged", "paper"):
         raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
+    args = (cos_theta, n1, n2, d1, d2, cells, polarization, subdivisions, weights, correction, observer, illuminant,
+            wavelength_range)
+    if not _checks.use_inference_mode(cos_theta, n1, n2, d1, d2):
+        return _xyz(*args)
+    # no gradient wanted: the ~370 small ops run in inference mode (no autograd bookkeeping:
+    # ~10 % faster; the caches build their tables outside it), the result is copied out of it
+    with torch.inference_mode():
+        out = _xyz(*args)
+    return out.clone()
+
+
+def _xyz(cos_theta, n1, n2, d1, d2, cells, polarization, subdivisions, weights, correction, observer, illuminant,
+         wavelength_range):
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "piecewise")
     lo, hi = mirror["range"]
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
@@ -192,6 +205,7 @@ def _attach(landmarks, m, A, B, delta, omega_min, omega_max):
 _PACKED: dict = {}
 
 
+@_checks.normal_tensors
 def _packed(table):
     """``(P, ω₀, h, C̄(ω_n))``: the cumulative table uniform in ω (first node ω₀, step h) as rows
     P[i] = (C̄(ω_i), C̄(ω_{i+1}) − C̄(ω_i)) of its n − 1 cells (one gather per lookup), and its
@@ -200,6 +214,8 @@ def _packed(table):
     hit = _PACKED.get(key)
     if hit is None or hit[0] is not table:
         grid, v = table.axes["omega"], table.values
+        if bool((v[0] != 0).any()):  # :func:`_fill` drops the C̄(ω_min) term
+            raise ValueError("a cumulative CMF table must start at 0 (C̄(ω_min) = 0)")
         packed = torch.cat([v[:-1], v[1:] - v[:-1]], dim=-1).contiguous()
         hit = (table, (packed, float(grid[0]), float(grid[-1] - grid[0]) / (grid.numel() - 1), v[-1].clone()))
         _PACKED[key] = hit
@@ -210,8 +226,8 @@ def _lookup_rows(packed, omega0, step, x):
     """The packed rows (P₀, P₁) of :func:`_packed` under ``x`` (``x.shape + (6,)``) and the
     fractions f, so that C̄(x) = P₀ + f P₁ (linear interpolation, clamped to the table)."""
     cells = packed.shape[0]
-    pos = ((x - omega0) / step).clamp(0, cells)
-    i = torch.floor(pos).clamp(max=cells - 1)
+    pos = (x - omega0) / step
+    i = torch.floor(pos.clamp(0, cells - 1))  # x at (or by rounding just past) the ends: f = 1 or ~0
     rows = packed.index_select(0, i.to(torch.int64).reshape(-1)).reshape(x.shape + (packed.shape[-1],))
     return rows, pos - i
 
@@ -306,8 +322,9 @@ def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, 
     is ``gap_weight`` + ``band`` · (the pass-band weight at its centre): in a gap (band = 0) the
     box's weight (1, or with ``averaged`` the exact finite-N reflectance at the gap centre),
     outside (gap_weight = 0, band = 1 or the angular correction w̃ for the paper's weights)
-    the envelope or its fringe mean. The last box is an empty sentinel at ω_max, so sub-box
-    numbers past a colour's own count land on it (zero width).
+    the envelope or its fringe mean; empty boxes have both 0. The last box is an empty
+    sentinel at ω_max, so sub-box numbers past a colour's own count land on it (zero width,
+    zero weight).
 
     ``landmarks`` = (airy, edges_lo, edges_hi, zeros), clamped into [ω_min, ω_max]. A
     gap is the box that starts at its lower edge (its weight rides along through the sort):
@@ -334,12 +351,13 @@ def _layout(A, B, delta, C_coef, N, w_corr, landmarks, omega_min, omega_max, s, 
     lo, width = b[..., :-1], b[..., 1:] - b[..., :-1]  # (*, J) boxes, the last one the sentinel
     m_box = torch.floor(torch.addcmul(lo, width, one, value=0.5) * ((Ax + Bx) / math.pi))
     in_gap = tag >= 0
-    n_sub = torch.where(in_gap, one, torch.clamp(s - m_box, min=1)) * (width > 0)
+    filled = width > 0
+    n_sub = torch.where(in_gap, one, torch.clamp(s - m_box, min=1)) * filled
     cum = torch.cumsum(n_sub, dim=-1)
     start = cum - n_sub  # sub-boxes of boxes 0..j−1 (exact: small integers)
     step = width / torch.clamp(n_sub, min=1)
     base = lo - start * step
-    band = torch.where(in_gap, 0.0, w_corr.unsqueeze(-1) if not averaged else one)
+    band = torch.where(in_gap, 0.0, w_corr.unsqueeze(-1) if not averaged else one) * filled
     return start, base, step, torch.clamp(tag, min=0), band
 
 
@@ -353,36 +371,40 @@ def _fill(A, B, delta, C_coef, w_corr, start, base, step, gap_weight, band, T, p
     """XYZ of the boxes of :func:`_layout`, each cut into its sub-boxes.
 
     The sub-boxes are laid out compactly, T per colour (T = the largest count in the batch,
-    :func:`_compact_length`; shorter lists end with empty sub-boxes at ω_max)."""
-    t = torch.arange(T + 1, dtype=start.dtype, device=start.device).expand(start.shape[:-1] + (T + 1,))
-    j = torch.searchsorted(start, t.contiguous(), right=True) - 1  # the box of sub-box t: the last starting ≤ t
-
-    def at(v):
-        return torch.gather(v, -1, j)
-
-    step_t = at(step)
-    left = torch.addcmul(at(base), t, step_t)  # (*, T + 1): left ends (t = T: ω_max)
+    :func:`_compact_length`; shorter lists end with empty sub-boxes at ω_max). The recipe of
+    the box of each sub-box (the last box starting at or before it) is spread over the
+    sub-boxes without a search: its increments over the previous box are added at the box's
+    first sub-box and summed up (a box that is empty adds nothing net)."""
+    recipe = torch.stack([step, base, gap_weight, band], dim=-1)  # (*, J, 4)
+    inc = torch.diff(recipe, dim=-2, prepend=torch.zeros_like(recipe[..., :1, :]))
+    at = start.to(torch.int64).unsqueeze(-1).expand_as(inc)
+    spread = torch.zeros(start.shape[:-1] + (T + 1, 4), dtype=inc.dtype, device=inc.device).scatter_add(-2, at, inc)
+    step_t, base_t, gap_t, band_t = torch.cumsum(spread, dim=-2).unbind(-1)  # (*, T + 1) each
+    t = torch.arange(T + 1, dtype=start.dtype, device=start.device)
+    left = torch.addcmul(base_t, t, step_t)  # (*, T + 1): left ends (t = T: ω_max)
     mid = torch.add(left, step_t, alpha=0.5)
     Ax, Bx, dx, Cx = (t_.unsqueeze(-1) for t_ in (A, B, delta, C_coef))
-    omx, opx, sin_b = _parts(mid, Ax, Bx, dx)
-    C2 = Cx * (sin_b * sin_b)
+    # x = cos KΛ = cos φ − δ sin ωA sin ωB (φ = ω(A + B); eq. 8) and |C|² = C_coef sin² ωB at the centres
+    sin_b = torch.sin(mid * Bx)
+    x = torch.addcmul(torch.cos(mid * (Ax + Bx)), dx * torch.sin(mid * Ax), sin_b, value=-1)
+    C2 = Cx * sin_b.square()
     tiny = torch.finfo(C2.dtype).tiny  # guard: R^e = 0 where |C|² and sin² KΛ vanish (a closed gap's mode)
-    sin2 = torch.clamp(omx * opx, min=0).add_(tiny)  # sin² KΛ (≥ 0 outside the gaps)
+    sin2 = torch.clamp(1 - x.square(), min=tiny)  # sin² KΛ outside the gaps (tiny inside: weight 1 there)
     # the fringe mean 1 − √(1 − R^e) of :func:`_fringe_mean` (and R^e of :func:`_envelope`) without
     # their where-guards: sub-box centres never sit on a gap edge, and sin² ≥ tiny keeps 0/0 away
     if averaged:
-        inner = 1 - torch.sqrt(sin2 / (C2 + sin2))
+        inner = 1 - torch.rsqrt(1 + C2 / sin2)  # 1 − √(sin²/(|C|² + sin²))
     else:  # the envelope R^e (eq. 11, :func:`_envelope`)
         inner = C2 / (C2 + sin2)
-    weight = torch.addcmul(at(gap_weight), at(band), inner)[..., :-1]
-    # Σ_t w_t (C̄(e_{t+1}) − C̄(e_t)) = −Σ_t (w_t − w_{t−1}) C̄(e_t) (w_{−1} = w_T = 0) over the T + 1
-    # edges e_t, with C̄(e_t) = P₀[i_t] + f_t P₁[i_t] read from the packed table: one batched product
-    zero = torch.zeros_like(weight[..., :1])
-    dw = torch.diff(weight, dim=-1, prepend=zero, append=zero)  # (*, T + 1)
-    rows, f = _lookup_rows(packed, omega0, h, left)  # (*, T + 1, 6), (*, T + 1)
-    coef = torch.stack([dw, dw * f], dim=-1)  # (*, T + 1, 2)
-    rows = rows.reshape(rows.shape[:-1] + (2, rows.shape[-1] // 2))  # (*, T + 1, 2, 3)
+    weight = torch.addcmul(gap_t, band_t, inner)  # (*, T + 1); 0 on the sentinel (t = T among them)
+    # Σ_t w_t (C̄(e_{t+1}) − C̄(e_t)) = Σ_{t ≥ 1} (w_{t−1} − w_t) C̄(e_t) over the edges e_t (w_T = 0, and
+    # C̄(e_0) = C̄(ω_min) = 0), with C̄(e_t) = P₀[i_t] + f_t P₁[i_t] read from the packed table: one batched product
+    dw = weight[..., :-1] - weight[..., 1:]  # (*, T)
+    rows, f = _lookup_rows(packed, omega0, h, left[..., 1:])  # (*, T, 6), (*, T)
+    coef = torch.stack([dw, dw * f], dim=-1)  # (*, T, 2)
+    rows = rows.reshape(rows.shape[:-1] + (2, rows.shape[-1] // 2))  # (*, T, 2, 3)
     if static:
-        return -(coef.unsqueeze(-1) * rows).sum(dim=(-3, -2))
-    xyz = torch.bmm(coef.reshape(-1, 1, 2 * (T + 1)), rows.reshape(-1, 2 * (T + 1), rows.shape[-1]))
-    return -xyz.reshape(left.shape[:-1] + (3,))
+        return (coef.unsqueeze(-1) * rows).sum(dim=(-3, -2))
+    n = math.prod(coef.shape[:-2])  # (not −1: T = 0 for an empty batch)
+    xyz = torch.bmm(coef.reshape(n, 1, 2 * T), rows.reshape(n, 2 * T, rows.shape[-1]))
+    return xyz.reshape(left.shape[:-1] + (3,))
