@@ -85,3 +85,42 @@ def test_gradients():
     c = t64([0.0, 1.0]).requires_grad_()
     bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20).sum().backward()
     assert torch.isfinite(c.grad).all()
+
+
+METHOD_OPTIONS = {"spectral": {}, "sampled": {"samples": 32}, "piecewise": {}, "envelope": {}}
+
+
+@pytest.mark.parametrize("method", list(METHOD_OPTIONS))
+def test_empty_batches(method):
+    for shape in ((0,), (0, 4)):
+        xyz = bragg_xyz(torch.zeros(shape, dtype=F64), 1.0, 1.5, 100.0, 150.0, 20, method=method,
+                        **METHOD_OPTIONS[method])
+        assert xyz.shape == shape + (3,) and xyz.dtype == F64
+    assert ti.bragg_reflectance(t64([500.0]), torch.zeros(0, dtype=F64), 1.0, 1.5, 100.0, 150.0, 20).shape == (0,)
+
+
+@pytest.mark.parametrize("method", list(METHOD_OPTIONS))
+def test_inference_mode_results_are_ordinary_tensors_and_caches_stay_usable(method):
+    # without gradients the methods run in inference mode; what they return, and the tables they
+    # cache on the way (here filled afresh from inside inference mode), must still work with autograd
+    import importlib
+
+    cmfs_module = importlib.import_module("torchirid.color.cmfs")  # (torchirid.color.cmfs is also a function)
+    cumulative, envelope, piecewise = (importlib.import_module(f"torchirid.spectral.{m}")
+                                       for m in ("cumulative", "envelope", "piecewise"))
+
+    for fn in (cmfs_module._cmfs_tensor, cmfs_module._illuminant_tensor, cmfs_module._product_tensor,
+               cmfs_module._white_tensor, cumulative._cached, envelope._hat_weights):
+        fn.cache_clear()
+    piecewise._PACKED.clear()
+    cos = t64([0.3, 0.8])
+    with torch.inference_mode():
+        inside = bragg_xyz(cos, 1.0, 1.5, 120.0, 180.0, 20, method=method, **METHOD_OPTIONS[method])
+    outside = bragg_xyz(cos, 1.0, 1.5, 120.0, 180.0, 20, method=method, **METHOD_OPTIONS[method])
+    assert not outside.is_inference() and not outside.requires_grad
+    assert torch.equal(inside, outside)
+    outside += 1  # an ordinary tensor: in-place updates are allowed
+    d1 = t64(120.0).requires_grad_(True)
+    y = bragg_xyz(cos, 1.0, 1.5, d1, 180.0, 20, method=method, **METHOD_OPTIONS[method])
+    (g,) = torch.autograd.grad(y.sum(), d1)
+    assert torch.isfinite(g) and g != 0

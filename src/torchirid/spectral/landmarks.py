@@ -136,11 +136,16 @@ def _roots(A, B, delta, m, halvings=HALVINGS, steps=NEWTON_STEPS):
         h = h * 0.5 ** halvings
     b = a + h
     x = torch.add(a, h, alpha=0.5)
-    Kb2 = K * beta2
+    if steps:
+        # the four phases x + c₁, β₂x + c₂ and the same + π/2 (F' from sines too): one addcmul and
+        # one sine per step
+        Kb2 = K * beta2
+        offsets = torch.stack([c1, c2, c1 + half, c2 + half])  # (4, 3(M − 1), *)
+        slopes = torch.stack([torch.ones_like(beta2), beta2]).repeat((2,) + (1,) * beta2.dim())
     for _ in range(steps):
-        t1, t2 = x + c1, torch.addcmul(c2, beta2, x)
-        dF = torch.addcmul(torch.cos(t1), Kb2, torch.cos(t2))
-        x = torch.clamp(torch.addcdiv(x, torch.addcmul(torch.sin(t1), K, torch.sin(t2)), dF, value=-1), a, b)
+        s1, s2, c1_, c2_ = torch.sin(torch.addcmul(offsets, slopes, x)).unbind(0)  # sines; cosines of t₁, t₂
+        Fx, dF = torch.addcmul(s1, K, s2), torch.addcmul(c1_, Kb2, c2_)
+        x = torch.clamp(torch.addcdiv(x, Fx, dF, value=-1), a, b)
     if steps:  # guard: 0/0 (F' = 0 at a root) leaves the bracket midpoint
         x = torch.where(torch.isnan(x), torch.add(a, h, alpha=0.5), x)
     roots = (x / (scale * L)).movedim(0, -1)

@@ -371,15 +371,15 @@ def _fill(A, B, delta, C_coef, w_corr, start, base, step, gap_weight, band, T, p
     """XYZ of the boxes of :func:`_layout`, each cut into its sub-boxes.
 
     The sub-boxes are laid out compactly, T per colour (T = the largest count in the batch,
-    :func:`_compact_length`; shorter lists end with empty sub-boxes at ω_max). The recipe of
-    the box of each sub-box (the last box starting at or before it) is spread over the
-    sub-boxes without a search: its increments over the previous box are added at the box's
-    first sub-box and summed up (a box that is empty adds nothing net)."""
-    recipe = torch.stack([step, base, gap_weight, band], dim=-1)  # (*, J, 4)
-    inc = torch.diff(recipe, dim=-2, prepend=torch.zeros_like(recipe[..., :1, :]))
-    at = start.to(torch.int64).unsqueeze(-1).expand_as(inc)
-    spread = torch.zeros(start.shape[:-1] + (T + 1, 4), dtype=inc.dtype, device=inc.device).scatter_add(-2, at, inc)
-    step_t, base_t, gap_t, band_t = torch.cumsum(spread, dim=-2).unbind(-1)  # (*, T + 1) each
+    :func:`_compact_length`; shorter lists end with empty sub-boxes at ω_max). The box of each
+    sub-box is found without a search: a running count of the box starts (one scatter-add and
+    one cumulative sum; empty boxes share their start with the next box, which wins)."""
+    # the box of sub-box t is the last box starting at or before it: (the number of box starts ≤ t) − 1
+    starts = torch.zeros(start.shape[:-1] + (T + 1,), dtype=start.dtype, device=start.device)
+    starts.scatter_add_(-1, start.to(torch.int64), torch.ones_like(start))  # (every start ≤ T: the sentinel's is)
+    box = (torch.cumsum(starts, dim=-1) - 1).to(torch.int64).unsqueeze(-2)  # (*, 1, T + 1)
+    recipe = torch.stack([step, base, gap_weight, band], dim=-2)  # (*, 4, J)
+    step_t, base_t, gap_t, band_t = torch.gather(recipe, -1, box.expand(box.shape[:-2] + (4, T + 1))).unbind(-2)
     t = torch.arange(T + 1, dtype=start.dtype, device=start.device)
     left = torch.addcmul(base_t, t, step_t)  # (*, T + 1): left ends (t = T: ω_max)
     mid = torch.add(left, step_t, alpha=0.5)
