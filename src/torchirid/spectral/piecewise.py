@@ -23,11 +23,12 @@ models large N (the paper assumes ≥ 95 % reflectance in the gaps). Gradients f
 the box weights, the correction and the landmark positions (implicit-function theorem).
 
 Cost: the landmarks of both polarizations are found in one batch (5 Newton steps
-in a-priori brackets, :mod:`torchirid.spectral.landmarks`; ~100 small elementwise ops), clamped into the
-range (no padding masks), sorted once with the gap weights riding along, and the sub-boxes
-are laid out compactly (only the non-empty ones, padded to the largest count in the batch
-with zero-width ones) and integrated against the cumulative table in one gather and one
-batched matrix product: ~380 ops per call in all.
+in a-priori brackets, one sine per step, :mod:`torchirid.spectral.landmarks`; ~80 small
+elementwise ops), clamped into the range (no padding masks), sorted once with the gap weights
+riding along, and the sub-boxes are laid out compactly (only the non-empty ones, padded to the
+largest count in the batch with zero-width ones; each finds its box by a running count of the
+box starts) and integrated against the cumulative table in one gather and one batched matrix
+product: ~370 ops per call in all, run in inference mode when no gradient is wanted.
 With :func:`torchirid.set_compile` the two stages around the one host sync (the compact
 length) are two compiled kernels (landmarks + box layout; sub-boxes + table lookup, its final
 sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8,
