@@ -446,3 +446,23 @@ def test_n2_exactly_at_its_critical_angle(pol, n1):
         R = ti.bragg_reflectance(t64(500.0), t64(0.6), n1t, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
         ref = mpmath_bragg_R(500.0, 0.6, n1, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
         assert abs(float(R) - ref) <= 1e-12
+
+
+def test_host_equal_to_n1_takes_the_plain_path_and_keeps_gradients():
+    lam = torch.linspace(400.0, 700.0, 31, dtype=torch.float64)
+    c = torch.linspace(0.0, 1.0, 7, dtype=torch.float64)[:, None]
+    plain = ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20)
+    assert torch.equal(ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33), plain)
+    # through appendix D's host layer (n_host ≠ n1, or carrying a gradient) it is the same to ~1e-15
+    nh = torch.tensor(1.33, dtype=torch.float64, requires_grad=True)
+    R = ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=nh)
+    assert torch.allclose(R, plain, rtol=0, atol=1e-13)
+    (g,) = torch.autograd.grad(R.sum(), nh)  # (grazing incidence, R ≡ 1, is in the batch: no NaN)
+    h = 1e-7
+    fd = (ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33 + h)
+          - ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33 - h)).sum() / (2 * h)
+    # (the derivative at n_host = n1 used to miss Snell's law and the host interface: 0 at normal incidence)
+    assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-5 * abs(float(fd))
+    # a host with its own shape broadcasts the batch as before
+    assert ti.bragg_reflectance(lam, 1.0, 1.33, 1.5, 100.0, 150.0, 20, n_host=torch.full((3, 1), 1.33,
+                                dtype=torch.float64)).shape == (3, 31)

@@ -381,3 +381,20 @@ def test_nan_propagates():
     # a complex NaN substrate index too
     R = torchirid.thin_film_reflectance(t64(500.0), 0.5, 1.4, 100.0, tc128([complex(nan, 0.0), 1.5]))
     assert torch.isnan(R[0]) and torch.isfinite(R[1])
+
+
+@pytest.mark.parametrize("polarization", POLS)
+def test_gradient_where_the_film_index_equals_the_outer_one(polarization):
+    # a medium of exactly the incident index takes q0 = n0 cos θ0 and r = 0 by value (exact), but its
+    # derivative must still be that of √(n² − n0² sin² θ0) and (η_i − η_j)/(η_i + η_j): it used to be
+    # q0's and 0, e.g. −0.24 instead of −36.5 here (a film index started at the ambient one)
+    wl = torch.linspace(400, 700, 7, dtype=F64)
+    c = t64([0.0, 0.3, 0.7, 1.0])[:, None]
+    nf = t64(1.0).requires_grad_(True)
+    R = torchirid.thin_film_reflectance(wl, c, nf, 300.0, 1.5, n_outer=1.0, polarization=polarization)
+    (g,) = torch.autograd.grad(R.sum(), nf)
+    h = 1e-7
+    fd = (torchirid.thin_film_reflectance(wl, c, 1.0 + h, 300.0, 1.5, n_outer=1.0, polarization=polarization)
+          - torchirid.thin_film_reflectance(wl, c, 1.0 - h, 300.0, 1.5, n_outer=1.0, polarization=polarization)
+          ).sum() / (2 * h)
+    assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-5 * abs(float(fd))

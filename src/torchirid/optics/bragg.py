@@ -45,7 +45,7 @@ import math
 import torch
 
 from .. import _checks, _compile
-from .fresnel import interface, normal_wavenumber
+from .fresnel import interface, normal_wavenumber, same_medium
 
 __all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
 
@@ -79,6 +79,11 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=_NO_CELLS):
     if nh is not None:
         _checks.check_real_index(nh, "n_host")
         nh = nh.real if nh.is_complex() else nh
+        # a host equal to n1 is the plain mirror (appendix D's host layer then changes nothing, to
+        # ~1e-15): take the cheaper n_host = None path, unless n_host carries a gradient or a shape
+        if (not nh.requires_grad and not n1.is_complex() and (nh.dim() == 0 or nh.shape == n1.shape)
+                and bool((nh == n1).all())):
+            nh = None
     elif n1.is_complex() and bool((n1.imag != 0).any()):
         raise ValueError("n1 must be real when n_host is None (n1 is then the incident medium)")
     return dtype, lam, c, n1, n2, d1, d2, nh, N
@@ -277,14 +282,21 @@ def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
+def _real_sqrt(x):
+    """√max(x, 0) with a finite (zero) derivative where x ≤ 0 (a bare √0 sends 0·∞ = NaN back
+    through a ``where`` that does not use it)."""
+    pos = x > 0
+    return torch.where(pos, torch.sqrt(torch.where(pos, x, torch.ones_like(x))), torch.zeros_like(x))
+
+
 def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
     """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
     host = n1 if nh is None else nh
     s2 = host * host * (1 - c * c)
     qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
     # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
-    q1 = qh if nh is None else torch.where(n1 == nh, qh, torch.sqrt(torch.clamp(n1 * n1 - s2, min=0)))
-    q2 = torch.where(n2 == host, qh, torch.sqrt(torch.clamp(n2 * n2 - s2, min=0)))
+    q1 = qh if nh is None else same_medium(n1 == nh, qh, _real_sqrt(n1 * n1 - s2))
+    q2 = same_medium(n2 == host, qh, _real_sqrt(n2 * n2 - s2))
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = N.to(lam.dtype)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)

@@ -51,8 +51,19 @@ def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor, n0=None, q0=None) -> to
     n = n.to(cdt)
     q = _sqrt_upper(n * n - s2.to(cdt))
     if n0 is not None:
-        q = torch.where(n == n0, q0.to(cdt), q)
+        q = same_medium(n == n0, q0.to(cdt), q)
     return q
+
+
+def same_medium(same: torch.Tensor, q0: torch.Tensor, q: torch.Tensor) -> torch.Tensor:
+    """``q`` with ``q0`` (the incident medium's) where ``same`` (the medium has exactly the incident
+    index): q0's value, exact even where cos² θ0 underflows, but with q's derivative where q ≠ 0 —
+    q0 = n0 cos θ0 alone would miss how q = √(n² − n0² sin² θ0) moves with n and n0 (the gradient
+    of a layer index, or of the incident index, at the point where the two are equal)."""
+    if not (q.requires_grad or q0.requires_grad) or not torch.is_grad_enabled():
+        return torch.where(same, q0, q)
+    live = same & (q != 0)  # (at grazing, q = 0, √ has no finite slope: q0's is kept)
+    return torch.where(live, q + (q0 - q).detach(), torch.where(same, q0, q))
 
 
 def nudge_critical(q: torch.Tensor, n: torch.Tensor, where: torch.Tensor) -> torch.Tensor:
@@ -85,6 +96,10 @@ def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     """
     same = eta_i == eta_j  # passive media: η_i + η_j = 0 only if both vanish
     den = eta_i + eta_j
+    if torch.is_grad_enabled() and (eta_i.requires_grad or eta_j.requires_grad):
+        # r = 0/den = 0 at equal admittances anyway; dividing keeps its derivative
+        # (dη_i − dη_j)/(η_i + η_j), which is not 0 (e.g. an incident index equal to the next one)
+        same = den == 0
     den = torch.where(same, torch.ones_like(den), den)  # guard: the unused branch divides safely
     return torch.where(same, torch.zeros_like(den), (eta_i - eta_j) / den)
 
