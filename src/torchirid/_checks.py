@@ -1,4 +1,5 @@
-"""Argument validation and dtype/device resolution: one place, errors name the parameter.
+"""Argument validation and dtype/device resolution: one place, errors name the parameter
+(plus the few numerical guards and autograd/inference-mode helpers every module shares).
 
 Every public function calls these *before* doing any work. Validation never uses
 ``assert`` (``python -O`` strips it) and never "fixes" NaN: NaN fails no comparison, so
@@ -11,7 +12,6 @@ import functools
 import math
 import numbers
 from typing import Sequence
-
 
 import torch
 
@@ -51,6 +51,13 @@ def resolve_dtype_device(*args) -> tuple[torch.dtype, torch.device]:
     if device is None:
         device = torch.device("cpu")
     return dtype, device
+
+
+def safe_sqrt(x: torch.Tensor) -> torch.Tensor:
+    """√x, with value and gradient 0 for x ≤ 0 (a bare √0 sends 0·∞ = NaN back even through a
+    ``where`` that does not use it); NaN propagates."""
+    zero = x <= 0
+    return torch.where(zero, torch.zeros_like(x), torch.sqrt(torch.where(zero, torch.ones_like(x), x)))
 
 
 def normal_tensors(fn):

@@ -35,13 +35,6 @@ DELTA_E_METHODS: tuple[str, ...] = ("CIE 1976", "CIE 2000")
 _25_POW_7 = 25.0**7
 
 
-def _safe_sqrt(q: torch.Tensor) -> torch.Tensor:
-    """sqrt(q) with value and gradient 0 for q ≤ 0 (NaN propagates)."""
-    zero = q <= 0
-    # guard: sqrt'(0) = inf would make backward inf·0 = NaN; the unused branch sees 1
-    return torch.where(zero, torch.zeros_like(q), torch.sqrt(torch.where(zero, torch.ones_like(q), q)))
-
-
 def _labs(lab1, lab2) -> tuple[torch.Tensor, torch.Tensor]:
     dtype, device = _checks.resolve_dtype_device(lab1, lab2)
     lab1 = _checks.as_real(lab1, "lab1", dtype, device)
@@ -91,7 +84,7 @@ def delta_e_1976(lab1, lab2) -> torch.Tensor:
         5.0
     """
     lab1, lab2 = _labs(lab1, lab2)
-    return _safe_sqrt(((lab2 - lab1) ** 2).sum(-1))
+    return _checks.safe_sqrt(((lab2 - lab1) ** 2).sum(-1))
 
 
 def delta_e_2000(lab1, lab2, *, kL=1.0, kC=1.0, kH=1.0) -> torch.Tensor:
@@ -144,15 +137,15 @@ def delta_e_2000(lab1, lab2, *, kL=1.0, kC=1.0, kH=1.0) -> torch.Tensor:
     L2, a2, b2 = lab2.unbind(-1)
 
     # eqs. 2–5: chroma-dependent stretch of a*
-    C_ab_bar = (_safe_sqrt(a1 * a1 + b1 * b1) + _safe_sqrt(a2 * a2 + b2 * b2)) / 2
+    C_ab_bar = (_checks.safe_sqrt(a1 * a1 + b1 * b1) + _checks.safe_sqrt(a2 * a2 + b2 * b2)) / 2
     # sqrt(C^7 / (C^7 + 25^7)) written without sqrt(0): finite gradient at C = 0
     G = 0.5 * (1 - C_ab_bar**3.5 / torch.sqrt(C_ab_bar**7 + _25_POW_7))
     a1_p = (1 + G) * a1
     a2_p = (1 + G) * a2
 
     # eqs. 6–7: C', h' (h' = 0 for a' = b = 0)
-    C1_p = _safe_sqrt(a1_p * a1_p + b1 * b1)
-    C2_p = _safe_sqrt(a2_p * a2_p + b2 * b2)
+    C1_p = _checks.safe_sqrt(a1_p * a1_p + b1 * b1)
+    C2_p = _checks.safe_sqrt(a2_p * a2_p + b2 * b2)
     h1_p = _hue_degrees(a1_p, b1)
     h2_p = _hue_degrees(a2_p, b2)
 
@@ -164,7 +157,7 @@ def delta_e_2000(lab1, lab2, *, kL=1.0, kC=1.0, kH=1.0) -> torch.Tensor:
     dh = h2_p - h1_p
     dh_p = torch.where(dh > 180, dh - 360, torch.where(dh < -180, dh + 360, dh))
     dh_p = torch.where(neutral, torch.zeros_like(dh_p), dh_p)
-    dH_p = 2 * _safe_sqrt(C_prod) * torch.sin(torch.deg2rad(dh_p / 2))
+    dH_p = 2 * _checks.safe_sqrt(C_prod) * torch.sin(torch.deg2rad(dh_p / 2))
 
     # eqs. 12–14: means (the hue mean on the shorter arc)
     L_bar_p = (L1 + L2) / 2
@@ -194,7 +187,7 @@ def delta_e_2000(lab1, lab2, *, kL=1.0, kC=1.0, kH=1.0) -> torch.Tensor:
     l_term = dL_p / (kL * S_L)
     c_term = dC_p / (kC * S_C)
     h_term = dH_p / (kH * S_H)
-    return _safe_sqrt(l_term**2 + c_term**2 + h_term**2 + R_T * c_term * h_term)
+    return _checks.safe_sqrt(l_term**2 + c_term**2 + h_term**2 + R_T * c_term * h_term)
 
 
 def _hue_degrees(a_p: torch.Tensor, b: torch.Tensor) -> torch.Tensor:

@@ -282,21 +282,14 @@ def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
-def _real_sqrt(x):
-    """√max(x, 0) with a finite (zero) derivative where x ≤ 0 (a bare √0 sends 0·∞ = NaN back
-    through a ``where`` that does not use it)."""
-    pos = x > 0
-    return torch.where(pos, torch.sqrt(torch.where(pos, x, torch.ones_like(x))), torch.zeros_like(x))
-
-
 def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
     """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
     host = n1 if nh is None else nh
     s2 = host * host * (1 - c * c)
     qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
     # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
-    q1 = qh if nh is None else same_medium(n1 == nh, qh, _real_sqrt(n1 * n1 - s2))
-    q2 = same_medium(n2 == host, qh, _real_sqrt(n2 * n2 - s2))
+    q1 = qh if nh is None else same_medium(n1 == nh, qh, _checks.safe_sqrt(n1 * n1 - s2))
+    q2 = same_medium(n2 == host, qh, _checks.safe_sqrt(n2 * n2 - s2))
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = N.to(lam.dtype)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)

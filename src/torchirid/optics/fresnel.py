@@ -94,12 +94,13 @@ def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     Equal admittances (the same medium twice, also exactly at grazing incidence where
     η_i = η_j = 0) give exactly r = 0: no 0/0, and no complex division of subnormals.
     """
-    same = eta_i == eta_j  # passive media: η_i + η_j = 0 only if both vanish
     den = eta_i + eta_j
     if torch.is_grad_enabled() and (eta_i.requires_grad or eta_j.requires_grad):
         # r = 0/den = 0 at equal admittances anyway; dividing keeps its derivative
         # (dη_i − dη_j)/(η_i + η_j), which is not 0 (e.g. an incident index equal to the next one)
         same = den == 0
+    else:
+        same = eta_i == eta_j  # passive media: η_i + η_j = 0 only if both vanish
     den = torch.where(same, torch.ones_like(den), den)  # guard: the unused branch divides safely
     return torch.where(same, torch.zeros_like(den), (eta_i - eta_j) / den)
 

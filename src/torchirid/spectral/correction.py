@@ -253,7 +253,7 @@ def _bloch_average_limit(r12: torch.Tensor) -> torch.Tensor:
     c = 2 * rs / (1 - rs)
     # guard: √c has an infinite slope at c = 0 (R₁₂ = 0, Brewster for p, where w has a |r₁₂| kink):
     # the subgradient 0 there
-    s = torch.where(c > 0, torch.sqrt(torch.where(c > 0, c, torch.ones_like(c))), torch.zeros_like(c))
+    s = _checks.safe_sqrt(c)
     tiny = s < 0.05
     sd = torch.where(tiny, torch.full_like(s, 0.5), s)  # guard: no 0/0 at c = 0 in the unused branch
     cd = sd * sd
