@@ -72,13 +72,28 @@ def normal_tensors(fn):
     return run
 
 
-def use_inference_mode(*values) -> bool:
-    """Whether a function may run its body in :func:`torch.inference_mode` (and copy the
-    result out of it): no gradient can flow from ``values`` (grad mode off, or no tensor
-    among them requires grad) and inference mode is not on already."""
-    if torch.is_inference_mode_enabled():
-        return False
-    return not torch.is_grad_enabled() or not any(isinstance(v, torch.Tensor) and v.requires_grad for v in values)
+def inference_when_no_grad(fn):
+    """Decorator for functions returning one tensor: run ``fn`` in :func:`torch.inference_mode`
+    (no autograd bookkeeping on its many small ops) when no gradient can flow from its arguments
+    (grad mode off, or no tensor argument, nor one in a tuple or list argument, requires grad), and return a copy made outside it (an
+    ordinary tensor). Inside inference mode already, ``fn`` just runs. Caches that ``fn`` fills
+    must build their tensors with :func:`normal_tensors`."""
+
+    def needs_grad(v):
+        if isinstance(v, (tuple, list)):  # e.g. coefficients (a, b)
+            return any(needs_grad(u) for u in v)
+        return isinstance(v, torch.Tensor) and v.requires_grad
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        if torch.is_inference_mode_enabled() or (torch.is_grad_enabled() and any(
+                needs_grad(v) for v in (*args, *kwargs.values()))):
+            return fn(*args, **kwargs)
+        with torch.inference_mode():
+            out = fn(*args, **kwargs)
+        return out.clone()
+
+    return run
 
 
 def complex_dtype(real_dtype: torch.dtype) -> torch.dtype:

@@ -124,3 +124,11 @@ def test_inference_mode_results_are_ordinary_tensors_and_caches_stay_usable(meth
     y = bragg_xyz(cos, 1.0, 1.5, d1, 180.0, 20, method=method, **METHOD_OPTIONS[method])
     (g,) = torch.autograd.grad(y.sum(), d1)
     assert torch.isfinite(g) and g != 0
+
+
+def test_gradients_through_correction_coefficients_are_not_cut_by_inference_mode():
+    # the pair (a, b) is the only tensor input that needs a gradient: the call must not run in inference mode
+    a, b = t64(0.7).requires_grad_(True), t64(0.5).requires_grad_(True)
+    y = bragg_xyz(t64([0.3, 0.9]), 1.0, 1.5, 120.0, 180.0, 20, method="piecewise", weights="paper", correction=(a, b))
+    ga, gb = torch.autograd.grad(y.sum(), (a, b))
+    assert torch.isfinite(ga) and torch.isfinite(gb) and ga != 0 and gb != 0

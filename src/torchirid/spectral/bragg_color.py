@@ -82,6 +82,7 @@ def _wavelengths(method, K, wavelength_range, dtype, device):
     return torch.flip(2 * math.pi / omega, dims=(0,))  # uniform in ω, increasing in λ
 
 
+@_checks.inference_when_no_grad  # (no gradient wanted: every method runs in inference mode)
 def bragg_xyz(
     cos_theta,
     n1,
@@ -141,16 +142,6 @@ def bragg_xyz(
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
-    if _checks.use_inference_mode(cos_theta, n1, n2, d1, d2, n_host):
-        # no gradient wanted: every method runs in inference mode (no autograd bookkeeping; the
-        # cached tables are built outside it) and the result is copied out (an ordinary tensor)
-        with torch.inference_mode():
-            out = bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_host=n_host, polarization=polarization,
-                            method=method, observer=observer, illuminant=illuminant, samples=samples,
-                            samples_per_fringe=samples_per_fringe, max_samples=max_samples,
-                            wavelength_range=(lo, hi), subdivisions=subdivisions, weights=weights,
-                            correction=correction, tolerance=tolerance)
-        return out.clone()
     if method == "auto":
         from .auto import choose_bragg_method
 

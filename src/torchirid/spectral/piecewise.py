@@ -53,6 +53,7 @@ def _pols(polarization):
     return ("s", "p") if polarization == "unpolarized" else (polarization,)
 
 
+@_checks.inference_when_no_grad  # (no gradient wanted: the ~370 small ops ~10 % faster)
 def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="unpolarized", subdivisions: int = 8,
                         weights="averaged", correction="fitted", observer="CIE 1931 2", illuminant="D65",
                         wavelength_range=(380.0, 780.0)) -> torch.Tensor:
@@ -79,19 +80,6 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
             raise ValueError(f"correction must be 'fitted', 'paper', 'none' or a pair (a, b); got {correction!r}")
     if weights not in ("averaged", "paper"):
         raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
-    args = (cos_theta, n1, n2, d1, d2, cells, polarization, subdivisions, weights, correction, observer, illuminant,
-            wavelength_range)
-    if not _checks.use_inference_mode(cos_theta, n1, n2, d1, d2):
-        return _xyz(*args)
-    # no gradient wanted: the ~370 small ops run in inference mode (no autograd bookkeeping:
-    # ~10 % faster; the caches build their tables outside it), the result is copied out of it
-    with torch.inference_mode():
-        out = _xyz(*args)
-    return out.clone()
-
-
-def _xyz(cos_theta, n1, n2, d1, d2, cells, polarization, subdivisions, weights, correction, observer, illuminant,
-         wavelength_range):
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "piecewise")
     lo, hi = mirror["range"]
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
