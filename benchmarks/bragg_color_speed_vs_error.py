@@ -17,8 +17,8 @@ samples per fringe, itself checked against 2×, 384):
   weights w̃·R^e, with correction="paper" and "fitted") and weights="averaged" (the default);
 * ``spectral`` with its defaults (the speed-up baseline; its error is against the 2× refinement).
 
-Timing: ``torch.set_num_threads(2)``; the methods of one (grid, Λ) are timed in interleaved
-rounds (random order per round, every method once per round, fast methods averaged over
+Timing: ``torch.set_num_threads(2)`` (``--threads``; ``--cpus`` pins the process to those
+CPUs); the methods of one (grid, Λ) are timed in interleaved rounds (random order per round, every method once per round, fast methods averaged over
 several calls per round); time per colour = median over rounds / 810; speed-up = median
 over rounds of the per-round ratio to default ``spectral`` (drift of a shared machine
 cancels). Per-grid ("all") times are the sums over the three Λ / 2430; errors pool the 2430
@@ -42,7 +42,7 @@ JSON schema (``format`` "torchirid.bragg_color_errors", ``format_version`` 1)::
       "format": "torchirid.bragg_color_errors", "format_version": 1,
       "description": str,
       "provenance": {"created": ISO date-time, "command": str, "torchirid_version": str,
-                     "torch_version": str, "python": str, "cpu": str, "threads": 2,
+                     "torch_version": str, "python": str, "cpu": str, "threads": int, "cpus": [int],
                      "dtype": "float64", "allocator": str, "timing": str, "rounds": int,
                      "contended_rounds": int},
       "grids": {                       # grid name -> its definition
@@ -235,7 +235,7 @@ def stats(de):
 
 
 def measure(args):
-    torch.set_num_threads(2)
+    torch.set_num_threads(args.threads)
     cfgs = configs()
     keys = [json.dumps(c, sort_keys=True) for c in cfgs]
     ref_key = keys[0]
@@ -392,12 +392,24 @@ def paper_comparison(cfgs, keys, entries):
     return "\n".join(lines)
 
 
-def pareto_text(cfgs, keys, entries):
-    """Markdown statement per grid and Λ, computed from the measurements."""
+def rounds_won(results, grid, pk, fast_key, slow_key):
+    """(rounds in which ``slow_key`` took longer than ``fast_key``, rounds): paired by round (the
+    methods of one round run back to back, interleaved), per Λ; None for the pooled "all" rows."""
+    if results is None or pk == "all":
+        return None
+    r = results[grid][float(pk)]
+    pairs = list(zip(r[fast_key]["times"], r[slow_key]["times"]))
+    return sum(ts > tf for tf, ts in pairs), len(pairs)
+
+
+def pareto_text(cfgs, keys, entries, results=None):
+    """Markdown statement per grid and Λ, computed from the measurements; with ``results`` the
+    decisive comparisons also say in how many timing rounds they held."""
     lines = ["| grid | Λ (nm) | approximations on the front (p95) | on the front (median) | "
              "best piecewise vs cheapest sampled K at least as accurate (p95) | best envelope, same |",
              "|---|---:|---|---|---|---|"]
     summary = {}
+    sampled_key = {c["samples"]: k for c, k in zip(cfgs, keys) if c["method"] == "sampled"}
     for grid, g in GRIDS.items():
         for pk in [str(int(p)) for p in g["periods"]] + ["all"]:
             fr, best = {}, {}
@@ -418,14 +430,19 @@ def pareto_text(cfgs, keys, entries):
                 if bv["cheapest"] is None:
                     return f"{label(cfg_of[bk])}: no sampled K ≤ 2048 is as accurate"
                 e = entries[bk][grid] if pk == "all" else entries[bk][grid]["per_period"][pk]
+                won = rounds_won(results, grid, pk, bk, sampled_key[bv["cheapest"][1]])
                 return (f"{label(cfg_of[bk])} (p95 {fmt(e['p95'])}) vs sampled K={bv['cheapest'][1]}: "
-                        f"sampled takes {bv['ratio']:.2f}× the time")
+                        f"sampled takes {bv['ratio']:.2f}× the time"
+                        + ("" if won is None else f" (longer in {won[0]} of {won[1]} rounds)"))
             lines.append(f"| {grid} | {pk} | {names(fr['p95'])} | {names(fr['median'])} | "
                          f"{compare(*best['piecewise'])} | {compare(*best['envelope'])} |")
             summary[(grid, pk)] = {
                 fam: dict(front_p95=sum(cfg_of[k]["method"] == fam for k in fr["p95"]),
                           front_median=sum(cfg_of[k]["method"] == fam for k in fr["median"]),
-                          ratio=best[fam][1]["ratio"]) for fam in FAST}
+                          ratio=best[fam][1]["ratio"],
+                          won=None if best[fam][1]["cheapest"] is None else
+                          rounds_won(results, grid, pk, best[fam][0], sampled_key[best[fam][1]["cheapest"][1]]))
+                for fam in FAST}
     cells = [(k, v) for k, v in summary.items() if k[1] != "all"]
     verdicts = []
     for fam in FAST:
@@ -437,11 +454,12 @@ def pareto_text(cfgs, keys, entries):
                             + (f"; not for: {', '.join(off)}." if off else " (every grid and Λ)."))
         else:
             verdicts.append(f"**No {name.lower()} configuration is on the front for any grid and Λ** (p95 or median).")
-        ratios = [(v[fam]["ratio"], k) for k, v in cells if v[fam]["ratio"] is not None]
+        ratios = [(v[fam]["ratio"], k, v[fam]["won"]) for k, v in cells if v[fam]["ratio"] is not None]
         if ratios:
-            r, (g, pk) = min(ratios)  # the cell where the family's best configuration fares worst
+            r, (g, pk), won = min(ratios, key=lambda t: t[0])  # the cell where the family's best configuration fares worst
             verdicts[-1] += (f" Worst cell ({fam}): {g} Λ = {pk} nm, where the cheapest sampled K at least as "
                              f"accurate (p95) as its best configuration takes {r:.2f}× its time"
+                             + ("" if won is None else f", longer in {won[0]} of {won[1]} paired rounds")
                              + (" (dominated there)." if r < 1 else
                                 f" (timings would have to move by more than {r:.1f}× to change the verdict)."))
     verdict = "\n\n".join(verdicts)
@@ -474,7 +492,7 @@ def batch_text(entries, refinfo):
     return "\n".join(lines)
 
 
-def plot(cfgs, keys, entries, path, resolution=0.05):
+def plot(cfgs, keys, entries, path, args, resolution=0.05):
     YMIN = 5e-3
     import matplotlib
 
@@ -512,7 +530,7 @@ def plot(cfgs, keys, entries, path, resolution=0.05):
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.set_ylim(bottom=YMIN)
-            ax.set_xlabel("µs per colour (2 threads)")
+            ax.set_xlabel(f"µs per colour ({threads_text(args)})")
             ax.set_ylabel("ΔE2000 vs spectral reference")
             ax.set_title(f"{grid}: n2 = {g['n2']}, N = {g['cells']}, Λ = {pk} nm")
             ax.grid(True, which="both", alpha=0.3)
@@ -525,6 +543,15 @@ def plot(cfgs, keys, entries, path, resolution=0.05):
     fig.savefig(tmp, dpi=110)
     os.replace(tmp, path)
     plt.close(fig)
+
+
+def threads_text(args):
+    return f"{args.threads} thread" + ("s" if args.threads != 1 else "") + (
+        f", CPUs {args.cpus_used}" if args.cpus else "")
+
+
+def pin_text(args):
+    return f" pinned to CPUs {args.cpus_used} (`--cpus`)" if args.cpus else ""
 
 
 def allocator(args):
@@ -553,7 +580,7 @@ def write_json(cfgs, keys, entries, refinfo, args, elapsed):
             "command": " ".join(["python benchmarks/bragg_color_speed_vs_error.py", *args.argv]),
             "torchirid_version": ti.__version__, "torch_version": torch.__version__,
             "python": platform.python_version(), "cpu": f"{cpu_name()}, {os.cpu_count()} cores",
-            "threads": 2, "dtype": "float64", "allocator": allocator(args),
+            "threads": args.threads, "cpus": args.cpus_used, "dtype": "float64", "allocator": allocator(args),
             "timing": (f"one call per (method, Λ) on the 9 × 90 batch; median of {args.rounds} interleaved rounds; "
                        f"whole run {elapsed:.0f} s"),
             "contended_rounds": refinfo["quiet"]["contended"], "rounds": refinfo["quiet"]["rounds"],
@@ -621,7 +648,7 @@ def section(md, comparison, front, batchmd, entries, refinfo, args, elapsed):
                  f"{min(b for _, b in pw):.1f}–{max(b for _, b in pw):.1f} µs per colour")
     q = refinfo["quiet"]
     quiet = (f"Before each round the script waits (bounded) until other processes leave the cores idle "
-             f"(2 torch threads on 2 shared cores can slow down by orders of magnitude next to a busy process); "
+             f"({args.threads} torch thread(s) on shared cores can slow down by orders of magnitude next to a busy process); "
              f"{q['contended']} of {q['rounds']} rounds still ran next to one ({q['waited_s']:.0f} s waited).")
     cmd = "python benchmarks/bragg_color_speed_vs_error.py" + ("" if not args.argv else " " + " ".join(args.argv))
     return f"""{START}
@@ -634,7 +661,7 @@ All figures of this section from one run of
 ```
 
 on {datetime.date.today().isoformat()}: {cpu_name()}, {os.cpu_count()} cores, torch {torch.__version__},
-Python {platform.python_version()}, `torch.set_num_threads(2)`, float64, {allocator(args)};
+Python {platform.python_version()}, `torch.set_num_threads({args.threads})`{pin_text(args)}, float64, {allocator(args)};
 whole run {elapsed:.0f} s.
 The same run writes `src/torchirid/data/bragg_color_errors.json` (these numbers, for method
 selection; schema in the script's docstring) and the figure below.
@@ -737,6 +764,9 @@ def main(argv=None):
                          "MALLOC_TRIM_THRESHOLD_ = 2^30 so that MB-sized temporaries are not mmap'ed and page-faulted "
                          "afresh on every call (glibc's adaptive threshold otherwise makes times bimodal); "
                          "'default' leaves glibc as it is")
+    ap.add_argument("--threads", type=int, default=2, help="torch threads (default 2)")
+    ap.add_argument("--cpus", default=None,
+                    help="pin the process to these CPUs, e.g. '0' or '0,1' (os.sched_setaffinity; default: not pinned)")
     ap.add_argument("--max-wait", type=float, default=150.0,
                     help="seconds in all spent waiting for other processes to leave the cores idle before rounds")
     args = ap.parse_args(argv)
@@ -754,13 +784,21 @@ def main(argv=None):
         os.execve(sys.executable, [sys.executable, os.path.abspath(__file__), *raw], env)
     if args.rounds < 5:
         ap.error("--rounds must be >= 5")
+    if args.threads < 1:
+        ap.error("--threads must be >= 1")
+    if args.cpus:
+        try:
+            os.sched_setaffinity(0, {int(c) for c in args.cpus.split(",")})
+        except (ValueError, OSError) as exc:
+            ap.error(f"--cpus {args.cpus!r}: {exc}")
+    args.cpus_used = sorted(os.sched_getaffinity(0))
     t0 = time.perf_counter()
     cfgs, keys, results, refinfo = measure(args)
     entries = summarise(cfgs, keys, results)
     elapsed = time.perf_counter() - t0
     md = tables(cfgs, keys, entries)
     comparison = paper_comparison(cfgs, keys, entries)
-    front, _ = pareto_text(cfgs, keys, entries)
+    front, _ = pareto_text(cfgs, keys, entries, results)
     batchmd = batch_text(entries, refinfo)
     for grid in GRIDS:
         print(f"\n### {grid}\n\n{md[grid]}")
@@ -771,7 +809,7 @@ def main(argv=None):
     print(f"measured in {elapsed:.0f} s; timing rounds: {refinfo['quiet']}")
     if not args.no_write:
         chk = max(v for g in GRIDS for v in refinfo[g]["check"].values())
-        plot(cfgs, keys, entries, FIGURE, resolution=max(0.05, 2 * chk))
+        plot(cfgs, keys, entries, FIGURE, args, resolution=max(0.05, 2 * chk))
         print(f"wrote {FIGURE.relative_to(ROOT)}")
         write_json(cfgs, keys, entries, refinfo, args, elapsed)
         write_section(section(md, comparison, front, batchmd, entries, refinfo, args, elapsed))
