@@ -128,3 +128,18 @@ def test_bad_input_raises(kwargs, name):
     args.update(kwargs)
     with pytest.raises(ValueError, match=name):
         filtered_thin_film_xyz(**args)
+
+
+@pytest.mark.parametrize("arg", ["wo", "light_mean", "light_cov", "thickness"])
+def test_nan_propagates(arg):
+    """NaN inputs give NaN colours (the guarded √ of cos θ1* used to turn a NaN mean direction into 0)."""
+    nan = float("nan")
+    args = dict(wo=torch.tensor([[0.0, 0.0, 1.0]] * 2, dtype=torch.float64),
+                light_mean=torch.tensor([[0.1, 0.0, 0.9]] * 2, dtype=torch.float64),
+                light_cov=0.01 * torch.eye(3, dtype=torch.float64).expand(2, 3, 3).clone(),
+                thickness=torch.tensor([300.0, 300.0], dtype=torch.float64))
+    bad = args[arg].clone()
+    bad[0] = nan
+    args[arg] = bad
+    out = filtered_thin_film_xyz(args["wo"], args["light_mean"], args["light_cov"], 1.4, args["thickness"], 1.5)
+    assert torch.isnan(out[0]).all() and torch.isfinite(out[1]).all()

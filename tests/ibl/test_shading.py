@@ -204,3 +204,20 @@ def test_belcour_barla_matches_fourier_at_mirror(constant_pre):
     A, B = shipped_dfg_lut()(cos_theta_o=torch.tensor(0.8, dtype=F64), alpha=torch.tensor(0.25, dtype=F64)).tolist()
     ref = 2.0 * (A + B) * thin_film_xyz_fourier(torch.tensor(0.8, dtype=F64), *FILM, terms=2, sensitivity="exact")
     assert torch.allclose(out, ref, rtol=1e-9, atol=0)
+
+
+@pytest.mark.parametrize("method", SHADING_METHODS)
+@pytest.mark.parametrize("arg", ["normal", "view", "alpha", "thickness"])
+def test_nan_propagates(sky_pre, method, arg):
+    """A NaN direction, roughness or thickness gives a NaN pixel, not an exception for the whole
+    batch (the texel index of a NaN direction used to be −2⁶³) and not a finite colour."""
+    nan = float("nan")
+    v = torch.tensor([[0.3, 0.0, 1.0], [0.3, 0.0, 1.0]], dtype=F64)
+    args = dict(normal=torch.stack([Z, Z]), view=v, alpha=torch.tensor([0.2, 0.2], dtype=F64),
+                thickness=torch.tensor([600.0, 600.0], dtype=F64))
+    bad = args[arg].clone()
+    bad[0] = nan
+    args[arg] = bad
+    out = shade_thin_film_environment(sky_pre, args["normal"], args["view"], args["alpha"], 1.3, args["thickness"],
+                                      1.5, method=method)
+    assert torch.isnan(out[0]).all() and torch.isfinite(out[1]).all()

@@ -304,6 +304,9 @@ def test_nan_propagates():
     assert math.isnan(ggx_d(float("nan"), 0.3).item())
     m = sample_ggx_vndf(direction(0.0), float("nan"), torch.tensor([0.3, 0.3], dtype=F64))
     assert torch.isnan(m).any()
+    # a NaN random number is not "fixed" into the disk centre (the guarded √ used to return 0 for NaN)
+    m = sample_ggx_vndf(direction(0.3), 0.3, torch.tensor([[float("nan"), 0.3], [0.3, 0.3]], dtype=F64))
+    assert torch.isnan(m[0]).all() and torch.isfinite(m[1]).all()
 
 
 # --------------------------------------------------------------------------------------

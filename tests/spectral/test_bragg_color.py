@@ -154,3 +154,31 @@ def test_piecewise_colour_newton_steps_are_converged(monkeypatch):
     de = {s: max(float(delta_e_2000(a, b).max()) for a, b in zip(worst[s], worst[8])) for s in (3, 4)}
     assert de[4] < 1e-6
     assert de[3] > 1e-4  # the margin is one step: fewer steps are visibly off
+
+
+@pytest.mark.parametrize("method", ["spectral", "sampled", "piecewise", "envelope", "auto"])
+@pytest.mark.parametrize("arg", ["cos_theta", "n2", "d1", "d2"])
+def test_nan_propagates(method, arg):
+    """A NaN (or ∞) parameter gives a NaN colour for its mirror only: no exception for the batch
+    (piecewise: the landmark counts used to fail on int(NaN)), no finite colour (envelope: the
+    guarded √ and R^e turned NaN into 0), and no max_samples warning (spectral: NaN counted as
+    infinitely many fringes)."""
+    import warnings
+
+    args = dict(cos_theta=t64([0.8, 0.8, 0.8]), n1=1.0, n2=t64([1.5, 1.5, 1.5]), d1=t64([125.0, 125.0, 125.0]),
+                d2=t64([375.0, 375.0, 375.0]), cells=20)
+    bad = args[arg].clone()
+    bad[0] = float("nan")
+    if arg.startswith("d"):
+        bad[1] = float("inf")
+    args[arg] = bad
+    kw = {"samples": 64} if method == "sampled" else ({"tolerance": 3.0} if method == "auto" else {})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = bragg_xyz(**args, method=method, **kw)
+    assert torch.isnan(out[0]).all()
+    if arg.startswith("d"):
+        assert torch.isnan(out[1]).all()
+    assert torch.isfinite(out[2]).all()
+    ref = bragg_xyz(t64(0.8), 1.0, 1.5, 125.0, 375.0, 20, method=method, **kw)
+    assert torch.allclose(out[2], ref, rtol=1e-12, atol=0)

@@ -65,12 +65,6 @@ def _vectors(x, name, dtype, device):
     return t
 
 
-def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
-    """√x for x > 0, 0 otherwise, with a zero (not inf/NaN) gradient where x <= 0."""
-    pos = x > 0
-    return torch.where(pos, torch.sqrt(torch.where(pos, x, torch.ones_like(x))), torch.zeros_like(x))
-
-
 def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
@@ -139,12 +133,12 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     mean_c = (w * mu).sum(-1).clamp(-1.0, 1.0)
     var_c = (w[..., :, None] * cov * w[..., None, :]).sum((-1, -2)).clamp_min(0.0)
     # eq. 22 at the mean: cos θ1* = ⟨h, ω_i⟩ (safe sqrt: backscatter μ = −1 is grazing, cos θ1 = 0)
-    cos1 = _safe_sqrt(0.5 * (1.0 + mean_c))
+    cos1 = _checks.safe_sqrt(0.5 * (1.0 + mean_c))
     # C0*, a* = r21 r23 = |a| e^{iφ2*}, K* of eq. 4 at the mean direction
     C0, a, K, _ = thin_film_fourier_terms(cos1, nf, d, n_substrate, n_outer=n0, polarization=polarization)
     # eq. 25: μ_cosθ2 (= √(1 − η1²/η2² sin²θ1*), what thin_film_fourier_terms uses for D)
     k = (n0 * n0) / (2.0 * nf * nf)
-    mean_c2 = _safe_sqrt(1.0 + k * (mean_c - 1.0))  # > 0 unless η2 = η1 at grazing
+    mean_c2 = _checks.safe_sqrt(1.0 + k * (mean_c - 1.0))  # > 0 unless η2 = η1 at grazing
     # eq. 26 squared: σ²_cosθ2 = (η1²/(4η2²))² σ²_⟨ωi,ωo⟩ / μ²_cosθ2 (tiny floor: the η2 = η1 grazing limit)
     var_c2 = (0.5 * k) ** 2 * var_c / (mean_c2 * mean_c2).clamp_min(torch.finfo(dtype).tiny)
     # eq. 27–28: μ_D = 2η2 d μ_cosθ2, σ²_D = (2η2 d)² σ²_cosθ2

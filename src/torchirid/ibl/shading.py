@@ -73,10 +73,8 @@ def _rgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
 
 
 def _safe_norm2(x, y):
-    """√(x² + y²) with a zero (not NaN) gradient at the origin (the poles of the map)."""
-    s = x * x + y * y
-    pos = s > 0
-    return torch.where(pos, torch.sqrt(torch.where(pos, s, torch.ones_like(s))), torch.zeros_like(s))
+    """√(x² + y²) with a zero (not NaN) gradient at the origin (the poles of the map); NaN propagates."""
+    return _checks.safe_sqrt(x * x + y * y)
 
 
 def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -> torch.Tensor:
@@ -89,12 +87,13 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
     phi = torch.remainder(torch.atan2(r[..., 1], r[..., 0]), 2.0 * math.pi)
     # rows: texel centres at (i + ½)π/H; beyond the first/last centre the edge row is used
     x = (theta * (H / math.pi) - 0.5).clamp(0.0, H - 1.0)
-    i0 = x.detach().floor().clamp(max=max(H - 2, 0)).long()
+    # (indices of NaN directions: any valid texel; their NaN weights make the result NaN)
+    i0 = x.detach().nan_to_num(0.0).floor().clamp(max=max(H - 2, 0)).long()
     ti = x - i0
     i1 = (i0 + 1).clamp(max=H - 1)
     # columns: periodic in φ
     y = phi * (W / (2.0 * math.pi)) - 0.5
-    j0f = y.detach().floor()
+    j0f = y.detach().nan_to_num(0.0).floor()
     tj = y - j0f
     j0 = torch.remainder(j0f.long(), W)
     j1 = torch.remainder(j0 + 1, W)

@@ -100,12 +100,6 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
 # ---------------------------------------------------------------------------------------
 
 
-def _safe_sqrt(x: torch.Tensor) -> torch.Tensor:
-    """√x for x > 0, 0 otherwise; the gradient is 0 (not inf/NaN) where x <= 0."""
-    pos = x > 0
-    return torch.where(pos, torch.sqrt(torch.where(pos, x, torch.ones_like(x))), torch.zeros_like(x))
-
-
 def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """Eq. 18 on already-validated tensors (``c`` may exceed 1 by rounding)."""
     a2 = a * a
@@ -211,15 +205,15 @@ def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
     )
     t2 = torch.linalg.cross(vh, t1, dim=-1)
     # uniform point on the unit disk, warped towards the visible half
-    r = _safe_sqrt(uu[..., 0])
+    r = _checks.safe_sqrt(uu[..., 0])
     phi = (2.0 * math.pi) * uu[..., 1]
     p1 = r * torch.cos(phi)
     p2 = r * torch.sin(phi)
     s = 0.5 * (1.0 + vh[..., 2])
     p1, p2, s = torch.broadcast_tensors(p1, p2, s)
-    p2 = (1.0 - s) * _safe_sqrt(1.0 - p1 * p1) + s * p2
+    p2 = (1.0 - s) * _checks.safe_sqrt(1.0 - p1 * p1) + s * p2
     # lift to the hemisphere
-    p3 = _safe_sqrt(1.0 - p1 * p1 - p2 * p2)
+    p3 = _checks.safe_sqrt(1.0 - p1 * p1 - p2 * p2)
     nh = p1.unsqueeze(-1) * t1 + p2.unsqueeze(-1) * t2 + p3.unsqueeze(-1) * vh
     # unstretch back to the α configuration
     ne = torch.cat([a * nh[..., :2], nh[..., 2:].clamp(min=0.0)], -1)

@@ -46,7 +46,8 @@ def _fringes(cells, n1, n2, d1, d2, lo, hi):
     with torch.no_grad():
         opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
         F = torch.as_tensor(cells).to(opl.dtype) * opl
-        return float(F.max()) * 2 * math.pi * (1 / lo - 1 / hi) / math.pi
+        F = F[torch.isfinite(F)]  # NaN/∞ mirrors get NaN colours from any method: they do not count
+        return (float(F.max()) if F.numel() else 0.0) * 2 * math.pi * (1 / lo - 1 / hi) / math.pi
 
 
 def _grid_fringes(g):

@@ -61,13 +61,16 @@ def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), 
     """Number of ω samples the ``"spectral"`` method uses for the worst mirror of a batch.
 
     ``ceil(samples_per_fringe · N · (|n1| d1 + |n2| d2) · Δω / π)``, clipped to
-    ``[min_samples, max_samples]`` (see the module docstring).
+    ``[min_samples, max_samples]`` (see the module docstring). Mirrors with a NaN or infinite
+    parameter (whose colour is NaN at any sampling) do not count.
     """
     lo, hi = wavelength_range
     d_omega = 2 * math.pi * (1 / lo - 1 / hi)
     with torch.no_grad():
         opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
-        fringes = float((torch.as_tensor(cells).to(opl.dtype) * opl).max()) * d_omega / math.pi
+        length = torch.as_tensor(cells).to(opl.dtype) * opl
+        length = length[torch.isfinite(length)]
+        fringes = (float(length.max()) if length.numel() else 0.0) * d_omega / math.pi
     wanted = samples_per_fringe * fringes
     if not math.isfinite(wanted) or wanted >= max_samples:  # (also absurd or overflowing inputs)
         return max_samples

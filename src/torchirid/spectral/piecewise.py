@@ -88,6 +88,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     if weights not in ("averaged", "paper"):
         raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "piecewise")
+    invalid = _non_finite_mirrors(mirror)  # NaN in, NaN out (the landmark counts need finite mirrors)
     lo, hi = mirror["range"]
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
     dtype, device = mirror["A"].dtype, mirror["A"].device
@@ -100,10 +101,28 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     xyz = _piecewise_xyz(mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], w_corr, omega_min, omega_max,
                          subdivisions, table, weights, mirror["N"])
     out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
+    if invalid is not None:
+        out = torch.where(invalid.unsqueeze(-1), float("nan"), out)
     grazing = mirror["grazing"]
     if not bool(grazing.any()):
         return out
     return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
+
+
+def _non_finite_mirrors(mirror):
+    """Mask ``(*)`` of the mirrors with a non-finite parameter (NaN or ∞ inputs), or None when all
+    are finite (one check). Where set, ``mirror``'s A, B, δ, C_coef are replaced in place by a
+    harmless finite mirror (no landmarks, R = 0), whose colour the caller replaces by NaN."""
+    A, B, delta, C_coef = mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"]
+    bad = ~torch.isfinite(A + B + delta.sum(0) + C_coef.sum(0))
+    if not bool(bad.any()):
+        return None
+    one = torch.ones((), dtype=A.dtype, device=A.device)
+    mirror["A"] = torch.where(bad, one, A)
+    mirror["B"] = torch.where(bad, one, B)
+    mirror["delta"] = torch.where(bad, 0 * one, delta)
+    mirror["C_coef"] = torch.where(bad, 0 * one, C_coef)
+    return bad
 
 
 def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, method):
@@ -282,18 +301,17 @@ def _parts(omega, A, B, delta):
 
 
 def _envelope(C2, sin2):
-    """R^e = |C|² / (|C|² + sin² KΛ) (eq. 11); 0 where both vanish (a closed gap's mode)."""
+    """R^e = |C|² / (|C|² + sin² KΛ) (eq. 11); 0 where both vanish (a closed gap's mode); NaN propagates."""
     den = C2 + sin2
-    return torch.where(den > 0, C2 / torch.where(den > 0, den, torch.ones_like(den)), torch.zeros_like(den))
+    zero = den <= 0
+    return torch.where(zero, torch.zeros_like(den), C2 / torch.where(zero, torch.ones_like(den), den))
 
 
 def _fringe_mean(envelope):
     """Yeh's R averaged over its fast fringes (phase NKΛ uniform) at fixed |C|², KΛ:
     ⟨C² sin²φ / (C² sin²φ + sin²KΛ)⟩_φ = 1 − √(sin²KΛ / (C² + sin²KΛ)) = 1 − √(1 − R^e)."""
-    one_minus = 1 - envelope
-    pos = one_minus > 0  # guard: √ has an infinite slope at 0 (R^e = 1: gap edges and inside)
-    return 1 - torch.where(pos, torch.sqrt(torch.where(pos, one_minus, torch.ones_like(one_minus))),
-                           torch.zeros_like(one_minus))
+    # guard: √ has an infinite slope at 0 (R^e = 1: gap edges and inside); NaN propagates
+    return 1 - _checks.safe_sqrt(1 - envelope)
 
 
 def _gap_reflectance(C2, eps, N):
