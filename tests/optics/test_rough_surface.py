@@ -349,6 +349,28 @@ def test_shapes_broadcast():
     assert torch.isnan(rs.rough_multilayer_reflectance(lam, t64(float("nan")), n, d[0, 0], 20.0, TAU)).all()
 
 
+@pytest.mark.parametrize("polarization", ["unpolarized", "s", "p"])
+def test_roughness_only_batches_are_not_mixed(polarization):
+    """A batch that comes only from σ or τ gives each entry its own value (the rough seed's batch
+    axis used to meet the polarization axis: entries were averaged together, one NaN spread to all)."""
+    n = tc128([1.0, 1.45, 2.0 + 0.5j])
+    d = t64([300.0])
+    sig, tau = t64([25.0, 50.0, float("nan")]), t64([[300.0], [200.0]])
+    kw = dict(polarization=polarization)
+    calls = [
+        lambda s_, t_: rs.rough_multilayer_reflectance(550.0, 0.8, n, d, s_, t_, **kw),
+        lambda s_, t_: rs.stack_transmittance_to_last_film(550.0, 0.8, n, d, s_, t_, **kw),
+        lambda s_, t_: rs.rough_multilayer_diffuse(550.0, 0.8, 0.6, -0.9, n, d, s_, t_, **kw),
+    ]
+    for f in calls:
+        out = f(sig, tau)
+        assert out.shape == (2, 3)
+        assert torch.isnan(out[:, 2]).all()
+        for i in range(2):
+            for j in range(2):
+                assert float(out[i, j]) == pytest.approx(float(f(sig[j], tau[i, 0])), rel=1e-12, abs=0)
+
+
 @pytest.mark.parametrize("kwargs, match", [
     (dict(sigma=-1.0), "sigma"),
     (dict(tau=0.0), "tau"),

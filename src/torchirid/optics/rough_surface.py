@@ -115,6 +115,9 @@ def _prepare(wavelength, cosines: dict, indices, thicknesses, sigma, tau, polari
     _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
     _checks.check_real_index(n[..., -2], "indices[..., -2] (the medium above the rough interface)")
     _check_roughness(s, t)
+    # the batch of the stack state includes the roughness axes: the rough seed η_s (P, *batch)
+    # must not meet σ or τ's own axes at the polarization axis (a σ-only batch was averaged)
+    lam = lam.expand(_checks.broadcast_shapes(lam.shape, s.shape, t.shape))
     return lam, cos, n, d, s, t
 
 
