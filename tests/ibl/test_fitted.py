@@ -90,3 +90,19 @@ def test_sensitivity_lut_mode_close_to_exact():
     assert delta_e_2000(lut, ex).max() < 0.3
     with pytest.raises(ValueError, match="sensitivity"):
         fitted_thin_film_xyz(c, a, 1.3, d, 1.5, sensitivity="table")
+
+
+def test_film_batches_broadcast_against_scalar_lobe_arguments():
+    """A scalar cos θo / α with a batch of film parameters (the mixture axis used to meet the film
+    axes: a shape error, or shape (3,) for a thickness of shape (1,))."""
+    from torchirid.ibl import fitted_thin_film_xyz
+
+    d = torch.tensor([300.0, 450.0], dtype=torch.float64)
+    out = fitted_thin_film_xyz(0.8, 0.3, 1.33, d, 1.5)
+    assert out.shape == (2, 3)
+    for i in range(2):
+        assert torch.allclose(out[i], fitted_thin_film_xyz(0.8, 0.3, 1.33, d[i], 1.5), rtol=1e-12, atol=0)
+    assert fitted_thin_film_xyz(0.8, 0.3, 1.33, d[:1], 1.5).shape == (1, 3)
+    sub = torch.tensor([1.5, 2.0 + 0.5j], dtype=torch.complex128)
+    both = fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], sub)
+    assert torch.allclose(both[1], fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j), rtol=1e-12, atol=0)

@@ -203,6 +203,10 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         raise ValueError("table must be a LUT built by build_light_mixture_table")
     else:
         table = table.to(dtype=dtype, device=device)
+    # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
+    # (else K meets the film axes: a scalar cos θo with a batch of thicknesses did not broadcast)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, torch.as_tensor(n_substrate).shape)
+    c, a = c.expand(full), a.expand(full)
     mix = table(cos_theta_o=c, sqrt_alpha=torch.sqrt(a))  # (*, K, 3)
     w, c1, v1 = mix.unbind(-1)
     c1 = c1.clamp(0.0, 1.0).movedim(-1, 0)  # (K, *)
