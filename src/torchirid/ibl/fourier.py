@@ -415,7 +415,7 @@ def _from_prefiltered_lut(lut: LUT, m: torch.Tensor, s2: torch.Tensor) -> torch.
     v = lut(mu=a, w=_sigma_warp(s2, float(p["warp_lambda"])))
     nu0 = torch.as_tensor([1.0 / c for c in p["carrier_nm"]], dtype=v.dtype, device=v.device)
     s = torch.complex(v[..., 0], v[..., 1]) * torch.polar(torch.ones_like(nu0), (-_TWO_PI) * a[..., None] * nu0)
-    s = torch.where((a <= lut.axes["mu"][-1])[..., None], s, torch.zeros_like(s))
+    s = torch.where((a > lut.axes["mu"][-1])[..., None], torch.zeros_like(s), s)  # (NaN μ stays NaN)
     return torch.where((m < 0)[..., None], s.conj(), s)
 
 

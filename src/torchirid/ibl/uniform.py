@@ -134,7 +134,8 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
     # ρ̃⟨n,ωi⟩ / p(ωi) = G(ωi, ωo)⟨ωo,h⟩ / (cos θo cos θh), p(ωi) = D cos θh / (4⟨ωo,h⟩)
     g = _g1_unchecked(zs, a_) * _g1_unchecked(c, a)[..., None]
     wgt = g * vh / (c[..., None] * torch.where(ok, cos_h, torch.ones_like(cos_h)))
-    return wi, h, torch.where(ok, wgt, torch.zeros_like(wgt)) * wq
+    wgt = torch.where(ok, wgt, torch.zeros_like(wgt))
+    return wi, h, torch.where(torch.isnan(z + vh), torch.nan, wgt) * wq  # (NaN geometry: NaN weights)
 
 
 def _chunks(shape, nodes):
@@ -210,7 +211,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         _, h, w = uniform_lobe_quadrature(cc, aa, nodes=nodes)
         c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
         x = c1 * bins
-        i0 = x.floor().clamp(max=bins - 1)
+        i0 = x.nan_to_num(0.0).floor().clamp(max=bins - 1)  # (NaN: any bin; its NaN weight t marks it)
         t = x - i0
         i0 = i0.long()
         A = w.sum(-1)

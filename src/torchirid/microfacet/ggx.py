@@ -290,6 +290,8 @@ def smith_g(wi, wo, m, alpha) -> torch.Tensor:
     _checks.check_positive(a, "alpha", unit="(GGX roughness)")
     ci, co = i[..., 2], o[..., 2]
     # χ⁺((v·m)/(v·n)) tested as (v·m)(v·n) > 0, without dividing by v·n; NaN propagates
-    masked = ((i * mm).sum(-1) * ci <= 0) | ((o * mm).sum(-1) * co <= 0)
+    im, om = (i * mm).sum(-1), (o * mm).sum(-1)
+    masked = (im * ci <= 0) | (om * co <= 0)
     g = _g1_unchecked(ci.abs(), a) * _g1_unchecked(co.abs(), a)
-    return torch.where(masked, torch.zeros_like(g), g)
+    g = torch.where(masked, torch.zeros_like(g), g)
+    return torch.where(torch.isnan(im + om), torch.nan, g)  # (G₁ does not see m: its NaN goes by the mask)

@@ -228,7 +228,8 @@ def _series_D(g: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     gs = torch.where(pos, g, torch.ones_like(g))  # guard: log 0 in the unused branch
     log_g = torch.log(gs)
     with torch.no_grad():
-        gmax = float(gs[pos].max()) if bool(pos.any()) else 0.0
+        fin = pos & torch.isfinite(gs)  # (g = ∞: its terms are exp(−∞) = 0 at any count)
+        gmax = float(gs[fin].max()) if bool(fin.any()) else 0.0
     # the Poisson(g) weights beyond g + 12√g + 20 are below 1e-30 of the sum
     terms = int(min(2000, math.ceil(gmax + 12 * math.sqrt(gmax) + 20)))
     total = torch.zeros_like(g * b)

@@ -373,9 +373,9 @@ def _bloch_average(r12: torch.Tensor, cells: int, samples: int) -> torch.Tensor:
         U2 = torch.where(safe, s2N / torch.where(safe, sin2_x, torch.ones_like(sin2_x)),
                          torch.full_like(sin2_x, float(cells) ** 2))
         den = a * U2 + b  # > 0 except R₁₂ = 1 exactly at an exact zero of U
-        ok = den > 0
-        term = b * cos2_phi.repeat(j.numel()) / torch.where(ok, den, torch.ones_like(den))  # guard: 0/0 → 0 (b = 0)
-        term = torch.where(ok, term, torch.zeros_like(term))
+        zero = den <= 0  # (not ``den > 0``: a NaN den stays NaN)
+        term = b * cos2_phi.repeat(j.numel()) / torch.where(zero, torch.ones_like(den), den)  # guard: 0/0 → 0 (b = 0)
+        term = torch.where(zero, torch.zeros_like(term), term)
         deficit = deficit + (term * jac.repeat(j.numel())).sum(-1)
     total = jac.sum() * cells
     return (1 - deficit / total).reshape(r12.shape)

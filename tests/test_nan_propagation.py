@@ -1,0 +1,84 @@
+"""NaN inputs propagate (DESIGN.md): one NaN entry of a batch gives NaN outputs for that entry,
+the other entries stay exactly what they are alone, and nothing raises for the whole batch.
+
+Regression tests for paths found on 2026-12-02 to "fix" NaN (guarded square roots and masks of
+the form ``where(x > 0, f(x), 0)``, which send NaN to the 0 branch) or to raise for the batch
+(``int(NaN)`` / ``.long()`` of a NaN index). The optics core has its own in test_validation.py.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from tensors import F64, t64
+
+NAN = float("nan")
+
+
+def _check(out, ref):
+    assert torch.isnan(out[0]).all(), out
+    assert torch.allclose(out[1], ref, rtol=1e-12, atol=0, equal_nan=False), (out[1], ref)
+
+
+def test_smith_g_nan_microfacet_normal():
+    from torchirid import smith_g
+
+    z = t64([0.0, 0.0, 1.0])
+    m = t64([[NAN, NAN, NAN], [0.1, 0.0, 1.0]])
+    _check(smith_g(z, z, m, 0.2), smith_g(z, z, m[1], 0.2))
+
+
+def test_he_torrance_infinite_roughness_does_not_raise():
+    from torchirid.optics import he_torrance as ht
+
+    out = ht.he_directional_diffuse(550.0, 0.8, 0.6, -0.9, t64([math.inf, 25.0]), 300.0, 1.5)
+    assert torch.isfinite(out[1])
+    assert float(out[1]) == float(ht.he_directional_diffuse(550.0, 0.8, 0.6, -0.9, t64(25.0), 300.0, 1.5))
+
+
+def test_uniform_light_paths():
+    from torchirid import ibl
+
+    c, a = t64([NAN, 0.8]), t64([0.3, 0.3])
+    kw = dict(bins=64, nodes=8)
+    _check(ibl.uniform_thin_film_xyz(c, a, 1.33, 450.0, 1.5, **kw),
+           ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
+    _check(ibl.uniform_thin_film_xyz(t64([0.8, 0.8]), t64([NAN, 0.3]), 1.33, 450.0, 1.5, **kw),
+           ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
+    albedo = ibl.uniform_light_moments(c, a, nodes=8)[0]
+    _check(albedo, ibl.uniform_light_moments(c[1:], a[1:], nodes=8)[0][0])
+
+
+def test_prefiltered_sensitivity_table_paths():
+    from torchirid.ibl import filtered_thin_film_xyz, fitted_thin_film_xyz, thin_film_xyz_fourier
+
+    d = t64([NAN, 300.0])
+    cov = 0.01 * torch.eye(3, dtype=F64).expand(2, 3, 3)
+    wo, mu = t64([[0.0, 0.0, 1.0]] * 2), t64([[0.1, 0.0, 0.9]] * 2)
+    _check(filtered_thin_film_xyz(wo, mu, cov, 1.4, d, 1.5, sensitivity="lut"),
+           filtered_thin_film_xyz(wo[1], mu[1], cov[1], 1.4, d[1], 1.5, sensitivity="lut"))
+    c = t64([0.8, 0.8])
+    _check(fitted_thin_film_xyz(c, 0.3, 1.33, d, 1.5, sensitivity="lut"),
+           fitted_thin_film_xyz(c[1], 0.3, 1.33, d[1], 1.5, sensitivity="lut"))
+    _check(thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="lut"),
+           thin_film_xyz_fourier(c[1], 1.33, d[1], 1.5, sensitivity="lut"))
+
+
+def test_bragg_landmarks_and_angular_correction_reference():
+    from torchirid.spectral import correction
+    from torchirid.spectral.landmarks import bragg_landmarks
+
+    w0, w1 = 2 * math.pi / 780, 2 * math.pi / 380
+    out = bragg_landmarks(w0, w1, t64([NAN, 200.0]), t64([150.0, 150.0]), t64([0.08, 0.08]))
+    ref = bragg_landmarks(w0, w1, t64([200.0]), t64([150.0]), t64([0.08]))
+    for key, v in out.items():
+        if key == "m":
+            continue
+        assert torch.isnan(v[0]).all(), key
+        keep = ~torch.isnan(v[1])
+        assert torch.equal(v[1][keep], ref[key][0][~torch.isnan(ref[key][0])]), key
+    c = t64([NAN, 0.8])
+    _check(correction.angular_correction_reference(c, 1.0, 1.5),
+           correction.angular_correction_reference(c[1:], 1.0, 1.5)[0])
