@@ -82,3 +82,37 @@ def test_bragg_landmarks_and_angular_correction_reference():
     c = t64([NAN, 0.8])
     _check(correction.angular_correction_reference(c, 1.0, 1.5),
            correction.angular_correction_reference(c[1:], 1.0, 1.5)[0])
+
+
+def _layered(coated):
+    import torchirid.layered as L
+
+    n1 = 1.3 if coated else 1.0  # a host index ≠ 1 implies the smooth coating on top
+    return L.LayeredBragg([L.RoughBraggLayer(n1, 1.5, 150.0, 150.0, 6, 0.1)])
+
+
+def test_layered_single_reflection_paths():
+    import pytest
+    import torchirid.layered as L
+
+    lam = t64([500.0])
+    good = t64([0.3, 0.0, math.sqrt(0.91)])
+    z = t64([0.0, 0.0, 1.0])
+    wi = torch.stack([torch.full((3,), NAN, dtype=F64), good])
+    for coated in (False, True):
+        s = _layered(coated)
+        _check(L.single_reflection_brdf(s, wi, z, lam), L.single_reflection_brdf(s, good, z, lam))
+        _check(L.single_reflection_pdf(s, wi, z, lam), L.single_reflection_pdf(s, good, z, lam))
+        _check(L.single_reflection_brdf(s, z, wi, lam), L.single_reflection_brdf(s, z, good, lam))
+        u = t64([[NAN, 0.3, 0.3], [0.3, 0.3, 0.3]])
+        wo, pdf = L.sample_single_reflection(s, good.expand(2, 3), lam, u)
+        wo1, pdf1 = L.sample_single_reflection(s, good, lam, u[1])
+        _check(wo, wo1)
+        _check(pdf, pdf1)
+        f, err = L.montecarlo_brdf(s, wi, z, lam, samples=8, transmission="microfacet")
+        assert torch.isnan(f[0]).all() and torch.isnan(err[0]).all() and torch.isfinite(f[1]).all()
+        # the wavelength grid is shared by all samples: a NaN there is refused, not spread
+        with pytest.raises(ValueError, match="wavelength"):
+            L.single_reflection_brdf(s, good, z, t64([NAN, 500.0]))
+    w = L.transmission_weight(t64([[NAN, 0.6], [0.4, 0.6]]), 0.7, 0.1)
+    assert torch.isnan(w[0]).all() and torch.allclose(w[1], L.transmission_weight(t64([[0.4, 0.6]]), 0.7, 0.1)[0])

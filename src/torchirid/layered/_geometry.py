@@ -28,10 +28,17 @@ def directions(w, name: str, dtype, device, *, grazing: bool) -> torch.Tensor:
 
 
 def wavelengths(wavelength, dtype, device) -> torch.Tensor:
-    """``wavelength`` as a non-empty 1-D tensor (W,) of positive values in nm."""
+    """``wavelength`` as a non-empty 1-D tensor (W,) of positive, finite values in nm.
+
+    The wavelengths of the layered models are one spectral grid shared by every sample (the
+    τ/R tables are built on it, and multiplexed paths mix its entries), not a batch axis: a NaN
+    there is refused with a ValueError instead of spreading to the whole grid."""
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     if lam.dim() != 1 or lam.numel() == 0:
         raise ValueError(f"wavelength must be a non-empty 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
+    if not bool(torch.isfinite(lam).all()):
+        raise ValueError("wavelength must be finite (one spectral grid shared by all samples); got "
+                         f"{int((~torch.isfinite(lam)).sum())} non-finite value(s)")
     _checks.check_positive(lam, "wavelength")
     return lam
 
@@ -51,7 +58,17 @@ def refract_in(w: torch.Tensor, n1: float):
     v = torch.cat([t, z.unsqueeze(-1)], -1)
     n = torch.zeros_like(v)
     n[..., 2] = 1.0
-    return torch.where(ok.unsqueeze(-1), v, n), ok
+    return torch.where((s2 >= 1.0).unsqueeze(-1), n, v), ok  # (not ``ok``: a NaN w stays NaN)
+
+
+def nan_rows(*vectors: torch.Tensor) -> torch.Tensor:
+    """Mask (*) of the entries where any of the vectors ``(*, k)`` has a NaN component (their
+    results are set to NaN: DESIGN.md, NaN inputs propagate instead of being masked to 0)."""
+    bad = None
+    for v in vectors:
+        b = torch.isnan(v).any(-1)
+        bad = b if bad is None else bad | b
+    return bad
 
 
 def refract_out(w_in: torch.Tensor, n1: float):

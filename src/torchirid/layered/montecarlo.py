@@ -521,5 +521,7 @@ def montecarlo_brdf(
             if bar is not None:
                 bar.close()
         err = torch.sqrt(m2 / ((samples - 1) * samples))
+        bad = _geometry.nan_rows(i, o).unsqueeze(-1)  # NaN directions: NaN estimates, not 0 (DESIGN.md)
+        mean, err = torch.where(bad, torch.nan, mean), torch.where(bad, torch.nan, err)
     return mean.to(dtype).reshape(*batch, W), err.to(dtype).reshape(*batch, W)
 

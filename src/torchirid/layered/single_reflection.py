@@ -230,7 +230,8 @@ def single_reflection_brdf(
     rd = None
     if base_interreflection and structure.base_albedo > 0:
         rd = _base_return(structure, tables, lam)
-    return _evaluate(structure, tables, wi, wo, rd)
+    out = _evaluate(structure, tables, wi, wo, rd)
+    return torch.where(_geometry.nan_rows(wi, wo).unsqueeze(-1), torch.nan, out)
 
 
 def _half_vector(wi_h: torch.Tensor, wo_h: torch.Tensor) -> torch.Tensor:
@@ -527,8 +528,9 @@ def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_ang
     wo, exits = _refract_out(wo_h, n)
     valid = exits & (wo_h[..., 2] > 0)
     wo = torch.where(valid.unsqueeze(-1), wo, torch.zeros_like(wo))
-    pdf = _pdf(structure, tables, wi, wo, probs)
-    return wo, torch.where(valid, pdf, torch.zeros_like(pdf))
+    pdf = torch.where(valid, _pdf(structure, tables, wi, wo, probs), 0.0)
+    bad = _geometry.nan_rows(wi, u)
+    return torch.where(bad.unsqueeze(-1), torch.nan, wo), torch.where(bad, torch.nan, pdf)
 
 
 def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES) -> torch.Tensor:
@@ -541,7 +543,7 @@ def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angle
     wi, wo = torch.broadcast_tensors(wi, wo)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_host)[..., 2])
-    return _pdf(structure, tables, wi, wo, probs)
+    return torch.where(_geometry.nan_rows(wi, wo), torch.nan, _pdf(structure, tables, wi, wo, probs))
 
 
 def _pdf(structure, tables, wi, wo, probs):

@@ -27,6 +27,7 @@ import math
 import torch
 
 from .. import _checks
+from . import _geometry
 from ..lut import LUT
 from .filter import _hat_weights, _normal_cap, _quadrature, _quadrature_cos
 from .structure import RoughBraggLayer
@@ -228,10 +229,7 @@ def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
         if isinstance(val, bool) or not isinstance(val, int) or val < 2:
             raise ValueError(f"{name} must be an integer >= 2; got {val!r}")
     dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    if lam.dim() != 1 or lam.numel() < 1:
-        raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(lam.shape)}")
-    _checks.check_positive(lam, "wavelength")
+    lam = _geometry.wavelengths(wavelength, dtype, device)  # (W,), finite (the table's metadata stores it)
     plain = layer.numbers()  # tensor parameters (fitting) → numbers for the weights' cache and the metadata
     cos, grid, weights = _lut_weights(plain["alpha"], angles, theta_d_cells, dtype, str(device))
     t = 1.0 - layer.reflectance(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
@@ -353,6 +351,6 @@ def transmission_weight(tau, cos_theta, alpha, *, multiplexed: bool = True) -> t
     if not multiplexed:
         return half.expand(_checks.broadcast_shapes(half.shape, t.shape[:-1] + (1,)))
     mean = t.mean(-1, keepdim=True)
-    ok = mean > 0
-    ratio = torch.where(ok, t / torch.where(ok, mean, torch.ones_like(mean)), torch.zeros_like(t))
+    zero = mean <= 0  # (not ``mean > 0``: a NaN τ stays NaN)
+    ratio = torch.where(zero, torch.zeros_like(t), t / torch.where(zero, torch.ones_like(mean), mean))
     return half * ratio
