@@ -116,3 +116,21 @@ def test_layered_single_reflection_paths():
             L.single_reflection_brdf(s, good, z, t64([NAN, 500.0]))
     w = L.transmission_weight(t64([[NAN, 0.6], [0.4, 0.6]]), 0.7, 0.1)
     assert torch.isnan(w[0]).all() and torch.allclose(w[1], L.transmission_weight(t64([[0.4, 0.6]]), 0.7, 0.1)[0])
+
+
+def test_estimation_pixels_without_data_and_index_fit():
+    import torchirid.estimation as est
+
+    sc = est.synthetic_cube("mgf2_400", height=2, width=2, seed=0)
+    cube = sc.cube.clone()
+    cube[0, 0] = NAN  # a pixel without a single finite sample
+    pk = est.peak_method(cube, sc.wavelength, sc.cos_theta, 1.64)
+    assert torch.isnan(pk.thickness[0, 0]) and torch.isnan(pk.sse[0, 0])
+    assert torch.isfinite(pk.thickness.reshape(-1)[1:]).all()
+    fe = est.estimate_film(cube, sc.wavelength, sc.cos_theta, 1.64)
+    assert torch.isnan(fe.thickness[0, 0]) and torch.isnan(fe.rms[0, 0])
+    assert torch.isfinite(fe.thickness.reshape(-1)[1:]).all() and math.isfinite(fe.n)
+    w = torch.linspace(400.0, 720.0, 9, dtype=F64)
+    n = est.zns_index(w)
+    n[3] = NAN
+    assert torch.isnan(est.fit_index_model(w, n, "cauchy3")).all()

@@ -157,4 +157,6 @@ def fit_index_model(wavelength, n, model: str = "cauchy3") -> torch.Tensor:
     inv2 = (1000.0 / lam) ** 2
     cols = [torch.ones_like(lam), inv2, inv2 * inv2][: INDEX_MODELS[model]]
     X = torch.stack(cols, dim=-1)
+    if not bool(torch.isfinite(X).all() & torch.isfinite(nn_).all()):  # NaN in, NaN out (LAPACK would fail)
+        return torch.full((X.shape[-1],), float("nan"), dtype=dtype, device=device)
     return torch.linalg.lstsq(X, nn_[:, None]).solution[:, 0]

@@ -281,6 +281,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     times["total"] = time.perf_counter() - t0
     n_ref = float(index_model(torch.tensor(REFERENCE_WAVELENGTH, dtype=dtype), theta, index_model_name))
     rms = (sse / (A * B)).sqrt()
+    empty = Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (its residuals were 0 by the NaN fill)
+    d, rms = torch.where(empty, math.nan, d), torch.where(empty, math.nan, rms)
     sigma = noise_level(Y)
     ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
     if ratio > NOISE_WARNING_RATIO:

@@ -431,5 +431,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
         step = float(lam[0]) / (8 * n_est)
         grid = torch.arange(thickness_range[0], thickness_range[1] + step, step, dtype=dtype)
         d[~has], sse[~has] = select_candidates(Ys[~has], grid.expand(nofb, -1), terms)
+    empty = Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (not the range floor with SSE 0)
+    d, sse = torch.where(empty, math.nan, d), torch.where(empty, math.nan, sse)
     return PeakResult(n=n_est, thickness=d.reshape(batch), sse=sse.reshape(batch),
                       track_index=n_tr.reshape(*batch, -1), window=W, fallback=nofb)

@@ -392,6 +392,9 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
             sse = sse_of(theta, d)
             if progress is not None:
                 progress("order check")
+    # a pixel without a single finite sample has no estimate (its residuals were 0 by the NaN fill)
+    empty = ~valid_y.any(-1).any(-1)
+    d, sse = torch.where(empty, math.nan, d), torch.where(empty, math.nan, sse)
     return RefineResult(params=theta, index_model=index_model_name, thickness=d.reshape(batch), sse=sse.reshape(batch),
                         history=history, iterations=it_done, reordered=reordered)
 
