@@ -130,6 +130,11 @@ def test_estimation_pixels_without_data_and_index_fit():
     fe = est.estimate_film(cube, sc.wavelength, sc.cos_theta, 1.64)
     assert torch.isnan(fe.thickness[0, 0]) and torch.isnan(fe.rms[0, 0])
     assert torch.isfinite(fe.thickness.reshape(-1)[1:]).all() and math.isfinite(fe.n)
+    # the empty pixel's NaN peak thickness must not make the index search distrust the peaks
+    sc4 = est.synthetic_cube("mgf2_400", height=4, width=4, seed=0)
+    cube4 = sc4.cube.clone()
+    cube4[0, 0] = NAN
+    assert est.estimate_film(cube4, sc4.wavelength, sc4.cos_theta, 1.64).settings["index_start"] == "peaks"
     w = torch.linspace(400.0, 720.0, 9, dtype=F64)
     n = est.zns_index(w)
     n[3] = NAN

@@ -166,6 +166,9 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     Y = y.reshape(-1, A, B)
     P = Y.shape[0]
     d_peak = pk.thickness.reshape(-1)
+    if bool(d_peak.isnan().any()):  # pixels without data (NaN from peak_method): a finite seed inside
+        fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else torch.tensor(float(thickness_range[0]), dtype=dtype)
+        d_peak = torch.where(d_peak.isnan(), fill, d_peak)  # (their estimate is set to NaN at the end)
     # 2. index scan on a seeded sample
     t1 = time.perf_counter()
     g = torch.Generator().manual_seed(int(seed))
