@@ -42,14 +42,6 @@ def _table():
     return data
 
 
-def _fringes(cells, n1, n2, d1, d2, lo, hi):
-    with torch.no_grad():
-        opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
-        F = torch.as_tensor(cells).to(opl.dtype) * opl
-        F = F[torch.isfinite(F)]  # NaN/∞ mirrors get NaN colours from any method: they do not count
-        return (float(F.max()) if F.numel() else 0.0) * 2 * math.pi * (1 / lo - 1 / hi) / math.pi
-
-
 def _grid_fringes(g):
     lo, hi = g["wavelength_range_nm"]
     out = {}
@@ -71,7 +63,9 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
         raise ValueError(f"tolerance must be a ΔE2000 > 0; got {tolerance!r}")
     data = _table()
     lo, hi = wavelength_range
-    F_q = _fringes(cells, n1, n2, d1, d2, lo, hi)
+    from .bragg_color import max_fringes, spectral_samples  # (bragg_color imports this module)
+
+    F_q = max_fringes(cells, n1, n2, d1, d2, lo, hi)
     entries = data["entries"]
     candidates = []
 
@@ -121,8 +115,6 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
     g0 = data["grids"]["fig4"]
     k_ref = max(g0["spectral_samples"].values())
     us_ref = spec["grids"]["fig4"]["us_per_colour"]
-    from .bragg_color import spectral_samples
-
     k_q = spectral_samples(cells, n1, n2, d1, d2, wavelength_range=wavelength_range)
     spectral = {"config": {"method": "spectral"}, "p95": max(spec["grids"][g]["p95"] for g in data["grids"]),
                 "us_per_colour": us_ref * k_q / k_ref}

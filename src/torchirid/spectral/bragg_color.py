@@ -56,6 +56,17 @@ BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise", "envelope", "auto")
 _CHUNK = 1 << 22
 
 
+def max_fringes(cells, n1, n2, d1, d2, lo, hi) -> float:
+    """Fringes in [λ_lo, λ_hi] of the batch's worst mirror: max N (|n1| d1 + |n2| d2) · Δω / π
+    (Δω = 2π(1/λ_lo − 1/λ_hi)); mirrors with a NaN or infinite parameter (NaN colour at any
+    sampling) do not count. Shared by the ``"spectral"`` sampling rule and ``method="auto"``."""
+    with torch.no_grad():
+        opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
+        length = torch.as_tensor(cells).to(opl.dtype) * opl
+        length = length[torch.isfinite(length)]
+        return (float(length.max()) if length.numel() else 0.0) * 2 * (1 / lo - 1 / hi)
+
+
 def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), samples_per_fringe=192.0,
                      min_samples=401, max_samples=262144) -> int:
     """Number of ω samples the ``"spectral"`` method uses for the worst mirror of a batch.
@@ -64,14 +75,7 @@ def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), 
     ``[min_samples, max_samples]`` (see the module docstring). Mirrors with a NaN or infinite
     parameter (whose colour is NaN at any sampling) do not count.
     """
-    lo, hi = wavelength_range
-    d_omega = 2 * math.pi * (1 / lo - 1 / hi)
-    with torch.no_grad():
-        opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
-        length = torch.as_tensor(cells).to(opl.dtype) * opl
-        length = length[torch.isfinite(length)]
-        fringes = (float(length.max()) if length.numel() else 0.0) * d_omega / math.pi
-    wanted = samples_per_fringe * fringes
+    wanted = samples_per_fringe * max_fringes(cells, n1, n2, d1, d2, *wavelength_range)
     if not math.isfinite(wanted) or wanted >= max_samples:  # (also absurd or overflowing inputs)
         return max_samples
     return int(min(max(math.ceil(wanted) + 1, min_samples), max_samples))

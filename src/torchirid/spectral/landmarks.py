@@ -66,10 +66,10 @@ def _counts(omega_min, omega_max, A, B):
         z_lo = torch.ceil(omega_min * safe_B / math.pi).clamp(min=1)
         z_hi = torch.floor(omega_max * safe_B / math.pi)
         if L.numel():
-            # counts over finite mirrors (a NaN or ∞ mirror's landmarks come out NaN at any count)
-            spans = torch.stack([(m_hi - m_lo).reshape(-1), (z_hi - z_lo).reshape(-1).clamp(min=0)])
-            spans = torch.where(torch.isfinite(spans), spans, torch.zeros_like(spans))
-            count, zc = (int(v) for v in spans.amax(dim=-1).tolist())
+            # counts over finite mirrors (a NaN or ∞ mirror's landmarks come out NaN at any count);
+            # the two spans may have different shapes (L = A + B vs B): one max each, one sync
+            spans = [(m_hi - m_lo).nan_to_num(0.0, 0.0, 0.0).amax(), (z_hi - z_lo).nan_to_num(0.0, 0.0, 0.0).amax()]
+            count, zc = (int(v) for v in torch.stack(spans).clamp(min=0).tolist())
         else:
             count, zc = 0, 0
     m = m_lo.unsqueeze(-1) + torch.arange(count + 1, dtype=L.dtype, device=L.device)  # (*, M) mode numbers
