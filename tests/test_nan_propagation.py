@@ -17,7 +17,8 @@ from tensors import F64, t64
 NAN = float("nan")
 
 
-def _check(out, ref):
+def assert_nan_first_entry(out, ref):
+    """Entry 0 (the NaN input) all NaN, entry 1 equal to its reference: the assertions of the tests below."""
     assert torch.isnan(out[0]).all(), out
     assert torch.allclose(out[1], ref, rtol=1e-12, atol=0, equal_nan=False), (out[1], ref)
 
@@ -27,7 +28,7 @@ def test_smith_g_nan_microfacet_normal():
 
     z = t64([0.0, 0.0, 1.0])
     m = t64([[NAN, NAN, NAN], [0.1, 0.0, 1.0]])
-    _check(smith_g(z, z, m, 0.2), smith_g(z, z, m[1], 0.2))
+    assert_nan_first_entry(smith_g(z, z, m, 0.2), smith_g(z, z, m[1], 0.2))
 
 
 def test_he_torrance_infinite_roughness_does_not_raise():
@@ -43,12 +44,12 @@ def test_uniform_light_paths():
 
     c, a = t64([NAN, 0.8]), t64([0.3, 0.3])
     kw = dict(bins=64, nodes=8)
-    _check(ibl.uniform_thin_film_xyz(c, a, 1.33, 450.0, 1.5, **kw),
+    assert_nan_first_entry(ibl.uniform_thin_film_xyz(c, a, 1.33, 450.0, 1.5, **kw),
            ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
-    _check(ibl.uniform_thin_film_xyz(t64([0.8, 0.8]), t64([NAN, 0.3]), 1.33, 450.0, 1.5, **kw),
+    assert_nan_first_entry(ibl.uniform_thin_film_xyz(t64([0.8, 0.8]), t64([NAN, 0.3]), 1.33, 450.0, 1.5, **kw),
            ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
     albedo = ibl.uniform_light_moments(c, a, nodes=8)[0]
-    _check(albedo, ibl.uniform_light_moments(c[1:], a[1:], nodes=8)[0][0])
+    assert_nan_first_entry(albedo, ibl.uniform_light_moments(c[1:], a[1:], nodes=8)[0][0])
 
 
 def test_prefiltered_sensitivity_table_paths():
@@ -57,12 +58,12 @@ def test_prefiltered_sensitivity_table_paths():
     d = t64([NAN, 300.0])
     cov = 0.01 * torch.eye(3, dtype=F64).expand(2, 3, 3)
     wo, mu = t64([[0.0, 0.0, 1.0]] * 2), t64([[0.1, 0.0, 0.9]] * 2)
-    _check(filtered_thin_film_xyz(wo, mu, cov, 1.4, d, 1.5, sensitivity="lut"),
+    assert_nan_first_entry(filtered_thin_film_xyz(wo, mu, cov, 1.4, d, 1.5, sensitivity="lut"),
            filtered_thin_film_xyz(wo[1], mu[1], cov[1], 1.4, d[1], 1.5, sensitivity="lut"))
     c = t64([0.8, 0.8])
-    _check(fitted_thin_film_xyz(c, 0.3, 1.33, d, 1.5, sensitivity="lut"),
+    assert_nan_first_entry(fitted_thin_film_xyz(c, 0.3, 1.33, d, 1.5, sensitivity="lut"),
            fitted_thin_film_xyz(c[1], 0.3, 1.33, d[1], 1.5, sensitivity="lut"))
-    _check(thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="lut"),
+    assert_nan_first_entry(thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="lut"),
            thin_film_xyz_fourier(c[1], 1.33, d[1], 1.5, sensitivity="lut"))
 
 
@@ -80,7 +81,7 @@ def test_bragg_landmarks_and_angular_correction_reference():
         keep = ~torch.isnan(v[1])
         assert torch.equal(v[1][keep], ref[key][0][~torch.isnan(ref[key][0])]), key
     c = t64([NAN, 0.8])
-    _check(correction.angular_correction_reference(c, 1.0, 1.5),
+    assert_nan_first_entry(correction.angular_correction_reference(c, 1.0, 1.5),
            correction.angular_correction_reference(c[1:], 1.0, 1.5)[0])
 
 
@@ -101,14 +102,14 @@ def test_layered_single_reflection_paths():
     wi = torch.stack([torch.full((3,), NAN, dtype=F64), good])
     for coated in (False, True):
         s = _layered(coated)
-        _check(L.single_reflection_brdf(s, wi, z, lam), L.single_reflection_brdf(s, good, z, lam))
-        _check(L.single_reflection_pdf(s, wi, z, lam), L.single_reflection_pdf(s, good, z, lam))
-        _check(L.single_reflection_brdf(s, z, wi, lam), L.single_reflection_brdf(s, z, good, lam))
+        assert_nan_first_entry(L.single_reflection_brdf(s, wi, z, lam), L.single_reflection_brdf(s, good, z, lam))
+        assert_nan_first_entry(L.single_reflection_pdf(s, wi, z, lam), L.single_reflection_pdf(s, good, z, lam))
+        assert_nan_first_entry(L.single_reflection_brdf(s, z, wi, lam), L.single_reflection_brdf(s, z, good, lam))
         u = t64([[NAN, 0.3, 0.3], [0.3, 0.3, 0.3]])
         wo, pdf = L.sample_single_reflection(s, good.expand(2, 3), lam, u)
         wo1, pdf1 = L.sample_single_reflection(s, good, lam, u[1])
-        _check(wo, wo1)
-        _check(pdf, pdf1)
+        assert_nan_first_entry(wo, wo1)
+        assert_nan_first_entry(pdf, pdf1)
         f, err = L.montecarlo_brdf(s, wi, z, lam, samples=8, transmission="microfacet")
         assert torch.isnan(f[0]).all() and torch.isnan(err[0]).all() and torch.isfinite(f[1]).all()
         # the wavelength grid is shared by all samples: a NaN there is refused, not spread
