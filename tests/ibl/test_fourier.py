@@ -132,6 +132,33 @@ def test_broadcast_dtype_gradient_and_thin_limit():
     assert x32.dtype == torch.float32 and torch.isfinite(x32).all()
 
 
+def test_infinitely_thick_film_is_the_incoherent_limit():
+    """thickness = ∞: Ŝ(±∞) = 0, so the colour is C0 · white, the incoherent sum of the two interfaces."""
+    assert torch.equal(fourier_sensitivity_exact(torch.tensor([math.inf, -math.inf], dtype=F64)),
+                       torch.zeros(2, 3, dtype=torch.complex128))
+    mu = torch.tensor([math.inf, 800.0], dtype=F64)
+    pre = prefiltered_fourier_sensitivity(mu, 50.0**2)
+    assert torch.equal(pre[0], torch.zeros(3, dtype=torch.complex128))
+    assert torch.allclose(pre[1], prefiltered_fourier_sensitivity(mu[1], 50.0**2), rtol=1e-12, atol=1e-15)
+    c = torch.tensor([1.0, 0.6, 0.1], dtype=F64)
+    n1, n2, n3 = 1.0, 1.33, 1.5
+    s = n1 * torch.sqrt(1 - c * c)
+    q1, q2, q3 = n1 * c, torch.sqrt(n2**2 - s * s), torch.sqrt(n3**2 - s * s)
+    r12s, r23s = (q1 - q2) / (q1 + q2), (q2 - q3) / (q2 + q3)
+    r12p = (n2**2 * q1 - n1**2 * q2) / (n2**2 * q1 + n1**2 * q2)
+    r23p = (n3**2 * q2 - n2**2 * q3) / (n3**2 * q2 + n2**2 * q3)
+
+    def incoherent(r12, r23):  # R12 + T12² R23 / (1 − R12 R23), lossless
+        a, b = r12**2, r23**2
+        return a + (1 - a) ** 2 * b / (1 - a * b)
+
+    white = fourier_sensitivity_exact(torch.tensor(0.0, dtype=F64)).real
+    ref = 0.5 * (incoherent(r12s, r23s) + incoherent(r12p, r23p))[:, None] * white
+    for mode in ("exact", "lut"):
+        xyz = thin_film_xyz_fourier(c, n2, math.inf, n3, terms=4, sensitivity=mode)
+        assert torch.allclose(xyz, ref, rtol=1e-12, atol=1e-15), (mode, xyz, ref)
+
+
 def test_bad_input():
     c = torch.tensor(0.5, dtype=F64)
     with pytest.raises(ValueError, match="terms"):

@@ -339,7 +339,10 @@ def cube_sse(cube, terms, thickness):
     """Σ over angles and bands of (model − cube)² for thickness candidates ``(P, C)`` → ``(P, C)``.
 
     ``terms`` = (a, b, e, k, h), each ``(pol, A, B)`` (:func:`~torchirid.estimation.band_terms`);
-    cube ``(P, A, B)``. NaN candidates → +inf.
+    cube ``(P, A, B)``. NaN candidates → +inf. NaN cube samples (missing data) are left out of
+    the sum, so a pixel without a single finite sample gives the empty sum 0 for every candidate:
+    it adds nothing to a sum over pixels and cannot decide a choice; :func:`peak_method` and
+    :func:`~torchirid.estimation.estimate_film` report NaN thickness and error for such pixels.
     """
     from .refine import _chunks, _residual_parts
 

@@ -155,6 +155,8 @@ def fourier_sensitivity_exact(D, *, observer: str = "CIE 1931 2", illuminant: st
 
     Returns:
         complex ``(*, 3)`` (X, Y, Z), differentiable w.r.t. ``D``; ``Ŝ(0)`` is the white (Y = 1).
+        ``D = ±∞`` gives the limit 0 (Riemann–Lebesgue: an infinitely thick film is incoherent),
+        as the table of :func:`fourier_sensitivity` does beyond its range; NaN stays NaN.
 
     Example:
         >>> import torch
@@ -166,8 +168,11 @@ def fourier_sensitivity_exact(D, *, observer: str = "CIE 1931 2", illuminant: st
     dtype, device = _checks.resolve_dtype_device(D)
     d = _checks.as_real(D, "D", dtype, device)
     nu, w = _quadrature(observer, illuminant, dtype, device)
+    infinite = d.isinf()
+    d = torch.where(infinite, torch.zeros_like(d), d)  # cos(±∞) is NaN; the limit is 0 (below)
     phase = (-_TWO_PI) * d[..., None] * nu
-    return torch.complex(torch.cos(phase) @ w, torch.sin(phase) @ w)
+    s = torch.complex(torch.cos(phase) @ w, torch.sin(phase) @ w)
+    return torch.where(infinite[..., None], torch.zeros_like(s), s)
 
 
 def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
@@ -182,7 +187,8 @@ def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
         sigma2: its variance σ²_D in nm² (≥ 0); ``0`` gives Ŝ(μ).
 
     Returns:
-        complex ``(*, 3)``, differentiable w.r.t. ``mu`` and ``sigma2``.
+        complex ``(*, 3)``, differentiable w.r.t. ``mu`` and ``sigma2``; 0 for ``mu = ±∞``
+        or ``sigma2 = ∞`` (the limits).
 
     Example:
         >>> import torch
@@ -196,9 +202,12 @@ def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
     s2 = _checks.as_real(sigma2, "sigma2", dtype, device)
     _checks.check_nonnegative(s2, "sigma2", "nm^2")
     nu, w = _quadrature(observer, illuminant, dtype, device)
+    infinite = m.isinf()
+    m = torch.where(infinite, torch.zeros_like(m), m)  # the limit μ → ±∞ is 0, as in fourier_sensitivity_exact
     phase = (-_TWO_PI) * m[..., None] * nu
     damp = torch.exp((-2.0 * math.pi**2) * s2[..., None] * nu * nu)
-    return torch.complex((damp * torch.cos(phase)) @ w, (damp * torch.sin(phase)) @ w)
+    s = torch.complex((damp * torch.cos(phase)) @ w, (damp * torch.sin(phase)) @ w)
+    return torch.where(infinite.expand(s.shape[:-1])[..., None], torch.zeros_like(s), s)
 
 
 # ---------------------------------------------------------------------------------------
