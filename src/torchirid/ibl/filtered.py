@@ -39,6 +39,8 @@ second order in the spread and exactly for a delta light. Variances are carried 
 
 from __future__ import annotations
 
+import math
+
 import torch
 
 from .. import _checks
@@ -184,7 +186,8 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
         cos_theta: cos θ₁* (incidence on the facet) at which C*_m and φ₂* are evaluated, in [0, 1].
         n_film, thickness, n_substrate, n_outer, terms, observer, illuminant, polarization: as
             :func:`filtered_thin_film_xyz` (C*_m and φ₂* do not depend on the thickness; it is
-            validated and broadcast like the rest); sensitivity: ``"exact"`` or ``"lut"``.
+            validated and broadcast like the rest, and a NaN thickness gives NaN); sensitivity:
+            ``"exact"`` or ``"lut"``.
         path_mean: μ_D in nm; path_var: σ²_D in nm² (≥ 0). Broadcast with the rest.
 
     Returns:
@@ -212,5 +215,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
     shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
     P = C0.shape[0]
     ex = lambda t: t.expand(P, *shape)  # noqa: E731
-    return _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant,
-                       sensitivity)
+    xyz = _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant,
+                      sensitivity)
+    # the thickness does not enter, but a NaN thickness marks a bad sample: NaN in, NaN out
+    return torch.where(D.isnan().expand(shape)[..., None], torch.full_like(xyz, math.nan), xyz)

@@ -189,7 +189,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         bins: cells of the uniform grid on cos θ1 ∈ [0, 1] (≥ 1; bins + 1 nodes).
 
     Returns:
-        ``(grid (bins+1,), weights (*, bins+1), albedo (*))``; weights ≥ 0 sum to 1, and
+        ``(grid (bins+1,), weights (*, bins+1), albedo (*))``; weights ≥ 0 sum to 1 (all NaN for a NaN input), and
         ``weights @ f(grid)`` is the mean of the piecewise-linear interpolant of f under p_R.
 
     Example:
@@ -219,6 +219,8 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         hist = torch.zeros(cc.shape[0], bins + 1, dtype=dtype, device=device)
         hist.scatter_add_(-1, i0, p * (1.0 - t))
         hist.scatter_add_(-1, i0 + 1, p * t)
+        # a NaN sample marked only its two bins: the whole distribution of that sample is NaN
+        hist = torch.where(hist.isnan().any(-1, keepdim=True), torch.full_like(hist, math.nan), hist)
         out.append(hist)
         alb.append(A)
     return grid, torch.cat(out).reshape(*shape, bins + 1), torch.cat(alb).reshape(shape)

@@ -169,7 +169,7 @@ def _effective_roughness(ci, co, sigma, tau):
         sin = torch.sqrt(torch.clamp(1 - c * c, min=0))
         # tan θ capped at 1e8: grazing directions are fully shadowed anyway (S = 0)
         tan = sin / torch.clamp(c, min=1e-8)
-        arg_ok = (tan > 0) & (sigma > 0)
+        arg_ok = ~(tan <= 0) & (sigma > 0)  # (a NaN direction keeps its NaN: not `tan > 0`)
         arg = tau / (2 * torch.where(arg_ok, sigma * tan, torch.ones_like(sigma * tan)))
         return torch.where(arg_ok, tan * torch.special.erfc(arg), torch.zeros_like(arg))
 
@@ -255,7 +255,7 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     vv = vxy2 + vz * vz
     # He eq. 76; its polarization bracket [(ŝr·k̂i)²+(p̂r·k̂i)²][(ŝi·k̂r)²+(p̂i·k̂r)²]/|k̂i×k̂r|⁴ is
     # identically 1 ((ŝ, p̂, k̂) is orthonormal, so each bracket is 1 − (k̂i·k̂r)² = |k̂i×k̂r|²)
-    vz_safe = torch.where(vz > 0, vz, torch.ones_like(vz))
+    vz_safe = torch.where(vz == 0, torch.ones_like(vz), vz)  # (not `vz > 0`: NaN must stay NaN)
     G = (vv / vz_safe) ** 2
     if shadowing:
         S = _shadowing(ci, sigma, tau) * _shadowing(co, sigma, tau)
@@ -271,9 +271,9 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     cos_b = torch.sqrt(torch.clamp(0.5 * vv / 2, min=0, max=1))  # |in+out|² = 2(1 + in·out)
     F = fresnel_reflectance(cos_b, n_med, n_sub)
     den = math.pi * ci * co
-    ok = den > 0
-    rho = F * G * S * D / torch.where(ok, den, torch.ones_like(den))
-    return torch.where(ok, rho, torch.zeros_like(rho))  # grazing: S = 0, no light scattered
+    grazing = den == 0  # (not `den > 0`: a NaN direction must give NaN, not 0)
+    rho = F * G * S * D / torch.where(grazing, torch.ones_like(den), den)
+    return torch.where(grazing, torch.zeros_like(rho), rho)  # grazing: S = 0, no light scattered
 
 
 def he_directional_diffuse(
