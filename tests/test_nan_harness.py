@@ -10,8 +10,8 @@ argument is set to NaN (every component of a vector) and the call must
 * return for entry 1 what the clean batch returns (no cross-talk between samples),
 * give entry 1 the gradient it has in the clean batch (no NaN leaking through backward).
 
-The same table checks the dtype convention on clean inputs: float32 in, float32 out, close to
-float64.
+The same table checks two conventions on clean inputs: float32 in, float32 out, close to float64;
+and broadcasting (one argument with extra leading batch axes, the others not).
 
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
@@ -363,3 +363,25 @@ def test_float32_inputs_give_float32_close_to_float64(name):
     assert torch.isfinite(out).all()
     err = (out.to(ref.dtype) - ref).abs() / ref.abs().clamp(min=1e-3)
     assert float(err.max()) < 1e-3, float(err.max())
+
+
+# cos_theta and alpha may not have more axes than tau's batch shape: a documented guard against a
+# per-wavelength cos_theta (*, W), which would otherwise broadcast against tau's wavelength axis
+NARROWER_BY_DESIGN = {(f, a) for f in ("transmission_probability", "transmission_weight") for a in ("cos_theta", "alpha")}
+BROADCAST_PARAMS = [p for p in PARAMS if p not in NARROWER_BY_DESIGN]
+
+
+@pytest.mark.parametrize("name,arg", BROADCAST_PARAMS, ids=[f"{n}-{a}" for n, a in BROADCAST_PARAMS])
+def test_one_argument_with_extra_batch_axes_broadcasts(name, arg):
+    """DESIGN.md: every tensor argument broadcasts with the others. One per-sample argument
+    gets two extra leading axes (3, 1, 2, …) while the others keep (2, …): the result is the
+    clean batch's, repeated over the new axes."""
+    fn, build, _, which = CASES[name]
+    clean = _pick(fn(**build()), which)
+    kw = build()
+    v = kw[arg]
+    kw[arg] = torch.stack([v, 1 * v, v + 0]).unsqueeze(1)  # (3, 1, 2, …)
+    out = _pick(fn(**kw), which)
+    assert out.shape == (3, 1) + clean.shape, (out.shape, clean.shape)
+    for k in range(3):
+        assert torch.allclose(out[k, 0], clean, rtol=1e-12, atol=1e-300), (name, arg, k)

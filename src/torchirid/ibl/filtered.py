@@ -214,7 +214,9 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
                                           polarization=polarization)
     shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
     P = C0.shape[0]
-    ex = lambda t: t.expand(P, *shape)  # noqa: E731
+    def ex(t):  # (P, *t_batch) → (P, *shape): singleton axes after P for the batch axes t lacks
+        return t.reshape(P, *(1,) * (len(shape) - (t.dim() - 1)), *t.shape[1:]).expand(P, *shape)
+
     xyz = _series_xyz(ex(C0), ex(a), ex(K), mD.expand(shape), vD.expand(shape), terms, observer, illuminant,
                       sensitivity)
     # the thickness does not enter, but a NaN thickness marks a bad sample: NaN in, NaN out
