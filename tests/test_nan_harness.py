@@ -385,3 +385,17 @@ def test_one_argument_with_extra_batch_axes_broadcasts(name, arg):
     assert out.shape == (3, 1) + clean.shape, (out.shape, clean.shape)
     for k in range(3):
         assert torch.allclose(out[k, 0], clean, rtol=1e-12, atol=1e-300), (name, arg, k)
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_empty_batch_gives_an_empty_result(name):
+    """A batch of zero samples (every per-sample argument sliced to [:0]) returns an empty
+    result of the right trailing shape instead of raising (e.g. on ``min()`` of an empty tensor)."""
+    fn, build, args, which = CASES[name]
+    clean = _pick(fn(**build()), which)
+    kw = build()
+    for a, v in kw.items():  # every per-sample tensor (leading axis 2), also those not poisoned above
+        if torch.is_tensor(v) and v.dim() and v.shape[0] == 2:
+            kw[a] = v[:0]
+    out = _pick(fn(**kw), which)
+    assert out.shape == (0,) + clean.shape[1:], (out.shape, clean.shape)

@@ -168,7 +168,7 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64):
     n, per = _chunks(shape, nodes)
     cf, af = c.reshape(-1), a.reshape(-1)
     alb, means, covs = [], [], []
-    for s in range(0, n, per):
+    for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
         wi, _, w = uniform_lobe_quadrature(cf[s:s + per], af[s:s + per], nodes=nodes)
         A = w.sum(-1)
         p = w / A[..., None]
@@ -206,7 +206,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     cf, af = c.reshape(-1), a.reshape(-1)
     grid = torch.linspace(0.0, 1.0, bins + 1, dtype=dtype, device=device)
     out, alb = [], []
-    for s in range(0, n, per):
+    for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
         cc, aa = cf[s:s + per], af[s:s + per]
         _, h, w = uniform_lobe_quadrature(cc, aa, nodes=nodes)
         c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
@@ -313,7 +313,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
     # XYZ[R](cos θ1) on the grid for every film, chunked to bound the (films, bins, W) spectra
     per = max(1, (1 << 23) // (grid.numel() * lam.numel()))
     rows = []
-    for s in range(0, nf.numel(), per):
+    for s in range(0, max(nf.numel(), 1), per):  # (once for an empty batch)
         sl = slice(s, s + per)
         R = thin_film_reflectance(lam, grid[:, None], nf[sl, None, None], d[sl, None, None],
                                   ns[sl, None, None], n_outer=n_outer, polarization=polarization)
