@@ -10,8 +10,9 @@ argument is set to NaN (every component of a vector) and the call must
 * return for entry 1 what the clean batch returns (no cross-talk between samples),
 * give entry 1 the gradient it has in the clean batch (no NaN leaking through backward).
 
-The same table checks two conventions on clean inputs: float32 in, float32 out, close to float64;
-and broadcasting (one argument with extra leading batch axes, the others not).
+The same table checks three conventions on clean inputs: float32 in, float32 out, close to
+float64; broadcasting (one argument with extra leading batch axes, the others not); and empty
+batches (zero samples in, an empty result out).
 
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
