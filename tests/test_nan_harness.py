@@ -368,7 +368,8 @@ def test_float32_inputs_give_float32_close_to_float64(name):
 
 # cos_theta and alpha may not have more axes than tau's batch shape: a documented guard against a
 # per-wavelength cos_theta (*, W), which would otherwise broadcast against tau's wavelength axis
-NARROWER_BY_DESIGN = {(f, a) for f in ("transmission_probability", "transmission_weight") for a in ("cos_theta", "alpha")}
+NARROWER_BY_DESIGN = {(f, a) for f in ("transmission_probability", "transmission_weight")
+                      for a in ("cos_theta", "alpha")}
 BROADCAST_PARAMS = [p for p in PARAMS if p not in NARROWER_BY_DESIGN]
 
 

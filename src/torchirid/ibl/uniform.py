@@ -189,8 +189,9 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         bins: cells of the uniform grid on cos θ1 ∈ [0, 1] (≥ 1; bins + 1 nodes).
 
     Returns:
-        ``(grid (bins+1,), weights (*, bins+1), albedo (*))``; weights ≥ 0 sum to 1 (all NaN for a NaN input), and
-        ``weights @ f(grid)`` is the mean of the piecewise-linear interpolant of f under p_R.
+        ``(grid (bins+1,), weights (*, bins+1), albedo (*))``; weights ≥ 0 sum to 1 (all NaN for
+        a NaN input), and ``weights @ f(grid)`` is the mean of the piecewise-linear interpolant
+        of f under p_R.
 
     Example:
         >>> import torch
