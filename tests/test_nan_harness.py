@@ -10,9 +10,10 @@ argument is set to NaN (every component of a vector) and the call must
 * return for entry 1 what the clean batch returns (no cross-talk between samples),
 * give entry 1 the gradient it has in the clean batch (no NaN leaking through backward).
 
-The same table checks four conventions on clean inputs: float32 in, float32 out, close to
-float64; broadcasting (one argument with extra leading batch axes, the others not); empty
-batches (zero samples in, an empty result out); and gradients against finite differences.
+The same table checks, on clean inputs: float32 in, float32 out, close to float64; broadcasting
+(one argument with extra leading batch axes, the others not); empty batches (zero samples in, an
+empty result out); gradients against finite differences; and the hard cases grazing (cos θ = 0)
+and normal incidence (cos θ = 1) of every cosine argument: finite values and gradients.
 
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
@@ -417,3 +418,36 @@ def test_gradients_match_finite_differences(name, arg):
 
     x = kw[arg].detach().clone().requires_grad_(True)
     assert torch.autograd.gradcheck(f, (x,), eps=1e-6, atol=1e-6, rtol=1e-4, check_batched_grad=False)
+
+
+# cosine arguments, entry 0 at grazing (0) and entry 1 at normal incidence (1)
+COSINE_PARAMS = [(n, a) for n, a in PARAMS if a.startswith("cos")]
+# domains that exclude grazing by design (documented ValueError), and Λ(θ → 90°) = ∞ (G1 = 1/(1 + Λ) = 0)
+NO_GRAZING = {n for n, _ in COSINE_PARAMS if n.split()[0] in (
+    "uniform_thin_film_xyz", "ibl.path_difference_moments", "ibl.uniform_light_moments", "ibl.light_mixture",
+    "ibl.cos_theta1_distribution")}
+INFINITE_AT_GRAZING = {"microfacet.smith_lambda"}
+
+
+@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{n}-{a}" for n, a in COSINE_PARAMS])
+def test_grazing_and_normal_incidence_are_finite_with_finite_gradients(name, arg):
+    """DESIGN.md's hard cases: cos θ = 0 and cos θ = 1 give finite values and finite gradients
+    (the √(1 − cos²θ) and cot θ singularities guarded; a one-sided or 0 slope is reported where
+    the exact one is infinite)."""
+    fn, build, _, which = CASES[name]
+    kw = build()
+    v = kw[arg].detach().clone()
+    v[0], v[1] = 0.0, 1.0
+    if name in NO_GRAZING:
+        with pytest.raises(ValueError, match=arg):
+            fn(**{**kw, arg: v})
+        v[0] = 1e-6
+    x = v.requires_grad_(True)
+    out = _pick(fn(**{**kw, arg: x}), which)
+    if name in INFINITE_AT_GRAZING:
+        assert torch.isposinf(out[0]).all()
+        out = out[1:]
+    assert torch.isfinite(out).all(), out
+    y = torch.view_as_real(out) if out.is_complex() else out
+    (g,) = torch.autograd.grad(y.sum(), x, allow_unused=True)
+    assert g is not None and torch.isfinite(g[-1]).all() and (name in INFINITE_AT_GRAZING or torch.isfinite(g).all()), g

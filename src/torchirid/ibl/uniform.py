@@ -76,8 +76,13 @@ def _geometry(cos_theta_o, alpha):
 
 
 def _view(c: torch.Tensor) -> torch.Tensor:
-    """ω_o in the xz-plane: (sin θo, 0, cos θo)."""
-    s = torch.sqrt((1.0 - c * c).clamp_min(0.0))
+    """ω_o in the xz-plane: (sin θo, 0, cos θo).
+
+    sin θo = √(1 − cos²θo + ε²), ε = 1e-8: the same value to ≲ 1e-16 except within ~1e-16 of
+    normal incidence, and a finite slope in cos θo there. At cos θo = 1 the chain rule then gives
+    the true derivative of the (even in sin θo) lobe integrals, ∂f/∂s · ∂s/∂c → −2c ∂f/∂(s²),
+    instead of 0 · ∞ = NaN (guard: √'s infinite slope at 0)."""
+    s = torch.sqrt((1.0 - c * c).clamp_min(0.0) + 1e-16)
     return torch.stack([s, torch.zeros_like(s), c], -1)
 
 

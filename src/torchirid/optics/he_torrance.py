@@ -114,7 +114,7 @@ def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch
 
 def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
     """He eq. 24–25 (with the errata's exponential), unchecked."""
-    sin = torch.sqrt(torch.clamp(1 - c * c, min=0))
+    sin = _checks.safe_sqrt(1 - c * c)  # guard: √0's infinite slope at normal incidence (reported 0)
     # a = τ cot θ / (2σ); guard each degenerate branch with a safe value (where evaluates both)
     smooth = (sigma == 0) | (c * tau >= _S_BIG * 2 * sigma * sin)  # also normal incidence (sin = 0)
     grazing = (c == 0) & ~smooth
@@ -166,7 +166,7 @@ def _effective_roughness(ci, co, sigma, tau):
     """He eq. 80–83, unchecked: σ / sqrt(1 + (z0/σ)²) with x = z0/σ solving x e^{x²/2} = f0."""
 
     def K(c):
-        sin = torch.sqrt(torch.clamp(1 - c * c, min=0))
+        sin = _checks.safe_sqrt(1 - c * c)  # guard: √0's slope at normal incidence (K is flat there)
         # tan θ capped at 1e8: grazing directions are fully shadowed anyway (S = 0)
         tan = sin / torch.clamp(c, min=1e-8)
         arg_ok = ~(tan <= 0) & (sigma > 0)  # (a NaN direction keeps its NaN: not `tan > 0`)
@@ -245,8 +245,10 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     Directions point away from the surface: in = (sin θi, 0, cos θi),
     out = (sin θr cos φ, sin θr sin φ, cos θr); the mirror direction has cos φ = −1.
     """
-    si = torch.sqrt(torch.clamp(1 - ci * ci, min=0))
-    so = torch.sqrt(torch.clamp(1 - co * co, min=0))
+    # guard: sin θ = √(1 − cos²θ) has an infinite slope in cos θ at normal incidence; its
+    # derivative there is reported as 0 (as table_reflectance does), not 0·∞ = NaN
+    si = _checks.safe_sqrt(1 - ci * ci)
+    so = _checks.safe_sqrt(1 - co * co)
     # v = k_r − k_i = in + out (unit-free); v_xy² = |xy(in + out)|²
     vx = si + so * cphi
     vy2 = so * so * (1 - cphi * cphi)
