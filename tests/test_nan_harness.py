@@ -451,3 +451,28 @@ def test_grazing_and_normal_incidence_are_finite_with_finite_gradients(name, arg
     y = torch.view_as_real(out) if out.is_complex() else out
     (g,) = torch.autograd.grad(y.sum(), x, allow_unused=True)
     assert g is not None and torch.isfinite(g[-1]).all() and (name in INFINITE_AT_GRAZING or torch.isfinite(g).all()), g
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_python_lists_take_the_working_dtype(name):
+    """Per-sample arguments given as nested Python lists: with a float64 tensor among the other
+    arguments the result is the all-tensor one (the lists are built in float64, not via float32);
+    with lists only it is in torch's default dtype (as ``torch.tensor`` would do)."""
+    fn, build, args, which = CASES[name]
+    ref = _pick(fn(**build()), which)
+    kw = build()
+    for a in args:
+        kw[a] = kw[a].tolist()
+    out = _pick(fn(**kw), which)
+    others = [v for k, v in kw.items() if torch.is_tensor(v) and v.dtype in (torch.float64, torch.complex128)]
+    if name in DATA_DTYPE:  # documented: the dtype of the data argument, the others are grids
+        assert out.dtype == torch.get_default_dtype()
+    elif others or name in TABLE_DTYPE:
+        assert out.dtype == ref.dtype and torch.allclose(out, ref, rtol=1e-13, atol=1e-300), float((out - ref).abs().max())
+    else:
+        assert out.dtype in (torch.get_default_dtype(), complex_of[torch.get_default_dtype()]), out.dtype
+
+
+complex_of = {torch.float32: torch.complex64, torch.float64: torch.complex128}
+# spectrum_to_xyz returns the spectrum's dtype (documented; the wavelengths are the sampling grid)
+DATA_DTYPE = {"spectrum_to_xyz"}

@@ -302,3 +302,14 @@ def test_python_sequences_are_built_in_the_working_dtype():
     assert t.dtype == torch.float64 and t.tolist() == [0.1, 0.7]
     with pytest.raises(ValueError, match="x must be real"):
         _checks.as_real([1 + 2j], "x", torch.float64, "cpu")
+    # refractive indices too (a list of n, or of n + iκ): 1.4 stays 1.4, 0.1j stays 0.1j
+    n = _checks.as_index([1.4, 1.33], "n", torch.float64, "cpu")
+    assert n.dtype == torch.float64 and n.tolist() == [1.4, 1.33]
+    k = _checks.as_index([1.4 + 0.1j, 1.5], "n", torch.float64, "cpu")
+    assert k.dtype == torch.complex128 and k.tolist() == [1.4 + 0.1j, 1.5 + 0j]
+    assert _checks.as_index([1.4], "n", torch.float32, "cpu").dtype == torch.float32
+    # through a public function: a list index gives what the tensor gives
+    lam, c = torch.tensor([450.0, 550.0], dtype=torch.float64), torch.tensor(0.8, dtype=torch.float64)
+    listed = torchirid.thin_film_reflectance(lam, c, [1.4, 1.4], 300.0, 1.5)
+    tensor = torchirid.thin_film_reflectance(lam, c, torch.tensor([1.4, 1.4], dtype=torch.float64), 300.0, 1.5)
+    assert torch.equal(listed, tensor)

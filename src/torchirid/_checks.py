@@ -135,6 +135,8 @@ def as_index(x, name: str, dtype, device) -> torch.Tensor:
     t = torch.as_tensor(x, device=device)
     if t.dtype == torch.bool:
         raise ValueError(f"{name} must be a refractive index, got a boolean tensor")
+    if isinstance(x, (list, tuple)):  # Python numbers built in dtype, not via float32 / complex64
+        return torch.as_tensor(x, dtype=complex_dtype(dtype) if t.is_complex() else dtype, device=device)
     if t.is_complex():
         return t.to(complex_dtype(dtype))
     return t.to(dtype)

@@ -255,8 +255,11 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.
         >>> round(float(mD), 1)  # a near-mirror at normal incidence: D = 2·1.3·600
         1560.0
     """
+    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_outer)
+    # the geometry in the working dtype of all inputs (a float64 film with Python-list angles stays float64)
+    cos_theta_o = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
+    alpha = _checks.as_real(alpha, "alpha", dtype, device)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
-    dtype, device = grid.dtype, grid.device
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
@@ -303,8 +306,11 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0647, 0.067, 0.1077]
     """
+    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_outer)
+    # the geometry in the working dtype of all inputs (a float64 film with Python-list angles stays float64)
+    cos_theta_o = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
+    alpha = _checks.as_real(alpha, "alpha", dtype, device)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
-    dtype, device = grid.dtype, grid.device
     if wavelength is None:
         wavelength = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)

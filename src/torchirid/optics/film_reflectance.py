@@ -295,6 +295,10 @@ def smooth_radiance(wavelength, normal, view, stack: FilmStack, reflected,
         raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
     dtype, device = _checks.resolve_dtype_device(wavelength, normal, view)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    # in the working dtype before smooth_directions, which sees only the directions (Python
+    # lists there would default to float32 next to a float64 wavelength)
+    normal = _checks.as_real(normal, "normal", dtype, device)
+    view = _checks.as_real(view, "view", dtype, device)
     n0 = refractive_index(stack.incident, lam).real
     n1 = refractive_index(stack.substrate, lam)
     r_dir, t_dir, cos_i = smooth_directions(normal, view, n0, n1)
