@@ -12,8 +12,9 @@ argument is set to NaN (every component of a vector) and the call must
 
 The same table checks, on clean inputs: float32 in, float32 out, close to float64; broadcasting
 (one argument with extra leading batch axes, the others not); empty batches (zero samples in, an
-empty result out); gradients against finite differences; and the hard cases grazing (cos θ = 0)
-and normal incidence (cos θ = 1) of every cosine argument: finite values and gradients.
+empty result out); gradients against finite differences; the hard cases grazing (cos θ = 0)
+and normal incidence (cos θ = 1) of every cosine argument: finite values and gradients; Python
+lists as arguments; and, in a fresh process, autograd after first calls in inference mode.
 
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
@@ -476,3 +477,40 @@ def test_python_lists_take_the_working_dtype(name):
 complex_of = {torch.float32: torch.complex64, torch.float64: torch.complex128}
 # spectrum_to_xyz returns the spectrum's dtype (documented; the wavelengths are the sampling grid)
 DATA_DTYPE = {"spectrum_to_xyz"}
+
+
+_INFERENCE_FIRST = """
+import sys, torch
+sys.path[:0] = [{tests!r}]
+import test_nan_harness as h
+for name, (fn, build, _, which) in h.CASES.items():  # the first call of everything, in inference mode
+    with torch.inference_mode():
+        h._pick(fn(**build()), which)
+failed = []
+for name, arg in h.GRAD_PARAMS:  # then autograd through the same calls (the caches filled above)
+    fn, build, _, which = h.CASES[name]
+    kw = build()
+    x = kw[arg].clone().requires_grad_(True)
+    try:
+        out = h._pick(fn(**{{**kw, arg: x}}), which)
+        torch.autograd.grad((torch.view_as_real(out) if out.is_complex() else out).sum(), x)
+    except RuntimeError as exc:
+        failed.append(f"{{name}}/{{arg}}: {{str(exc)[:80]}}")
+print("failed:", len(failed))
+print("\\n".join(failed))
+"""
+
+
+def test_caches_filled_in_inference_mode_serve_autograd():
+    """A fresh process whose first calls run in ``torch.inference_mode()`` (tables, quadratures and
+    colour data get cached then) must still differentiate every case afterwards: cached tensors
+    are built outside inference mode (``_checks.normal_tensors``)."""
+    import pathlib
+    import subprocess
+    import sys
+
+    tests = str(pathlib.Path(__file__).resolve().parent)
+    run = subprocess.run([sys.executable, "-c", _INFERENCE_FIRST.format(tests=tests)], capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "failed: 0" in run.stdout, run.stdout[-3000:]

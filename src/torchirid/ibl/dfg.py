@@ -23,6 +23,7 @@ import importlib.resources
 
 import torch
 
+from .. import _checks
 from ..lut import LUT
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 
@@ -90,6 +91,7 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(dtype, device) -> LUT:
     path = importlib.resources.files("torchirid").joinpath(*_DFG_FILE)
     with importlib.resources.as_file(path) as p:

@@ -141,6 +141,7 @@ def light_mixture_path():
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(dtype, device) -> LUT:
     path = light_mixture_path()
     with importlib.resources.as_file(path) as p:

@@ -134,6 +134,7 @@ def _quadrature_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.nd
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _quadrature(observer, illuminant, dtype, device):
     lam, w = _quadrature_numpy(observer, illuminant)
     return (torch.as_tensor(1.0 / lam, dtype=dtype, device=device),
@@ -279,6 +280,7 @@ def fourier_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D6
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype, device=device)
@@ -429,6 +431,7 @@ def _from_prefiltered_lut(lut: LUT, m: torch.Tensor, s2: torch.Tensor) -> torch.
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _prefiltered_cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype,

@@ -66,6 +66,7 @@ SHADING_OUTPUTS = ("rgb", "xyz")
 
 
 @functools.lru_cache(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _rgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
     eye = torch.eye(3, dtype=torch.float64)
     m = xyz_to_linear_srgb(eye).T  # column k = image of the k-th XYZ basis vector

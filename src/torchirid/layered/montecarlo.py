@@ -155,7 +155,8 @@ class _Layer:
         θd: robust to the fringes of R; nodes every 0.25° plus extra ones near grazing)."""
         lut = _TABLES.get(self._key)
         if lut is None:
-            lut = transmissivity_lut(self.layer, self.lam, **self.tau_kw)
+            # (outside inference mode: a table cached by a call in inference mode must serve autograd calls)
+            lut = _checks.normal_tensors(transmissivity_lut)(self.layer, self.lam, **self.tau_kw)
             while len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[self._key] = lut

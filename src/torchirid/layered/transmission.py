@@ -168,6 +168,7 @@ def _lut_cosines(alpha: float, angles: int, dtype, device) -> torch.Tensor:
 
 
 @functools.lru_cache(maxsize=8)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, device: str):
     """(cos nodes increasing, θd grid, product weights (nodes, cells + 1)); layer-independent, cached."""
     cos = _lut_cosines(alpha, angles, dtype, device)
