@@ -514,3 +514,13 @@ def test_caches_filled_in_inference_mode_serve_autograd():
                          text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "failed: 0" in run.stdout, run.stdout[-3000:]
+
+
+def test_inputs_are_not_modified():
+    """No call writes into its arguments (in-place ops on user tensors)."""
+    for name, (fn, build, _, which) in CASES.items():
+        kw = build()
+        before = {k: v.clone() for k, v in kw.items() if torch.is_tensor(v)}
+        fn(**kw)
+        for k, v in before.items():
+            assert torch.equal(kw[k], v), f"{name} modified {k}"
