@@ -177,6 +177,8 @@ CASES = {
        for i, k in enumerate("rt")},
     "refractive_index": (ti.refractive_index, lambda: dict(material="SiO2", wavelength=two(550.0)),
                          ["wavelength"], None),
+    "refractive_index tabulated": (ti.refractive_index, lambda: dict(material="Ag", wavelength=two(553.3)),
+                                   ["wavelength"], None),
 }
 
 
