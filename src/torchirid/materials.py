@@ -330,8 +330,10 @@ def _table_tensors(key, source, dtype: torch.dtype, device: torch.device):
     hit = _TENSOR_CACHE.get(ck)
     if hit is None:
         t = _load_page(key, source)
-        # built from the float64 numpy data directly in the target dtype (no float32 detour)
-        hit = tuple(torch.as_tensor(a, dtype=dtype, device=device) for a in (t.wavelength, t.n, t.k))
+        # built from the float64 numpy data directly in the target dtype (no float32 detour), and
+        # outside inference mode (a first call in inference mode must not cache inference tensors)
+        with torch.inference_mode(False):
+            hit = tuple(torch.as_tensor(a, dtype=dtype, device=device) for a in (t.wavelength, t.n, t.k))
         if not bool((hit[0][1:] > hit[0][:-1]).all()):  # nodes merged by rounding to float16/32
             keep = torch.ones_like(hit[0], dtype=torch.bool)
             keep[1:] = hit[0][1:] > hit[0][:-1]
