@@ -334,10 +334,10 @@ def _table_tensors(key, source, dtype: torch.dtype, device: torch.device):
         # outside inference mode (a first call in inference mode must not cache inference tensors)
         with torch.inference_mode(False):
             hit = tuple(torch.as_tensor(a, dtype=dtype, device=device) for a in (t.wavelength, t.n, t.k))
-        if not bool((hit[0][1:] > hit[0][:-1]).all()):  # nodes merged by rounding to float16/32
-            keep = torch.ones_like(hit[0], dtype=torch.bool)
-            keep[1:] = hit[0][1:] > hit[0][:-1]
-            hit = tuple(h[keep] for h in hit)
+            if not bool((hit[0][1:] > hit[0][:-1]).all()):  # nodes merged by rounding to float16/32
+                keep = torch.ones_like(hit[0], dtype=torch.bool)
+                keep[1:] = hit[0][1:] > hit[0][:-1]
+                hit = tuple(h[keep] for h in hit)
         _TENSOR_CACHE[ck] = hit
     return hit
 
