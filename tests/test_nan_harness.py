@@ -14,7 +14,8 @@ The same table checks, on clean inputs: float32 in, float32 out, close to float6
 (one argument with extra leading batch axes, the others not); empty batches (zero samples in, an
 empty result out); gradients against finite differences; the hard cases grazing (cos θ = 0)
 and normal incidence (cos θ = 1) of every cosine argument: finite values and gradients; Python
-lists as arguments; and, in a fresh process, autograd after first calls in inference mode.
+lists as arguments; in a fresh process, autograd after first calls in inference mode; and bad
+input (a string, a cosine out of range) → ValueError naming the argument.
 
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
@@ -526,3 +527,28 @@ def test_inputs_are_not_modified():
         fn(**kw)
         for k, v in before.items():
             assert torch.equal(kw[k], v), f"{name} modified {k}"
+
+
+@pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{n}-{a}" for n, a in PARAMS])
+def test_a_string_argument_raises_value_error_naming_it(name, arg):
+    """DESIGN.md: bad input → ValueError naming the parameter (not a TypeError from deep inside)."""
+    fn, build, _, _ = CASES[name]
+    with pytest.raises(ValueError, match=arg):
+        fn(**{**build(), arg: "abc"})
+
+
+SIGNED_COSINES = {("ggx_d", "cos_theta_m"), ("smith_g1", "cos_theta"), ("microfacet.smith_lambda", "cos_theta"),
+                  ("optics.he_directional_diffuse", "cos_phi"), ("rough_multilayer_diffuse", "cos_phi")}
+
+
+@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{n}-{a}" for n, a in COSINE_PARAMS])
+def test_a_cosine_out_of_range_raises_value_error_naming_it(name, arg):
+    """A cosine above 1 (and, where the sign has no meaning, below 0) in one sample → ValueError
+    naming the argument, before any work."""
+    fn, build, _, _ = CASES[name]
+    for bad in (1.5, -0.1) if (name, arg) not in SIGNED_COSINES else (1.5, -1.5):
+        kw = build()
+        v = kw[arg].clone()
+        v[1] = bad
+        with pytest.raises(ValueError, match=arg):
+            fn(**{**kw, arg: v})

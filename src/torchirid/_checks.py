@@ -132,7 +132,10 @@ def as_index(x, name: str, dtype, device) -> torch.Tensor:
         return torch.as_tensor(x, dtype=complex_dtype(dtype), device=device)
     if isinstance(x, numbers.Real):
         return torch.as_tensor(float(x), dtype=dtype, device=device)
-    t = torch.as_tensor(x, device=device)
+    try:
+        t = torch.as_tensor(x, device=device)
+    except (TypeError, ValueError, RuntimeError) as exc:
+        raise ValueError(f"{name} must be a refractive index (real or complex numbers); got {x!r}") from exc
     if t.dtype == torch.bool:
         raise ValueError(f"{name} must be a refractive index, got a boolean tensor")
     if isinstance(x, (list, tuple)):  # Python numbers built in dtype, not via float32 / complex64
@@ -197,6 +200,30 @@ def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
             raise ValueError(
                 f"{name} must lie in [0, 1] (cosine of the incidence angle); got {bad.flatten()[0].item():g}"
             )
+
+
+def check_numbers(**named) -> None:
+    """ValueError naming the first argument that is not a number, a tensor or a (nested) sequence
+    of numbers (e.g. a string), before any helper hands it to ``torch.as_tensor`` (TypeError)."""
+    for name, x in named.items():
+        if x is None or isinstance(x, (torch.Tensor, numbers.Number)) and not isinstance(x, bool):
+            continue
+        try:
+            torch.as_tensor(x)
+        except (TypeError, ValueError, RuntimeError) as exc:
+            raise ValueError(f"{name} must be a number, a tensor or a sequence of numbers; got {x!r}") from exc
+
+
+def check_signed_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
+    """A cosine whose sign carries meaning (or is ignored): in [-1, 1]; NaN passes (it propagates)."""
+    v = _scalar(t)
+    if v is not None:
+        if v < -1 or v > 1:
+            raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {v:g}")
+        return
+    with torch.no_grad():
+        if bool(((t < -1) | (t > 1)).any()):
+            raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {t[(t < -1) | (t > 1)].flatten()[0].item():g}")
 
 
 def check_index(t: torch.Tensor, name: str) -> None:

@@ -166,6 +166,7 @@ def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_outer=1.0, polar
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     ns = _checks.as_real(n_substrate, "n_substrate", dtype, device)
     n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    _checks.check_cosine(c)
     s2 = n0 * n0 * (1 - c * c)
     q0 = n0 * c
     qf = (nf * nf - s2).clamp_min(0).sqrt()

@@ -206,7 +206,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         table = table.to(dtype=dtype, device=device)
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
     # (else K meets the film axes: a scalar cos θo with a batch of thicknesses did not broadcast)
-    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, torch.as_tensor(n_substrate).shape)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, _checks.as_index(n_substrate, "n_substrate", dtype, device).shape)
     c, a = c.expand(full), a.expand(full)
     mix = table(cos_theta_o=c, sqrt_alpha=torch.sqrt(a))  # (*, K, 3)
     w, c1, v1 = mix.unbind(-1)

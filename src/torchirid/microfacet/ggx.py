@@ -38,6 +38,7 @@ def _prepare(cos, alpha, cos_name):
     dtype, device = _checks.resolve_dtype_device(cos, alpha)
     c = _checks.as_real(cos, cos_name, dtype, device)
     a = _checks.as_real(alpha, "alpha", dtype, device)
+    _checks.check_signed_cosine(c, cos_name)  # (the sign is the χ⁺ test of ggx_d, ignored by Λ and G1)
     _checks.check_positive(a, "alpha", unit="(GGX roughness)")
     return c, a
 

@@ -109,7 +109,10 @@ def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch
         >>> round(float(coherent_attenuation(torch.tensor(550.0, dtype=torch.float64), 1.0, 25.0)), 6)
         0.721612
     """
-    return torch.exp(-roughness_factor(wavelength, cos_theta, cos_theta, sigma, n_medium=n_medium))
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, sigma, n_medium)
+    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)  # (validated under its own name here)
+    _checks.check_cosine(c)
+    return torch.exp(-roughness_factor(wavelength, c, c, sigma, n_medium=n_medium))
 
 
 def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:

@@ -146,6 +146,7 @@ def bragg_xyz(
     _checks.check_polarization(polarization)
     if method not in BRAGG_XYZ_METHODS:
         raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")
+    _checks.check_numbers(cos_theta=cos_theta, n1=n1, n2=n2, d1=d1, d2=d2, n_host=n_host)
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
@@ -191,17 +192,17 @@ def bragg_xyz(
     lam = _wavelengths(method, samples, (lo, hi), dtype, device)
     W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (K, 3), Y column sums to 1
 
-    def trailing(x):  # mirror parameters gain a wavelength axis (Python numbers built in dtype)
+    def trailing(x, name):  # mirror parameters gain a wavelength axis (Python numbers built in dtype)
         if isinstance(x, complex):
             t = torch.as_tensor(x, dtype=_checks.complex_dtype(dtype), device=device)
         elif isinstance(x, (int, float)) and not isinstance(x, bool):
             t = torch.as_tensor(float(x), dtype=dtype, device=device)
         else:
-            t = torch.as_tensor(x, device=device)
+            t = _checks.as_index(x, name, dtype, device)  # (any number type; bragg_reflectance validates)
         return t.unsqueeze(-1) if t.ndim else t
 
-    args = [trailing(x) for x in (cos_theta, n1, n2, d1, d2)]
-    host = None if n_host is None else trailing(n_host)
+    args = [trailing(x, name) for x, name in zip((cos_theta, n1, n2, d1, d2), ("cos_theta", "n1", "n2", "d1", "d2"))]
+    host = None if n_host is None else trailing(n_host, "n_host")
     Nw = N.unsqueeze(-1) if N.ndim else N
     batch = _checks.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
                                      *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
