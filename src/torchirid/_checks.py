@@ -72,6 +72,25 @@ def normal_tensors(fn):
     return run
 
 
+def fits_with_autograd(fn):
+    """Decorator for fits that differentiate internally (L-BFGS, Levenberg–Marquardt Jacobians):
+    a caller's :func:`torch.inference_mode` (or ``no_grad``) must not switch their autograd off.
+    In inference mode the body runs with it disabled, on copies of any inference-tensor
+    arguments (which autograd may not record); the body enables grad where it needs it."""
+
+    def normal(x):
+        return x.clone() if isinstance(x, torch.Tensor) and x.is_inference() else x
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        if not torch.is_inference_mode_enabled():
+            return fn(*args, **kwargs)
+        with torch.inference_mode(False):
+            return fn(*[normal(a) for a in args], **{k: normal(v) for k, v in kwargs.items()})
+
+    return run
+
+
 def inference_when_no_grad(fn):
     """Decorator for functions returning one tensor: run ``fn`` in :func:`torch.inference_mode`
     (no autograd bookkeeping on its many small ops) when no gradient can flow from its arguments

@@ -117,6 +117,7 @@ def noise_level(cube) -> float:
     return float(1.482602218505602 * d4.abs().median() / math.sqrt(70.0))
 
 
+@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
                   passband: str = "box", polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5),
                   thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,

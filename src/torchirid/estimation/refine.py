@@ -91,6 +91,7 @@ def _band_model(terms, d):
     return 1 - E * g - h * d * d * E * b * g * g * (u + 2 * b * s * s * g)
 
 
+@_checks.fits_with_autograd  # (its Jacobian is one reverse-mode pass)
 def lm_jacobian(y, d, terms, dterms=None):
     r"""Residual and its exact Jacobian for one Levenberg–Marquardt step, pixels ``y`` ``(p, A, B)``.
 
@@ -246,6 +247,7 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
     return grid[i], ds[i], grid, losses
 
 
+@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, *, index_model_name="constant",
                 bandwidth=4.0, passband="box", polarization="s", n_outer=1.0, smoothness: float = 0.0,
                 iterations: int = 12, fit_index: bool = True, order_check: bool = True, tol: float = 1e-7,

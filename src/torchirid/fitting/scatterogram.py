@@ -289,6 +289,7 @@ def _positive_int(name, value, minimum=1):
     return value
 
 
+@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def match_scatterogram(
     target_xyz,
     mask=None,
