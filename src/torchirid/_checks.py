@@ -233,16 +233,19 @@ def check_numbers(**named) -> None:
             raise ValueError(f"{name} must be a number, a tensor or a sequence of numbers; got {x!r}") from exc
 
 
-def check_signed_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
-    """A cosine whose sign carries meaning (or is ignored): in [-1, 1]; NaN passes (it propagates)."""
+def check_signed_cosine(t: torch.Tensor, name: str = "cos_theta", slack: float = 1e-6) -> None:
+    """A cosine whose sign carries meaning (or is ignored): in [-1, 1], up to ``slack`` (the z of a
+    normalised direction may exceed 1 by rounding; the callers clamp); NaN passes (it propagates)."""
+    lim = 1.0 + slack
     v = _scalar(t)
     if v is not None:
-        if v < -1 or v > 1:
+        if v < -lim or v > lim:
             raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {v:g}")
         return
     with torch.no_grad():
-        if bool(((t < -1) | (t > 1)).any()):
-            raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {t[(t < -1) | (t > 1)].flatten()[0].item():g}")
+        bad = (t < -lim) | (t > lim)
+        if bool(bad.any()):
+            raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {t[bad].flatten()[0].item():g}")
 
 
 def check_index(t: torch.Tensor, name: str) -> None:
