@@ -225,7 +225,7 @@ def check_numbers(**named) -> None:
     """ValueError naming the first argument that is not a number, a tensor or a (nested) sequence
     of numbers (e.g. a string), before any helper hands it to ``torch.as_tensor`` (TypeError)."""
     for name, x in named.items():
-        if x is None or isinstance(x, (torch.Tensor, numbers.Number)) and not isinstance(x, bool):
+        if x is None or (isinstance(x, (torch.Tensor, numbers.Number)) and not isinstance(x, bool)):
             continue
         try:
             torch.as_tensor(x)

@@ -206,7 +206,8 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         table = table.to(dtype=dtype, device=device)
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
     # (else K meets the film axes: a scalar cos θo with a batch of thicknesses did not broadcast)
-    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, _checks.as_index(n_substrate, "n_substrate", dtype, device).shape)
+    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
     c, a = c.expand(full), a.expand(full)
     mix = table(cos_theta_o=c, sqrt_alpha=torch.sqrt(a))  # (*, K, 3)
     w, c1, v1 = mix.unbind(-1)
@@ -217,7 +218,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     c2 = torch.sqrt((1.0 - k * (1.0 - c1 * c1)).clamp_min(torch.finfo(dtype).tiny))
     slope = k * c1 / c2
     scale = 2.0 * nf * d
-    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, n_substrate, n_outer=n0, polarization=polarization)
+    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, ns, n_outer=n0, polarization=polarization)
     shape = C0.shape[1:]
     xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
                       terms, observer, illuminant, sensitivity)  # (K, *, 3)

@@ -75,6 +75,14 @@ def _geometry(cos_theta_o, alpha):
     return c.expand(shape), a.expand(shape), dtype, device
 
 
+def _geometry_in_dtype_of(cos_theta_o, alpha, *film):
+    """cos θo and α as tensors in the working dtype of all the inputs, with that dtype and device
+    (Python-list angles next to a float64 film stay float64; validated by :func:`_geometry`)."""
+    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, *film)
+    return (_checks.as_real(cos_theta_o, "cos_theta_o", dtype, device), _checks.as_real(alpha, "alpha", dtype, device),
+            dtype, device)
+
+
 def _view(c: torch.Tensor) -> torch.Tensor:
     """ω_o in the xz-plane: (sin θo, 0, cos θo).
 
@@ -255,10 +263,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.
         >>> round(float(mD), 1)  # a near-mirror at normal incidence: D = 2·1.3·600
         1560.0
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_outer)
-    # the geometry in the working dtype of all inputs (a float64 film with Python-list angles stays float64)
-    cos_theta_o = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    alpha = _checks.as_real(alpha, "alpha", dtype, device)
+    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_outer)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
@@ -306,10 +311,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0647, 0.067, 0.1077]
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_outer)
-    # the geometry in the working dtype of all inputs (a float64 film with Python-list angles stays float64)
-    cos_theta_o = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    alpha = _checks.as_real(alpha, "alpha", dtype, device)
+    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_outer)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
     if wavelength is None:
         wavelength = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)

@@ -193,12 +193,7 @@ def bragg_xyz(
     W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (K, 3), Y column sums to 1
 
     def trailing(x, name):  # mirror parameters gain a wavelength axis (Python numbers built in dtype)
-        if isinstance(x, complex):
-            t = torch.as_tensor(x, dtype=_checks.complex_dtype(dtype), device=device)
-        elif isinstance(x, (int, float)) and not isinstance(x, bool):
-            t = torch.as_tensor(float(x), dtype=dtype, device=device)
-        else:
-            t = _checks.as_index(x, name, dtype, device)  # (any number type; bragg_reflectance validates)
+        t = _checks.as_index(x, name, dtype, device)  # (real or complex; bragg_reflectance validates)
         return t.unsqueeze(-1) if t.ndim else t
 
     args = [trailing(x, name) for x, name in zip((cos_theta, n1, n2, d1, d2), ("cos_theta", "n1", "n2", "d1", "d2"))]
