@@ -16,7 +16,13 @@ and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
    guaranteed and spectral is used anyway. Its cost scales with its sample count.
 
 The qualifying configuration with the lowest estimated cost wins. A thin film (cells = 1)
-has ~1 fringe, so rule 1 gives a short sampled integration. :func:`choose_bragg_method`
+has ~1 fringe, so rule 1 gives a short sampled integration.
+
+The costs are those of calls with 810 colours (the benchmark's batch). The choice does not
+depend on the batch size, though the ranking can: the landmark and envelope methods have a
+fixed cost of ~1–2 ms per call and get cheaper per colour on larger batches, the sampled ones
+dearer (the table's ``batch_size_check``, 810–8100 colours per call; docs/performance.md). For
+calls of thousands of colours the estimate therefore errs towards ``sampled``. :func:`choose_bragg_method`
 returns the choice with its estimated p95 and cost, for inspection.
 """
 
