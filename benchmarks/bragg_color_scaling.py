@@ -22,16 +22,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import random
 import statistics
 import sys
-import time
 
 import torch
 
 import torchirid as ti
+from bragg_color_speed_vs_error import MALLOC, time_rounds  # (this script's folder is on sys.path)
 
-MALLOC = str(1 << 30)
 METHODS = {
     "piecewise s=5": dict(method="piecewise", subdivisions=5),
     "piecewise s=8": dict(method="piecewise", subdivisions=8),
@@ -66,22 +64,7 @@ def main(argv=None):
         for nang in (int(a) for a in args.angles.split(",")):
             cos = torch.cos(torch.deg2rad(torch.linspace(0, 89, nang, dtype=torch.float64)))
             fns = {name: (lambda kw=kw: ti.bragg_xyz(cos, 1.0, 1.5, d1, d2, 20, **kw)) for name, kw in METHODS.items()}
-            inner = {}
-            for name, fn in fns.items():  # warm-up; ≥ ~40 ms per timed sample
-                fn()
-                t0 = time.perf_counter()
-                fn()
-                inner[name] = max(1, min(50, int(0.04 / max(time.perf_counter() - t0, 1e-6)) + 1))
-            times = {name: [] for name in fns}
-            rng = random.Random(threads * 1000 + nang)
-            names = list(fns)
-            for _ in range(args.rounds):
-                rng.shuffle(names)
-                for name in names:
-                    t0 = time.perf_counter()
-                    for _ in range(inner[name]):
-                        fns[name]()
-                    times[name].append((time.perf_counter() - t0) / inner[name])
+            times = time_rounds(fns, args.rounds, seed=threads * 1000 + nang)
             n = 9 * nang
             cells = [f"{statistics.median(times[m]) * 1e3:.2f} / {statistics.median(times[m]) / n * 1e6:.1f}"
                      for m in METHODS]
