@@ -34,7 +34,8 @@ Outputs (unless ``--no-write``):
 * ``docs/figures/bragg_color_speed_vs_error.png`` — p95 (filled) and median (open) ΔE2000
   against µs per colour, log–log, one panel per (grid, Λ);
 * the section between ``<!-- bragg-color:start -->`` and ``<!-- bragg-color:end -->`` of
-  ``docs/performance.md`` (appended if absent; the rest of the file is kept);
+  ``benchmarks/results/bragg_color.md`` (appended if absent; the rest of the file is kept;
+  docs/performance.md is maintained by hand from it);
 * ``src/torchirid/data/bragg_color_errors.json`` (atomic write), for ``method="auto"``.
 
 JSON schema (``format`` "torchirid.bragg_color_errors", ``format_version`` 1)::
@@ -108,7 +109,7 @@ from torchirid.spectral.bragg_color import spectral_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGURE = ROOT / "docs" / "figures" / "bragg_color_speed_vs_error.png"
-PERF_MD = ROOT / "docs" / "performance.md"
+PERF_MD = ROOT / "benchmarks" / "results" / "bragg_color.md"
 JSON_OUT = ROOT / "src" / "torchirid" / "data" / "bragg_color_errors.json"
 START, END = "<!-- bragg-color:start -->", "<!-- bragg-color:end -->"
 MALLOC = str(1 << 30)  # glibc MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ of --malloc tuned
@@ -263,8 +264,8 @@ def measure(args):
                 finer = xyz_to_lab(ti.bragg_xyz(cos, n1, n2, d1, d2, N, method="spectral",
                                                 samples_per_fringe=CHECK_SPF, max_samples=1 << 20))
                 pk = str(int(period))
-                refinfo[grid]["samples"][pk] = spectral_samples(N, n1, n2, d1, d2)
-                refinfo[grid]["ref_samples"][pk] = spectral_samples(N, n1, n2, d1, d2, samples_per_fringe=REF_SPF,
+                refinfo[grid]["samples"][pk] = spectral_samples(n1, n2, d1, d2, N)
+                refinfo[grid]["ref_samples"][pk] = spectral_samples(n1, n2, d1, d2, N, samples_per_fringe=REF_SPF,
                                                                     max_samples=1 << 20)
                 refinfo[grid]["check"][pk] = float(delta_e_2000(finer, ref_lab).max())
                 fns, errs = {}, {}
@@ -730,7 +731,7 @@ is not used); `envelope` K: the same fringe-averaged model as "averaged", sample
 uniform in ω and integrated exactly against the CMFs as a piecewise-linear function (no
 landmarks; `torchirid.spectral.envelope`).
 
-![speed against error](figures/bragg_color_speed_vs_error.png)
+![speed against error](../../docs/figures/bragg_color_speed_vs_error.png)
 
 ### Pareto front (computed)
 
@@ -803,7 +804,7 @@ def write_section(text):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--no-write", action="store_true",
-                    help="print only: do not write the figure, docs/performance.md or the JSON table")
+                    help="print only: do not write the figure, benchmarks/results/bragg_color.md or the JSON table")
     ap.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds (median; ≥ 5)")
     ap.add_argument("--malloc", choices=("tuned", "default"), default="tuned",
                     help="glibc allocator: 'tuned' (default) re-runs this script with MALLOC_MMAP_THRESHOLD_ = "

@@ -28,8 +28,8 @@ import torch
 
 from torchirid.color.convert import spectrum_to_xyz, xyz_to_lab
 from torchirid.color.difference import delta_e_2000
-from torchirid.optics.film_reflectance import FilmStack, film_reflectance, hirayama_stacks
-from torchirid.optics.reflectance_table import interpolation_error, reflectance_table, table_reflectance
+from torchirid.optics.film_stack import FilmStack, film_reflectance, hirayama_stacks
+from torchirid.optics.film_tables import interpolation_error, film_reflectance_lut, lookup_film_reflectance
 
 ANGLES = (16, 64, 128, 512)
 WAVELENGTHS = (8, 41, 101, 401)
@@ -46,8 +46,8 @@ def colour_errors(stack, sizes, axis, n_colours=500, seed=1):
     lab_ref = xyz_to_lab(spectrum_to_xyz(kr, wl))
     out = []
     for A, W in sizes:
-        lut = reflectance_table(stack, angles=A, wavelengths=W, wavelength_range=RANGE, angle_axis=axis)
-        kr_t, _ = table_reflectance(lut, wl, c[:, None])
+        lut = film_reflectance_lut(stack, angles=A, wavelengths=W, wavelength_range=RANGE, angle_axis=axis)
+        kr_t, _ = lookup_film_reflectance(lut, wl, c[:, None])
         de = delta_e_2000(xyz_to_lab(spectrum_to_xyz(kr_t, wl)), lab_ref)
         q = torch.quantile(de, torch.tensor([0.5, 0.95], dtype=f64))
         out.append((float(q[0]), float(q[1]), float(de.max())))

@@ -27,11 +27,11 @@ Eff = time_GT / (time × SMAPE) (paper Table 2).
 
 Usage::
 
-    PYTHONPATH=src python benchmarks/layered_table2.py            # prints the tables, writes docs
+    PYTHONPATH=src python benchmarks/layered_table2.py            # prints the tables, writes the results file
     PYTHONPATH=src python benchmarks/layered_table2.py --quick    # fewer paths (smoke run)
 
 Writes the section between ``<!-- layered-table2:start -->`` and ``<!-- layered-table2:end -->``
-of docs/performance.md (unless ``--no-write``).
+of benchmarks/results/layered_table2.md (unless ``--no-write``; docs/performance.md is maintained by hand).
 """
 
 from __future__ import annotations
@@ -155,8 +155,8 @@ def speed_table(repeats=7):
     rows = []
     for lut in (False, True):
         # first call in a fresh process state: includes every per-call table (τ, R) build
-        _, first = timed(lambda: single_reflection_brdf(s, wi, wo, lam, lut=lut))
-        f, t = timed(lambda: single_reflection_brdf(s, wi, wo, lam, lut=lut), repeats)
+        _, first = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut))
+        f, t = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut), repeats)
         rows.append((lut, tuple(f.shape), first, t))
     return rows
 
@@ -169,7 +169,7 @@ def pixel_samples(structure, frame, wo, lam, k, seed):
     g = torch.Generator().manual_seed(seed)
     P = wo.shape[0]
     u = torch.rand(P, k, 3, generator=g, dtype=F64)
-    wi, pdf = sample_single_reflection(structure, wo[:, None, :].expand(P, k, 3), lam, u)
+    wi, pdf = sample_single_reflection(lam, wo[:, None, :].expand(P, k, 3), structure, u)
     ok = pdf > 0
     world = torch.einsum("pkj,pjw->pkw", wi, frame)  # local → world (frame rows = local axes)
     weight = torch.where(ok, wi[..., 2] / torch.where(ok, pdf, torch.ones_like(pdf)), torch.zeros_like(pdf))
@@ -207,10 +207,10 @@ def main(argv=None):
             return to_rgb((f * light).sum(1), lam)
 
         def mc(samples, seed, **kw):
-            return montecarlo_brdf(s, wi, wo, lam, samples=samples, seed=seed, progress=False, **kw)[0]
+            return montecarlo_brdf(lam, wi, wo, s, samples=samples, seed=seed, progress=False, **kw)[0]
 
-        model, t_model = timed(lambda: single_reflection_brdf(s, wi, wo, lam), 3)
-        model_lut, t_lut = timed(lambda: single_reflection_brdf(s, wi, wo, lam, lut=True), 3)
+        model, t_model = timed(lambda: single_reflection_brdf(lam, wi, wo, s), 3)
+        model_lut, t_lut = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=True), 3)
         half = max(2, args.gt_samples // 2)
         ma, ta = timed(lambda: mc(half, 11, multiple_reflection=True))
         mb, tb = timed(lambda: mc(half, 12, multiple_reflection=True))
@@ -219,7 +219,7 @@ def main(argv=None):
         floor = smape(shade(model + ma), shade(model + mb)) / 2  # ≈ the averaged reference's noise
         plain, t_plain = timed(lambda: mc(args.plain_samples, 31))
         sr, t_sr = timed(lambda: mc(args.sr_samples, 21, single_reflection=True))
-        model_bi, t_bi = timed(lambda: single_reflection_brdf(s, wi, wo, lam, base_interreflection=True), 3)
+        model_bi, t_bi = timed(lambda: single_reflection_brdf(lam, wi, wo, s, base_interreflection=True), 3)
         rows = {}
         for label, val, t in (("SR sim.", sr, t_sr), ("Model", model, t_model), ("Model-LUT", model_lut, t_lut),
                               ("Model + base interreflection", model_bi, t_bi), ("plain MC", plain, t_plain)):
@@ -314,8 +314,8 @@ def render(results, speed, args, total, pixels):
 
 
 def write_section(md):
-    path = ROOT / "docs" / "performance.md"
-    text = path.read_text()
+    path = ROOT / "benchmarks" / "results" / "layered_table2.md"
+    text = path.read_text() if path.exists() else ""
     if START in text and END in text:
         a = text.index(START)
         b = text.index(END) + len(END)

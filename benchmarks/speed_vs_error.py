@@ -9,7 +9,7 @@ explicit stack, tmm_fast.coh_tmm (vectorised torch transfer matrices) and tmm.co
 point per call, timed on a random subsample and reported per point).  Each is the median
 of several runs.  Errors are max |R − R_tmm| over the subsample, tmm being the reference.
 
-    .venv/bin/python benchmarks/speed_vs_error.py            # prints the table, rewrites docs/performance.md
+    .venv/bin/python benchmarks/speed_vs_error.py            # prints the table, rewrites benchmarks/results/speed_vs_error.md
     .venv/bin/python benchmarks/speed_vs_error.py --no-write
 """
 
@@ -62,7 +62,7 @@ def median_time(fn, repeats, warmup=3):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--no-write", action="store_true", help="print only, do not rewrite docs/performance.md")
+    ap.add_argument("--no-write", action="store_true", help="print only, do not rewrite benchmarks/results/speed_vs_error.md")
     ap.add_argument("--subsample", type=int, default=300, help="points checked (and timed) with tmm")
     ap.add_argument("--repeats", type=int, default=11, help="calls per method and round (median)")
     ap.add_argument("--rounds", type=int, default=7, help="interleaved rounds (median of per-round ratios)")
@@ -232,7 +232,7 @@ def _write(args, tables, npts):
             tmm_fast=getattr(tmm_fast, "__version__", "0.3.0"), python=platform.python_version(),
             npts=npts, sub=args.subsample, nproc=os.cpu_count(),
         )
-        out = ROOT / "docs" / "performance.md"
+        out = ROOT / "benchmarks" / "results" / "speed_vs_error.md"
         # keep the section other scripts own (benchmarks/bragg_color_speed_vs_error.py)
         start, end = "<!-- bragg-color:start -->", "<!-- bragg-color:end -->"
         old = out.read_text() if out.exists() else ""

@@ -12,7 +12,8 @@ base 2 + 0.5i (Kneiphof's Fig. 2 material), air, CIE 1931 2°, D65, M = 2.
 
 Prints a markdown table (mean / p95 / max ΔE2000 per method and panel, also for α ≥ 0.25, and
 µs per colour, medians of interleaved repeats); writes docs/figures/thin_film_fig7.png and,
-with --write-docs, the "thin-film-ibl" section of docs/performance.md.
+with --write-docs, the "thin-film-ibl" section of benchmarks/results/thin_film_fig7.md
+(docs/performance.md is maintained by hand from it).
 
 ``--sensitivity-accuracy`` instead measures how the Ŝ tables interpolate (max |Ŝ_table − Ŝ_exact|):
 the 1-D Ŝ(D) in (magnitude, unwrapped phase) vs (real, imag) vs demodulated (real, imag) at
@@ -34,8 +35,8 @@ import torch
 from torchirid.ibl import fitted_thin_film_xyz, filtered_thin_film_xyz, thin_film_xyz_fourier
 from torchirid.color import delta_e_2000, xyz_to_lab
 from torchirid.ibl import uniform_light_moments
-from torchirid.ibl.fitted import light_mixture_table
-from torchirid.ibl.fourier import prefiltered_sensitivity_lut
+from torchirid.ibl.fitted import shipped_light_mixture_lut
+from torchirid.ibl.fourier import shipped_prefiltered_sensitivity_lut
 from torchirid.render.thin_film_ibl import THIN_FILM_IBL_METHODS, save_thin_film_ibl_png, thin_film_ibl_comparison
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -49,8 +50,8 @@ def _sensitivity_accuracy() -> str:
 
     import numpy as np
 
-    from torchirid.ibl.fourier import (_carriers, build_prefiltered_sensitivity, fourier_sensitivity_exact,
-                                       prefiltered_fourier_sensitivity, prefiltered_fourier_sensitivity_lut)
+    from torchirid.ibl.fourier import (_carriers, prefiltered_sensitivity_lut, fourier_sensitivity_exact,
+                                       prefiltered_fourier_sensitivity, lookup_prefiltered_sensitivity)
     from torchirid.lut import LUT
 
     f64 = torch.float64
@@ -114,8 +115,8 @@ def _sensitivity_accuracy() -> str:
     out.append(row("41 nodes uniform in σ, axis σ², magnitude + phase", legacy("sigma2", False)))
     out.append(row("41 σ nodes uniform, demodulated real + imag", legacy("sigma", True)))
     for k in (41, 61):
-        lut = build_prefiltered_sensitivity(sigma_nodes=k)
-        err = (prefiltered_fourier_sensitivity_lut(mu, sig * sig, lut=lut) - ref).abs().amax(-1)
+        lut = prefiltered_sensitivity_lut(sigma_nodes=k)
+        err = (lookup_prefiltered_sensitivity(mu, sig * sig, lut=lut) - ref).abs().amax(-1)
         tag = " (shipped default)" if k == 41 else ""
         out.append(row(f"{k} nodes uniform in w = 1 − exp(−2π²σ²/700²), demodulated real + imag{tag}", err))
     out += ["", "Why: linear in σ across what is a Gaussian damping exp(−2π²σ²ν²) errs by ≈ h²·2π²ν²/4 in the first "
@@ -128,8 +129,8 @@ def _sensitivity_accuracy() -> str:
 
 
 def _write_subsection(text: str) -> Path:
-    perf = ROOT / "docs/performance.md"
-    doc = perf.read_text()
+    perf = ROOT / "benchmarks/results/thin_film_fig7.md"
+    doc = perf.read_text() if perf.exists() else ""
     start, end = f"<!-- {MARK}:start -->", f"<!-- {MARK}:end -->"
     sub_start, sub_end = f"<!-- {SUBMARK}:start -->", f"<!-- {SUBMARK}:end -->"
     body = f"{sub_start}\n### Ŝ tables: interpolation error\n\n{text}\n{sub_end}"
@@ -153,7 +154,7 @@ def _timings(repeats: int, n: int = 4096) -> dict:
     wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1)
     mu = wo * torch.tensor([-1.0, 1.0, 1.0], dtype=f64) * 0.95
     cov = 1e-2 * torch.eye(3, dtype=f64).expand(n, 3, 3)
-    light_mixture_table(dtype=f64)  # load once
+    shipped_light_mixture_lut(dtype=f64)  # load once
     fns = {
         "original": lambda: thin_film_xyz_fourier(c, 1.3, d, complex(2, 0.5), terms=2, sensitivity="exact"),
         "original (Ŝ LUT)": lambda: thin_film_xyz_fourier(c, 1.3, d, complex(2, 0.5), terms=2),
@@ -162,7 +163,7 @@ def _timings(repeats: int, n: int = 4096) -> dict:
         "fitted": lambda: fitted_thin_film_xyz(c, a, 1.3, d, complex(2, 0.5)),
         "fitted (Ŝ 2-D LUT)": lambda: fitted_thin_film_xyz(c, a, 1.3, d, complex(2, 0.5), sensitivity="lut"),
     }
-    prefiltered_sensitivity_lut(dtype=f64)  # built once (≈ 4 s), not timed
+    shipped_prefiltered_sensitivity_lut(dtype=f64)  # built once (≈ 4 s), not timed
     samples = {k: [] for k in fns}
     for _ in range(repeats):
         for k, f in fns.items():
@@ -198,7 +199,7 @@ def main(argv=None) -> int:
            "2 + 0.5i, air, CIE 1931 2°, D65, M = 2, float64 CPU, "
            f"{args.threads} threads. Reference: uniform_thin_film_xyz (lobe quadrature 64 × 128, "
            "2048 cos θ1 bins, 1 nm spectra; converged to ΔE2000 < 0.005). ΔE2000 of the reflectance term "
-           "(the albedo A(θo, α) is common to all methods). The fitted table (`ibl.light_mixture_table`, "
+           "(the albedo A(θo, α) is common to all methods). The fitted table (`ibl.shipped_light_mixture_lut`, "
            "built by `luts/build_light_mixture.py`) holds 48 θo × 48 √α nodes × 5 Gaussians × (mass, mean, "
            "variance of cos θ₁) = 34,560 float32 (137 KiB), independent of the film: the same table serves every "
            "d, η₂ and base; the panels' cells fall between its nodes.", "",
@@ -240,14 +241,14 @@ def main(argv=None) -> int:
     text = "\n".join(out)
     print(text)
     if args.write_docs:
-        perf = ROOT / "docs/performance.md"
-        doc = perf.read_text()
+        perf = ROOT / "benchmarks/results/thin_film_fig7.md"
+        doc = perf.read_text() if perf.exists() else ""
         start, end = f"<!-- {MARK}:start -->", f"<!-- {MARK}:end -->"
         sub = re.search(re.escape(f"<!-- {SUBMARK}:start -->") + ".*?" + re.escape(f"<!-- {SUBMARK}:end -->"),
                         doc, flags=re.S)
         keep = f"\n\n{sub.group(0)}" if sub else ""  # the --sensitivity-accuracy subsection survives
         body = (f"{start}\n## Thin-film colour on rough surfaces under uniform light: Kneiphof Fig. 7 "
-                f"(issue 6 part 4)\n\n{text}\n\n![Fig. 7](figures/thin_film_fig7.png){keep}\n{end}")
+                f"(issue 6 part 4)\n\n{text}\n\n![Fig. 7](../../docs/figures/thin_film_fig7.png){keep}\n{end}")
         if start in doc:
             doc = re.sub(re.escape(start) + ".*?" + re.escape(end), lambda m: body, doc, flags=re.S)
         else:

@@ -2,9 +2,9 @@
 r"""(Re)build the cumulative colour-matching tables C̄(ω) that torchirid ships.
 
 C̄(ω) = ∫_{ω_min}^{ω} c̄(ω') dω' (Fourneau et al. 2024, eq. 15–16), ω = 2π/λ in nm⁻¹, built
-by :func:`torchirid.spectral.cumulative.build_cumulative_cmf` and written atomically
+by :func:`torchirid.spectral.cumulative.cumulative_cmf_lut` and written atomically
 (:meth:`torchirid.lut.LUT.save`) to ``src/torchirid/data/cmf_cumulative/<slug>.npz``, where
-:func:`torchirid.spectral.cumulative.cumulative_cmf` finds them.
+:func:`torchirid.spectral.cumulative.shipped_cumulative_cmf_lut` finds them.
 
 Defaults build the shipped set: observers "CIE 1931 2" and "CIE 1964 10" × illuminants
 "D65" and "E", 380–780 nm, automatic node count (measured interpolation error ≤ 5e-7)::
@@ -13,7 +13,7 @@ Defaults build the shipped set: observers "CIE 1931 2" and "CIE 1964 10" × illu
     PYTHONPATH=src python luts/build_cmf_cumulative.py --observers "CIE 1931 2" \
         --illuminants D50 --range 360 830 --out /tmp/tables
 
-Only tables built with the automatic node count are picked up by ``cumulative_cmf``
+Only tables built with the automatic node count are picked up by ``shipped_cumulative_cmf_lut``
 (``--nodes`` is for experiments; such a file is refused there and rebuilt in memory).
 """
 
@@ -27,7 +27,7 @@ from pathlib import Path
 from torchirid.lut import LUT
 from torchirid.spectral.cumulative import (
     CUMULATIVE_CMF_BUILDER,
-    build_cumulative_cmf,
+    cumulative_cmf_lut,
     cumulative_cmf_path,
 )
 
@@ -55,7 +55,7 @@ def main(argv=None) -> int:
     worst = 0.0
     for observer in args.observers:
         for illuminant in args.illuminants:
-            lut = build_cumulative_cmf(observer, illuminant, tuple(args.range), args.nodes)
+            lut = cumulative_cmf_lut(observer, illuminant, tuple(args.range), args.nodes)
             path = args.out / Path(str(cumulative_cmf_path(observer, illuminant, tuple(args.range)))).name
             lut.save(path)
             os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public

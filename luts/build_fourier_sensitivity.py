@@ -3,12 +3,12 @@ r"""(Re)build the Fourier-transformed spectral sensitivity tables Ŝ(D) that tor
 
 Ŝ_j(D) = ∫ S_j(ν) e^{−2πiνD} dν (Belcour & Barla 2017; Kneiphof et al. 2019, eq. 3), with
 S_j = illuminant × CMF normalised to white Y = 1, built by
-:func:`torchirid.ibl.fourier.build_fourier_sensitivity` (D = 0 … 20,000 nm every 5 nm,
+:func:`torchirid.ibl.fourier.fourier_sensitivity_lut` (D = 0 … 20,000 nm every 5 nm,
 magnitude and unwrapped phase) and written atomically to
 ``src/torchirid/data/fourier_sensitivity/<slug>.npz``, where
 :func:`torchirid.ibl.fourier_sensitivity` finds them::
 
-    PYTHONPATH=src python luts/build_fourier_sensitivity.py
+    PYTHONPATH=src python luts/fourier_sensitivity_lut.py
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from pathlib import Path
 
 from torchirid.ibl.fourier import (
     FOURIER_SENSITIVITY_BUILDER,
-    build_fourier_sensitivity,
+    fourier_sensitivity_lut,
     fourier_sensitivity_path,
 )
 from torchirid.lut import LUT
@@ -40,7 +40,7 @@ def main(argv=None) -> int:
     worst = 0.0
     for observer in args.observers:
         for illuminant in args.illuminants:
-            lut = build_fourier_sensitivity(observer, illuminant)
+            lut = fourier_sensitivity_lut(observer, illuminant)
             path = args.out / Path(str(fourier_sensitivity_path(observer, illuminant))).name
             lut.save(path)
             os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import torch
 
-from torchirid.ibl.fitted import _SHIPPED, build_light_mixture_table
+from torchirid.ibl.fitted import _SHIPPED, light_mixture_lut
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,7 +23,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "src/torchirid/data/thin_film_ibl/light_mixture.npz")
     args = ap.parse_args(argv)
     t = time.perf_counter()
-    lut = build_light_mixture_table(**_SHIPPED)
+    lut = light_mixture_lut(**_SHIPPED)
     args.out.parent.mkdir(parents=True, exist_ok=True)
     lut.save(args.out)
     print(f"wrote {args.out} ({args.out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")

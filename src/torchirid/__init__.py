@@ -70,11 +70,11 @@ from .optics import (
     FilmStack,
     film_reflectance,
     hirayama_stacks,
-    reflectance_table,
+    film_reflectance_lut,
     rough_multilayer_diffuse,
     rough_multilayer_reflectance,
     smooth_radiance,
-    table_reflectance,
+    lookup_film_reflectance,
 )
 from .materials import available_materials, material_range, refractive_index
 from .spectral import BRAGG_XYZ_METHODS, bragg_xyz
@@ -145,11 +145,11 @@ __all__ = [
     "FilmStack",
     "film_reflectance",
     "hirayama_stacks",
-    "reflectance_table",
+    "film_reflectance_lut",
     "rough_multilayer_diffuse",
     "rough_multilayer_reflectance",
     "smooth_radiance",
-    "table_reflectance",
+    "lookup_film_reflectance",
     "available_materials",
     "material_range",
     "refractive_index",

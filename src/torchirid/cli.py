@@ -122,7 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     sp.add_argument("--kind", choices=KINDS, default="bragg", help="structure to compute")
 
     g = sp.add_argument_group(
-        "Bragg mirror (--kind bragg)", "the stack n_host | (n2, d2), (n1, d1) × cells | n1, lit from n_host"
+        "Bragg mirror (--kind bragg)", "the stack n_incident | (n2, d2), (n1, d1) × cells | n1, lit from n_incident"
     )
     g.add_argument(
         "--n1", type=_index, default=1.0, metavar="N", help="index of layer 1 (also the medium below the mirror)"
@@ -131,24 +131,19 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--d1", type=_float, default=125.0, metavar="NM", help="thickness of layer 1 in nm")
     g.add_argument("--d2", type=_float, default=375.0, metavar="NM", help="thickness of layer 2 in nm")
     g.add_argument("--cells", type=int, default=20, metavar="COUNT", help="number N of cells (layer pairs)")
-    g.add_argument(
-        "--n-host",
-        type=_index,
-        default=None,
-        metavar="N",
-        help="real index of the host (incident) medium above the mirror; default: n1",
-    )
 
     g = sp.add_argument_group(
-        "thin film (--kind thin-film)", "the stack n_outer | (n_film, thickness) | n_substrate, lit from n_outer"
+        "thin film (--kind thin-film)", "the stack n_incident | (n_film, thickness) | n_substrate, lit from n_incident"
     )
     g.add_argument("--n-film", type=_index, default=1.5, metavar="N", help="refractive index of the film")
     g.add_argument("--thickness", type=_float, default=375.0, metavar="NM", help="film thickness in nm")
     g.add_argument(
         "--n-substrate", type=_index, default=1.0, metavar="N", help="refractive index of the medium below the film"
     )
+    g = sp.add_argument_group("both kinds")
     g.add_argument(
-        "--n-outer", type=_index, default=1.0, metavar="N", help="index of the incident medium above the film (real)"
+        "--n-incident", type=_index, default=None, metavar="N",
+        help="real index of the incident medium above the structure; default: n1 (bragg), 1.0 (thin-film)",
     )
 
     g = sp.add_argument_group("grid and output")
@@ -179,7 +174,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_gradients_parser(sub)
     _add_scatterogram_parser(sub)
     # by module path: the packages re-export functions of the same names as these modules
-    importlib.import_module("torchirid.optics.reflectance_table").add_parser(sub)
+    importlib.import_module("torchirid.optics.film_tables").add_parser(sub)
     importlib.import_module("torchirid.render.sphere").add_parser(sub)
     importlib.import_module("torchirid.render.thin_film_ibl").add_parser(sub)
     importlib.import_module("torchirid.estimation.cli").add_parser(sub)
@@ -230,11 +225,12 @@ def _cmd_spectrum(args: argparse.Namespace) -> int:
     try:
         if args.kind == "bragg":
             rmap = render.bragg_reflectance_map(
-                args.n1, args.n2, args.d1, args.d2, args.cells, n_host=args.n_host, **grid
+                args.n1, args.n2, args.d1, args.d2, args.cells, n_incident=args.n_incident, **grid
             )
         else:
             rmap = render.thin_film_reflectance_map(
-                args.n_film, args.thickness, args.n_substrate, n_outer=args.n_outer, **grid
+                args.n_film, args.thickness, args.n_substrate,
+                n_incident=1.0 if args.n_incident is None else args.n_incident, **grid
             )
     except ValueError as e:  # the library names the bad parameter; report it like a usage error
         parser.error(str(e))
@@ -436,7 +432,7 @@ def _add_scatterogram_parser(sub) -> None:
     g.add_argument("--d2", type=_positive, default=81.6, metavar="NM", help="custom: thickness d2 in nm")
     g.add_argument("--cells", type=_count, default=8, metavar="COUNT", help="custom: number N of cells")
     g.add_argument("--alpha", type=_positive, default=0.05, metavar="A", help="custom: GGX roughness α")
-    g.add_argument("--n-host", type=_positive, default=1.0, metavar="N",
+    g.add_argument("--n-incident", type=_positive, default=1.0, metavar="N",
                    help="custom: index of the medium around the mirrors (1: air, no coating; else a smooth coating)")
     g.add_argument("--base-albedo", type=_float, default=0.0, metavar="RHO", help="custom: Lambertian base albedo in [0, 1]")
     g = sp.add_argument_group("illumination")
@@ -481,7 +477,7 @@ def _cmd_scatterogram(args: argparse.Namespace) -> int:
         structures = []
         for name in args.preset:
             if name == "custom":
-                layer = RoughBraggLayer(args.n1, args.n2, args.d1, args.d2, args.cells, args.alpha, n_host=args.n_host)
+                layer = RoughBraggLayer(args.n1, args.n2, args.d1, args.d2, args.cells, args.alpha, n_incident=args.n_incident)
                 structures.append((f"custom Λ={args.d1 + args.d2:g} nm", LayeredBragg([layer], args.base_albedo)))
             else:
                 row = JEWEL_BEETLE[name]

@@ -30,7 +30,7 @@ from torchirid.color import (
     xyz_to_srgb,
     xyz_weights,
 )
-from torchirid.color.cmfs import _OBSERVER_KEYS
+from torchirid.color.colorimetry import _OBSERVER_KEYS
 
 from tensors import F64, t64
 

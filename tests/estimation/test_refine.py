@@ -79,7 +79,7 @@ def test_metrics_are_zero_for_the_truth():
     p = fit_index_model(lam, cube.sample.n_at(lam), "cauchy3")
     est = FilmEstimate(params=p, index_model="cauchy3", n=float(index_model(torch.tensor(589.3, dtype=F64), p, "cauchy3")),
                        thickness=cube.thickness, rms=torch.zeros(3, 3), n_peak=0.0, thickness_peak=cube.thickness,
-                       settings=dict(bandwidth=4.0, passband="box", polarization="s", n_outer=1.0))
+                       settings=dict(bandwidth=4.0, passband="box", polarization="s", n_incident=1.0))
     m = film_metrics(est, cube)
     assert m["d_error_mean"] == 0 and m["n_error"] < 2e-3 and m["delta_e_mean"] < 0.1
 

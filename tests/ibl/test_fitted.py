@@ -6,8 +6,8 @@ import pytest
 import torch
 
 from torchirid import delta_e_2000, xyz_to_lab
-from torchirid.ibl import (build_light_mixture_table, cos_theta1_distribution, fitted_thin_film_xyz,
-                           filtered_thin_film_xyz, light_mixture, light_mixture_table, thin_film_xyz_fourier,
+from torchirid.ibl import (light_mixture_lut, cos_theta1_distribution, fitted_thin_film_xyz,
+                           filtered_thin_film_xyz, light_mixture, shipped_light_mixture_lut, thin_film_xyz_fourier,
                            uniform_light_moments, uniform_thin_film_xyz)
 
 F64 = torch.float64
@@ -27,12 +27,12 @@ def test_mixture_preserves_mass_mean_and_second_moment():
 
 
 def test_table_nodes_equal_direct_mixture_and_shipped_table():
-    lut = build_light_mixture_table(theta_nodes=3, alpha_nodes=3, nodes=32, dtype=F64)
+    lut = light_mixture_lut(theta_nodes=3, alpha_nodes=3, nodes=32, dtype=F64)
     c = lut.axes["cos_theta_o"][1]
     sa = lut.axes["sqrt_alpha"][2]
     direct = light_mixture(c, sa * sa, nodes=32)
     assert torch.allclose(lut(cos_theta_o=c, sqrt_alpha=sa), direct, atol=1e-12)
-    shipped = light_mixture_table()
+    shipped = shipped_light_mixture_lut()
     assert shipped.parameters["quantiles"] == [0.05, 0.3, 0.7, 0.95]
     cs, ss = shipped.axes["cos_theta_o"][30], shipped.axes["sqrt_alpha"][20]
     assert torch.allclose(shipped(cos_theta_o=cs, sqrt_alpha=ss), light_mixture(cs, ss * ss), atol=2e-6)
@@ -65,7 +65,7 @@ def test_fitted_generalises_to_other_films(base):
 
 
 def test_gradients_and_validation():
-    lut = light_mixture_table(dtype=F64)
+    lut = shipped_light_mixture_lut(dtype=F64)
     d = torch.tensor([650.0], dtype=F64, requires_grad=True)
     nf = torch.tensor(1.4, dtype=F64, requires_grad=True)
     c = torch.tensor([0.4], dtype=F64)

@@ -7,11 +7,11 @@ import torch
 from torchirid import thin_film_reflectance
 from torchirid.color import spectrum_to_xyz, white_point_xyz
 from torchirid.ibl import (
-    build_fourier_sensitivity,
-    build_prefiltered_sensitivity,
+    fourier_sensitivity_lut,
+    prefiltered_sensitivity_lut,
     fourier_sensitivity,
     fourier_sensitivity_exact,
-    fourier_sensitivity_lut,
+    shipped_fourier_sensitivity_lut,
     prefiltered_fourier_sensitivity,
     thin_film_fourier_terms,
     thin_film_xyz_fourier,
@@ -56,7 +56,7 @@ def test_lut_matches_exact(observer):
 
 
 def test_magnitude_phase_beats_real_imag():
-    lut = build_fourier_sensitivity(d_max=3000.0, step=5.0)
+    lut = fourier_sensitivity_lut(d_max=3000.0, step=5.0)
     D = lut.axes["D"]
     s = torch.polar(lut.values[..., 0], lut.values[..., 1])
     mid = D[:-1] + 2.5
@@ -76,10 +76,10 @@ def test_prefiltered_is_gaussian_average():
     assert (got - avg).abs().max() < 1e-10
     zero = prefiltered_fourier_sensitivity(torch.tensor([mu], dtype=F64), 0.0)
     assert torch.allclose(zero, fourier_sensitivity_exact(torch.tensor([mu], dtype=F64)), atol=1e-14)
-    lut = build_prefiltered_sensitivity(d_max=3000.0, sigma_max=200.0, sigma_nodes=21)
-    from torchirid.ibl.fourier import prefiltered_fourier_sensitivity_lut
+    lut = prefiltered_sensitivity_lut(d_max=3000.0, sigma_max=200.0, sigma_nodes=21)
+    from torchirid.ibl.fourier import lookup_prefiltered_sensitivity
 
-    assert (prefiltered_fourier_sensitivity_lut(torch.tensor(mu, dtype=F64), sigma**2, lut=lut) - got).abs().max() < 1e-4
+    assert (lookup_prefiltered_sensitivity(torch.tensor(mu, dtype=F64), sigma**2, lut=lut) - got).abs().max() < 1e-4
     with pytest.raises(ValueError, match="sigma2"):
         prefiltered_fourier_sensitivity(torch.tensor(0.0), -1.0)
 
@@ -183,9 +183,9 @@ def test_prefiltered_lut_accuracy_bound():
     Measured 4.7e-4 on 30,000 points (docs/performance.md); the old σ-uniform magnitude/phase
     layout erred by 1.5e-2 at σ ≈ 12 nm. Here 4,000 random points, a quarter with σ < 30 nm.
     """
-    from torchirid.ibl.fourier import prefiltered_fourier_sensitivity_lut, prefiltered_sensitivity_lut
+    from torchirid.ibl.fourier import lookup_prefiltered_sensitivity, shipped_prefiltered_sensitivity_lut
 
-    lut = prefiltered_sensitivity_lut()
+    lut = shipped_prefiltered_sensitivity_lut()
     assert max(lut.parameters["max_interp_error"]) < 6e-4
     g = torch.Generator().manual_seed(7)
     n = 4000
@@ -194,22 +194,22 @@ def test_prefiltered_lut_accuracy_bound():
     sig[: n // 4] *= 0.03
     sig[n // 4: n // 2] *= 0.4
     exact = prefiltered_fourier_sensitivity(mu, sig**2)
-    got = prefiltered_fourier_sensitivity_lut(mu, sig**2)
+    got = lookup_prefiltered_sensitivity(mu, sig**2)
     err = (got - exact).abs().amax(-1)
     assert float(err.max()) < 6e-4
     assert float(err[: n // 4].max()) < 6e-4  # the small-σ corner that used to err by 1.5e-2
     # at σ = 0 only the μ interpolation (10 nm step) is left: measured 2.2e-5
     m0 = torch.linspace(0.0, 19990.0, 1001, dtype=F64) + 3.3
-    assert float((prefiltered_fourier_sensitivity_lut(m0, 0.0) - fourier_sensitivity_exact(m0)).abs().max()) < 1e-4
+    assert float((lookup_prefiltered_sensitivity(m0, 0.0) - fourier_sensitivity_exact(m0)).abs().max()) < 1e-4
     # beyond the table: 0; σ above 1000 nm: clamped (|Ŝ| < 1e-20 there)
-    far = prefiltered_fourier_sensitivity_lut(torch.tensor([25000.0, 100.0], dtype=F64), torch.tensor([0.0, 2000.0**2], dtype=F64))
+    far = lookup_prefiltered_sensitivity(torch.tensor([25000.0, 100.0], dtype=F64), torch.tensor([0.0, 2000.0**2], dtype=F64))
     assert float(far.abs().max()) < 1e-15
     # gradients are finite at σ² = 0 (the w axis is taken from σ², no square root)
     m = torch.tensor([500.0, 1500.0], dtype=F64, requires_grad=True)
     s2 = torch.zeros(2, dtype=F64, requires_grad=True)
-    prefiltered_fourier_sensitivity_lut(m, s2).abs().sum().backward()
+    lookup_prefiltered_sensitivity(m, s2).abs().sum().backward()
     assert bool(torch.isfinite(m.grad).all()) and bool(torch.isfinite(s2.grad).all())
     with pytest.raises(ValueError, match="lut"):
-        prefiltered_fourier_sensitivity_lut(m, s2, lut=fourier_sensitivity_lut())
+        lookup_prefiltered_sensitivity(m, s2, lut=shipped_fourier_sensitivity_lut())
     with pytest.raises(ValueError, match="sigma_nodes"):
-        build_prefiltered_sensitivity(sigma_nodes=2)
+        prefiltered_sensitivity_lut(sigma_nodes=2)

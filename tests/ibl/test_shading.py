@@ -85,7 +85,7 @@ def test_constant_environment_against_uniform_ground_truth(constant_pre):
 
 
 def test_no_film_reduces_to_fresnel_times_split_sum(sky_pre):
-    """n_film = n_outer: the reflectance term is D-independent, = R_Fresnel(cos θ1*) · white (exact for any M)."""
+    """n_film = n_incident: the reflectance term is D-independent, = R_Fresnel(cos θ1*) · white (exact for any M)."""
     k, i, j = 1, 2, 5  # a texel centre and a roughness level: the lookup returns the stored texel
     r = sky_pre.directions[i, j]
     n = torch.nn.functional.normalize(torch.tensor([0.1, -0.2, 1.0], dtype=F64), dim=-1)

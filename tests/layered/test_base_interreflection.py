@@ -33,9 +33,9 @@ def test_one_layer_over_base_equals_full_transport(mode):
     # one layer in air over a Lambertian base: the series is exact (every multiple-reflection
     # path is a chain of base visits separated by one reflection from below)
     s = LayeredBragg([_layer()], base_albedo=0.5)
-    mc, err = montecarlo_brdf(s, WI, WO, LAM, samples=40000, seed=3, transmission=mode, progress=False)
-    f = single_reflection_brdf(s, WI, WO, LAM, base_interreflection=True)
-    f34 = single_reflection_brdf(s, WI, WO, LAM)
+    mc, err = montecarlo_brdf(LAM, WI, WO, s, samples=40000, seed=3, transmission=mode, progress=False)
+    f = single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True)
+    f34 = single_reflection_brdf(LAM, WI, WO, s)
     z = ((f - mc) / err).abs()
     assert float(z.max()) < 4.5, z
     # eq. 34 alone is far off (the test can fail): it misses the base's interreflections
@@ -44,11 +44,11 @@ def test_one_layer_over_base_equals_full_transport(mode):
 
 def test_default_is_eq34_and_black_base_unchanged():
     s = LayeredBragg([_layer()], base_albedo=0.5)
-    f34 = single_reflection_brdf(s, WI, WO, LAM)
-    assert torch.equal(f34, single_reflection_brdf(s, WI, WO, LAM, base_interreflection=False))
+    f34 = single_reflection_brdf(LAM, WI, WO, s)
+    assert torch.equal(f34, single_reflection_brdf(LAM, WI, WO, s, base_interreflection=False))
     black = LayeredBragg([_layer(1.35)], base_albedo=0.0)
-    assert torch.equal(single_reflection_brdf(black, WI, WO, LAM),
-                       single_reflection_brdf(black, WI, WO, LAM, base_interreflection=True))
+    assert torch.equal(single_reflection_brdf(LAM, WI, WO, black),
+                       single_reflection_brdf(LAM, WI, WO, black, base_interreflection=True))
 
 
 def test_base_term_scaled_by_series():
@@ -56,20 +56,20 @@ def test_base_term_scaled_by_series():
     rho = 0.5
     s = LayeredBragg([_layer(1.35), _layer(1.35, 300.0, 0.1)], base_albedo=rho)
     black = LayeredBragg(s.layers, base_albedo=0.0)
-    rd = base_return_fraction(s, LAM)
-    f_layers = single_reflection_brdf(black, WI, WO, LAM)
-    base34 = single_reflection_brdf(s, WI, WO, LAM) - f_layers
-    base = single_reflection_brdf(s, WI, WO, LAM, base_interreflection=True) - f_layers
+    rd = base_return_fraction(LAM, s)
+    f_layers = single_reflection_brdf(LAM, WI, WO, black)
+    base34 = single_reflection_brdf(LAM, WI, WO, s) - f_layers
+    base = single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True) - f_layers
     torch.testing.assert_close(base, base34 / (1.0 - rho * rd), rtol=1e-12, atol=1e-15)
-    lut = single_reflection_brdf(s, WI, WO, LAM, lut=True, base_interreflection=True)
-    torch.testing.assert_close(lut, single_reflection_brdf(s, WI, WO, LAM, base_interreflection=True), rtol=2e-3, atol=1e-6)
+    lut = single_reflection_brdf(LAM, WI, WO, s, lut=True, base_interreflection=True)
+    torch.testing.assert_close(lut, single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True), rtol=2e-3, atol=1e-6)
 
 
 def test_return_fraction_quadrature_and_bounds():
     for s in (LayeredBragg([_layer()], 0.5), LayeredBragg([_layer(1.0, 494.0, 0.05)], 0.5),
               LayeredBragg([_layer(1.35)], 0.5), LayeredBragg([_layer()] * 2, 0.5)):
-        rd = base_return_fraction(s, LAM)
-        fine = base_return_fraction(s, LAM, mu_nodes=192, radius_nodes=96, azimuth_nodes=48)
+        rd = base_return_fraction(LAM, s)
+        fine = base_return_fraction(LAM, s, mu_nodes=192, radius_nodes=96, azimuth_nodes=48)
         assert float((rd - fine).abs().max()) < 1e-3
         assert bool(((rd > 0) & (rd < 1)).all())
 
@@ -81,9 +81,9 @@ def test_return_fraction_closed_forms():
     # balance of the interface: 2∫F_in μ dμ = 1 − (1 − 2∫F_out μ dμ)/n² (independent check)
     n = 1.35
     weak = RoughBraggLayer(1.0, 1.0 + 1e-6, 100.0, 100.0, 1, 0.1)
-    assert float(base_return_fraction(LayeredBragg([weak], 0.5), LAM).abs().max()) < 1e-9
+    assert float(base_return_fraction(LAM, LayeredBragg([weak], 0.5)).abs().max()) < 1e-9
     weak_c = RoughBraggLayer(n, n + 1e-6, 100.0, 100.0, 1, 0.1)
-    rd = base_return_fraction(LayeredBragg([weak_c], 0.5), LAM)
+    rd = base_return_fraction(LAM, LayeredBragg([weak_c], 0.5))
     from torchirid.optics.fresnel import fresnel_reflectance
 
     from torchirid.microfacet.ggx import smith_g1
@@ -99,8 +99,8 @@ def test_return_fraction_closed_forms():
 def test_bad_input():
     s = LayeredBragg([_layer()], 0.5)
     with pytest.raises(ValueError, match="base_interreflection"):
-        single_reflection_brdf(s, WI, WO, LAM, base_interreflection=1)
+        single_reflection_brdf(LAM, WI, WO, s, base_interreflection=1)
     with pytest.raises(ValueError, match="mu_nodes"):
-        base_return_fraction(s, LAM, mu_nodes=0)
+        base_return_fraction(LAM, s, mu_nodes=0)
     with pytest.raises(ValueError, match="wavelength"):
-        base_return_fraction(s, torch.ones(2, 2, dtype=F64))
+        base_return_fraction(torch.ones(2, 2, dtype=F64), s)

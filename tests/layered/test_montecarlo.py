@@ -66,13 +66,13 @@ def _coat_t(w, n1):
 
 def _eq34(structure, wi, wo, lam):
     """Single-reflection BRDF (eq. 34) with the base as the last 'layer' ρd/π."""
-    n1 = structure.n_host
+    n1 = structure.n_coating
     i, o = _refract(wi, n1), _refract(wo, n1)
     total, chain = 0.0, 1.0
     for layer in structure.layers:
         total = total + chain * _eq17(layer, i, o, lam)
-        tau_i = integrated_transmissivity(layer, i[..., 2:], lam, nodes=512)
-        chain = chain * tau_i * integrated_transmissivity(layer, o[..., 2:], lam, nodes=512)
+        tau_i = integrated_transmissivity(lam, i[..., 2:], layer, nodes=512)
+        chain = chain * tau_i * integrated_transmissivity(lam, o[..., 2:], layer, nodes=512)
     total = total + chain * structure.base_albedo / math.pi
     return (_coat_t(wi, n1) * _coat_t(wo, n1) / n1**2).unsqueeze(-1) * total
 
@@ -96,7 +96,7 @@ def test_single_layer_over_black_base_is_eq17_exactly():
     ref = _eq17(A, WI, WO, LAM)
     for mode in ("filter", "microfacet"):
         for single in (False, True):
-            f, err = montecarlo_brdf(LayeredBragg([A]), WI, WO, LAM, samples=64, transmission=mode,
+            f, err = montecarlo_brdf(LAM, WI, WO, LayeredBragg([A]), samples=64, transmission=mode,
                                      single_reflection=single)
             torch.testing.assert_close(f, ref, rtol=1e-12, atol=0)
             assert err.max().item() <= 1e-12 * ref.max().item()
@@ -110,10 +110,10 @@ def test_transparent_layers_over_a_base():
     g = _g1(WI[:, 2], 0.3) * _g1(WO[:, 2], 0.3) * _g1(WI[:, 2], 0.1) * _g1(WO[:, 2], 0.1)
     ref = (0.7 / math.pi * g).unsqueeze(-1).expand(2, 3)
     # microfacet mode: T = 1 for every m, so every path carries exactly G1 per crossing
-    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=256, transmission="microfacet")
+    f, err = montecarlo_brdf(LAM, WI, WO, s, samples=256, transmission="microfacet")
     torch.testing.assert_close(f, ref, rtol=1e-10, atol=0)
     # filter mode: Bernoulli transmission with eq. 31/32
-    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=4000, transmission="filter")
+    f, err = montecarlo_brdf(LAM, WI, WO, s, samples=4000, transmission="filter")
     assert (err > 0).all()
     assert ((f - ref) / err).abs().max() < Z
 
@@ -139,7 +139,7 @@ def test_coating_inter_reflections_closed_form(mode):
     s = LayeredBragg([RoughBraggLayer(n1, n1, 100.0, 100.0, 3, alpha)], base_albedo=rho)
     ref, K = _coated_clear_reference(n1, alpha, rho, WI, WO)
     ref = ref.unsqueeze(-1).expand(2, 3)
-    f, err = montecarlo_brdf(s, WI, WO, LAM, samples=10000, transmission=mode)
+    f, err = montecarlo_brdf(LAM, WI, WO, s, samples=10000, transmission=mode)
     assert ((f - ref) / err).abs().max() < Z
     # the inter-reflections matter: the single-bounce term alone is off by many σ
     assert ((f - ref * (1 - rho * K)) / err).abs().max() > 8
@@ -148,15 +148,15 @@ def test_coating_inter_reflections_closed_form(mode):
 @pytest.mark.parametrize("mode", ["filter", "microfacet"])
 def test_single_reflection_estimator_converges_to_eq34(mode):
     ref = _eq34(COATED, WI, WO, LAM)
-    f, err = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, single_reflection=True, transmission=mode)
+    f, err = montecarlo_brdf(LAM, WI, WO, COATED, samples=20000, single_reflection=True, transmission=mode)
     assert (err > 0).all()
     assert ((f - ref) / err).abs().max() < Z
 
 
 def test_single_reflection_estimator_matches_single_reflection_brdf():
     # the library's eq. 34 (τ tables, exact R) against the quadrature-free SR estimator
-    ref = single_reflection_brdf(COATED, WI, WO, LAM)
-    f, err = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, single_reflection=True,
+    ref = single_reflection_brdf(LAM, WI, WO, COATED)
+    f, err = montecarlo_brdf(LAM, WI, WO, COATED, samples=20000, single_reflection=True,
                              transmission="microfacet", seed=11)
     assert ((f - ref) / err).abs().max() < Z
 
@@ -169,7 +169,7 @@ def test_hard_directions_and_a_host_below_one():
     low = LayeredBragg([RoughBraggLayer(0.8, 1.6, 120.0, 90.0, 6, 0.15)], base_albedo=0.5)
     for structure in (COATED, low):
         for mode in ("filter", "microfacet"):
-            f, err = montecarlo_brdf(structure, wi, wo, LAM, samples=200, transmission=mode)
+            f, err = montecarlo_brdf(LAM, wi, wo, structure, samples=200, transmission=mode)
             assert torch.isfinite(f).all() and torch.isfinite(err).all() and (f >= 0).all()
             if structure is COATED:
                 assert (f > 0).all()
@@ -180,8 +180,8 @@ def test_hard_directions_and_a_host_below_one():
 def test_two_transmission_modes_agree():
     # τ = G1 · E_{m~VNDF}[T(d·m)]: sampling p_trans with τ (eq. 31–33) and sampling m first
     # must have the same expectation, also for all the multiple-scattering paths
-    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, transmission="filter")
-    b = montecarlo_brdf(COATED, WI, WO, LAM, samples=20000, transmission="microfacet", seed=1)
+    a = montecarlo_brdf(LAM, WI, WO, COATED, samples=20000, transmission="filter")
+    b = montecarlo_brdf(LAM, WI, WO, COATED, samples=20000, transmission="microfacet", seed=1)
     assert _z(a, b) < Z
 
 
@@ -193,16 +193,16 @@ def test_fringe_rich_layer_modes_agree():
     s = LayeredBragg([hard, B], base_albedo=0.5)
     lam = torch.tensor([400.0, 430.0, 520.0], dtype=F64)
     wi, wo = _dir(56.5, 0.0), _dir(56.5, 120.0)  # where 256 Gauss nodes err by 1.4 % in τ(400 nm)
-    a = montecarlo_brdf(s, wi, wo, lam, samples=80000, single_reflection=True, transmission="filter")
-    b = montecarlo_brdf(s, wi, wo, lam, samples=80000, single_reflection=True, transmission="microfacet", seed=1)
+    a = montecarlo_brdf(lam, wi, wo, s, samples=80000, single_reflection=True, transmission="filter")
+    b = montecarlo_brdf(lam, wi, wo, s, samples=80000, single_reflection=True, transmission="microfacet", seed=1)
     assert (a[1] / a[0]).max() < 0.004
     assert _z(a, b) < Z
 
 
 def test_full_transport_adds_multiple_reflections():
     s = LayeredBragg([A, B])  # two layers in air, black base: inter-reflections between layers
-    sr = montecarlo_brdf(s, WI, WO, LAM, samples=2000, single_reflection=True)
-    full = montecarlo_brdf(s, WI, WO, LAM, samples=2000, seed=1)
+    sr = montecarlo_brdf(LAM, WI, WO, s, samples=2000, single_reflection=True)
+    full = montecarlo_brdf(LAM, WI, WO, s, samples=2000, seed=1)
     diff = full[0] - sr[0]
     sigma = torch.sqrt(full[1] ** 2 + sr[1] ** 2)
     assert (diff > -Z * sigma).all()
@@ -210,8 +210,8 @@ def test_full_transport_adds_multiple_reflections():
 
 
 def test_reciprocity():
-    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=10000, transmission="microfacet")
-    b = montecarlo_brdf(COATED, WO, WI, LAM, samples=10000, transmission="microfacet", seed=7)
+    a = montecarlo_brdf(LAM, WI, WO, COATED, samples=10000, transmission="microfacet")
+    b = montecarlo_brdf(LAM, WO, WI, COATED, samples=10000, transmission="microfacet", seed=7)
     assert _z(a, b) < Z
 
 
@@ -224,7 +224,7 @@ def test_albedo_at_most_one():
     r, phi = torch.sqrt(u[:, 0]), 2 * math.pi * u[:, 1]  # cosine-weighted wo: albedo = E[π f]
     wo = torch.stack([r * torch.cos(phi), r * torch.sin(phi), torch.sqrt(1 - u[:, 0])], -1)
     wi = _dir(30.0, 0.0)
-    f, _ = montecarlo_brdf(s, wi, wo, LAM, samples=16, transmission="microfacet")
+    f, _ = montecarlo_brdf(LAM, wi, wo, s, samples=16, transmission="microfacet")
     albedo = math.pi * f.mean(0)
     spread = math.pi * f.std(0) / math.sqrt(f.shape[0])
     total = albedo + fresnel_reflectance(wi[2], 1.0, 1.33)
@@ -233,17 +233,17 @@ def test_albedo_at_most_one():
 
 
 def test_reproducible_with_a_seed():
-    a = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=5)
-    b = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=5)
-    c = montecarlo_brdf(COATED, WI, WO, LAM, samples=64, seed=6)
+    a = montecarlo_brdf(LAM, WI, WO, COATED, samples=64, seed=5)
+    b = montecarlo_brdf(LAM, WI, WO, COATED, samples=64, seed=5)
+    c = montecarlo_brdf(LAM, WI, WO, COATED, samples=64, seed=6)
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1])
     assert not torch.equal(a[0], c[0])
 
 
 def test_stderr_shrinks_as_inverse_sqrt_samples():
     s = LayeredBragg([A, B], base_albedo=0.5)
-    _, e1 = montecarlo_brdf(s, WI, WO, LAM, samples=500, transmission="microfacet")
-    _, e4 = montecarlo_brdf(s, WI, WO, LAM, samples=2000, transmission="microfacet", seed=1)
+    _, e1 = montecarlo_brdf(LAM, WI, WO, s, samples=500, transmission="microfacet")
+    _, e4 = montecarlo_brdf(LAM, WI, WO, s, samples=2000, transmission="microfacet", seed=1)
     ratio = (e4 / e1).median().item()
     assert 0.38 < ratio < 0.66  # 1/2; excludes 1/√2 (∝ samples^-1/4) and 1/4 (∝ 1/samples)
 
@@ -251,14 +251,14 @@ def test_stderr_shrinks_as_inverse_sqrt_samples():
 def test_shapes_broadcast_and_float32():
     wi = WI[:, None, :]  # (2, 1, 3)
     wo = torch.stack([WO[0], WO[1], _dir(0.0, 0.0)])[None]  # (1, 3, 3)
-    f, err = montecarlo_brdf(COATED, wi, wo, LAM, samples=8)
+    f, err = montecarlo_brdf(LAM, wi, wo, COATED, samples=8)
     assert f.shape == err.shape == (2, 3, 3) and f.dtype == F64
-    f32, err32 = montecarlo_brdf(COATED, WI.float(), WO.float(), LAM.float(), samples=4000, seed=3)
+    f32, err32 = montecarlo_brdf(LAM.float(), WI.float(), WO.float(), COATED, samples=4000, seed=3)
     assert f32.dtype == torch.float32 and torch.isfinite(f32).all() and torch.isfinite(err32).all()
-    f64 = montecarlo_brdf(COATED, WI, WO, LAM, samples=4000)
+    f64 = montecarlo_brdf(LAM, WI, WO, COATED, samples=4000)
     assert _z(f64, (f32.double(), err32.double())) < Z
     # a single layer is accepted as a structure; a (3,) direction gives (W,)
-    f1, _ = montecarlo_brdf(A, WI[0], WO[0], LAM, samples=4, progress=True)
+    f1, _ = montecarlo_brdf(LAM, WI[0], WO[0], A, samples=4, progress=True)
     assert f1.shape == (3,)
 
 
@@ -284,7 +284,7 @@ def test_bad_input(kwargs, match):
     args = dict(structure=COATED, wi=WI, wo=WO, wavelength=LAM)
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
-        montecarlo_brdf(args.pop("structure"), args.pop("wi"), args.pop("wo"), args.pop("wavelength"), **args)
+        montecarlo_brdf(args.pop("wavelength"), args.pop("wi"), args.pop("wo"), args.pop("structure"), **args)
 
 
 def test_full_is_single_plus_multiple():
@@ -293,16 +293,16 @@ def test_full_is_single_plus_multiple():
     wi = torch.tensor([[0.3, 0.0, math.sqrt(1 - 0.09)]], dtype=torch.float64)
     wo = torch.tensor([[-0.5, 0.1, math.sqrt(1 - 0.26)]], dtype=torch.float64)
     lam = torch.tensor([450.0, 550.0, 650.0], dtype=torch.float64)
-    full, _ = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5)
-    single, _ = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5, single_reflection=True)
-    multi, se = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5, multiple_reflection=True)
+    full, _ = montecarlo_brdf(lam, wi, wo, s, samples=4096, seed=5)
+    single, _ = montecarlo_brdf(lam, wi, wo, s, samples=4096, seed=5, single_reflection=True)
+    multi, se = montecarlo_brdf(lam, wi, wo, s, samples=4096, seed=5, multiple_reflection=True)
     assert bool((multi > 0).all())
     from torchirid.layered.single_reflection import single_reflection_brdf
 
-    exact_single = single_reflection_brdf(s, wi, wo, lam)
+    exact_single = single_reflection_brdf(lam, wi, wo, s)
     # full ≈ exact single + multiple, within the two estimates' noise
-    _, se_full = montecarlo_brdf(s, wi, wo, lam, samples=4096, seed=5)
+    _, se_full = montecarlo_brdf(lam, wi, wo, s, samples=4096, seed=5)
     z = (full - exact_single - multi).abs() / (se_full + se)
     assert bool((z < 4.5).all()), z
     with pytest.raises(ValueError, match="exclude"):
-        montecarlo_brdf(s, wi, wo, lam, samples=4, single_reflection=True, multiple_reflection=True)
+        montecarlo_brdf(lam, wi, wo, s, samples=4, single_reflection=True, multiple_reflection=True)

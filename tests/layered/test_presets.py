@@ -18,7 +18,7 @@ def test_presets_match_table_3(name):
     n1, n2, period, delta, cells = TABLE_3[name]
     s = jewel_beetle(name)
     (layer,) = s.layers
-    assert (layer.n1, layer.n2, layer.cells, layer.alpha, layer.n_host, s.base_albedo) == (n1, n2, cells, 0.05, 1.0, 0.0)
+    assert (layer.n1, layer.n2, layer.cells, layer.alpha, layer.n_incident, s.base_albedo) == (n1, n2, cells, 0.05, 1.0, 0.0)
     assert layer.d2 == pytest.approx(delta * period, abs=1e-12)  # δ: fraction of Λ in the n2 layer
     assert layer.d1 == pytest.approx((1 - delta) * period, abs=1e-12)
     assert not s.coated
@@ -35,15 +35,15 @@ def test_normal_incidence_hue_order():
     # peaks at 2 n̄ Λ: green ≈ 522 nm, red ≈ 623 nm, purple ≈ 672 nm
     lam = torch.linspace(400.0, 750.0, 71, dtype=torch.float64)
     n = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
-    peaks = [float(lam[single_reflection_brdf(jewel_beetle(k), n, n, lam, transmissivity_angles=2)[0].argmax()]) for k in JEWEL_BEETLE_NAMES]
+    peaks = [float(lam[single_reflection_brdf(lam, n, n, jewel_beetle(k), transmissivity_angles=2)[0].argmax()]) for k in JEWEL_BEETLE_NAMES]
     assert 500 < peaks[0] < 545 and 600 < peaks[1] < 645 and 650 < peaks[2] < 700
 
 
 def test_layer_accepts_scalar_tensors():
     t = lambda v: torch.tensor(v, dtype=torch.float64, requires_grad=True)  # noqa: E731
-    layer = RoughBraggLayer(t(1.6), t(1.68), t(93.0), t(97.0), 8, t(0.05), n_host=1.0)
-    assert layer.numbers() == {"n1": 1.6, "n2": 1.68, "d1": 93.0, "d2": 97.0, "cells": 8, "alpha": 0.05, "n_host": 1.0}
-    LayeredBragg([layer, RoughBraggLayer(t(1.6), 1.5, 10.0, 10.0, 2, 0.1, n_host=1.0)])  # hosts compared by value
+    layer = RoughBraggLayer(t(1.6), t(1.68), t(93.0), t(97.0), 8, t(0.05), n_incident=1.0)
+    assert layer.numbers() == {"n1": 1.6, "n2": 1.68, "d1": 93.0, "d2": 97.0, "cells": 8, "alpha": 0.05, "n_incident": 1.0}
+    LayeredBragg([layer, RoughBraggLayer(t(1.6), 1.5, 10.0, 10.0, 2, 0.1, n_incident=1.0)])  # hosts compared by value
     RoughBraggLayer(1.0, torch.tensor(1.5 + 0.01j, dtype=torch.complex128), 10.0, 10.0, 2, 0.1)
     for kw in (dict(n1=torch.tensor([1.6])), dict(d1=torch.tensor(-1.0)), dict(alpha=torch.tensor(1)),
                dict(n2=torch.tensor(1.5 - 0.1j)), dict(n2=torch.tensor([1.5]))):

@@ -56,7 +56,7 @@ def _eq17(layer, wi, wo, lam):
 
 def test_single_layer_is_the_microfacet_brdf():
     wi, wo = _pairs()
-    f = single_reflection_brdf(LayeredBragg([B]), wi, wo, LAM)
+    f = single_reflection_brdf(LAM, wi, wo, LayeredBragg([B]))
     assert f.shape == (5, 5, 3)
     ref = _eq17(B, wi, wo, LAM)
     torch.testing.assert_close(f, ref, rtol=1e-10, atol=0)
@@ -66,7 +66,7 @@ def test_transparent_layer_filters_by_g1():
     # a layer of n2 = n1 reflects nothing and transmits τ = ∫ F_α dθd = G1 (appendix C)
     clear = RoughBraggLayer(1.0, 1.0, 100.0, 100.0, 3, 0.3)
     wi, wo = _pairs()
-    f = single_reflection_brdf(LayeredBragg([clear, A]), wi, wo, LAM)
+    f = single_reflection_brdf(LAM, wi, wo, LayeredBragg([clear, A]))
     g1 = _paper_g1(wi[..., 2], 0.3) * _paper_g1(wo[..., 2], 0.3)
     ref = g1.unsqueeze(-1) * _eq17(A, wi, wo, LAM)
     torch.testing.assert_close(f, ref, rtol=2e-4, atol=1e-12)
@@ -75,7 +75,7 @@ def test_transparent_layer_filters_by_g1():
 def test_lambertian_base_under_a_transparent_layer():
     clear = RoughBraggLayer(1.0, 1.0, 100.0, 100.0, 3, 0.2)
     wi, wo = _pairs()
-    f = single_reflection_brdf(LayeredBragg([clear], base_albedo=0.5), wi, wo, LAM)
+    f = single_reflection_brdf(LAM, wi, wo, LayeredBragg([clear], base_albedo=0.5))
     ref = 0.5 / math.pi * _paper_g1(wi[..., 2], 0.2) * _paper_g1(wo[..., 2], 0.2)
     torch.testing.assert_close(f, ref.unsqueeze(-1).expand_as(f), rtol=2e-4, atol=1e-12)
 
@@ -84,11 +84,11 @@ def test_coating_factor_and_reciprocity():
     coated = RoughBraggLayer(1.35, 1.5, 250.0, 250.0, 10, 0.1)
     s = LayeredBragg([coated, coated], base_albedo=0.5)
     wi, wo = _pairs()
-    f = single_reflection_brdf(s, wi, wo, LAM)
-    g = single_reflection_brdf(s, wo, wi, LAM)
+    f = single_reflection_brdf(LAM, wi, wo, s)
+    g = single_reflection_brdf(LAM, wo, wi, s)
     torch.testing.assert_close(f, g, rtol=1e-9, atol=1e-14)
     # one coated layer: T_c(i) T_c(o) f_17(i', o') / n1²
-    one = single_reflection_brdf(LayeredBragg([coated]), wi, wo, LAM)
+    one = single_reflection_brdf(LAM, wi, wo, LayeredBragg([coated]))
     n = 1.35
 
     def refr(w):
@@ -103,14 +103,14 @@ def test_coating_factor_and_reciprocity():
 def test_lut_variant_close_to_exact():
     wi, wo = _pairs()
     s = LayeredBragg([A, B], base_albedo=0.5)
-    exact = single_reflection_brdf(s, wi, wo, LAM)
-    approx = single_reflection_brdf(s, wi, wo, LAM, lut=True)
+    exact = single_reflection_brdf(LAM, wi, wo, s)
+    approx = single_reflection_brdf(LAM, wi, wo, s, lut=True)
     err = ((approx - exact).abs() / exact.abs().clamp_min(1e-3)).max()
     assert err < 2e-3
 
 
 def test_reflectance_lut_nodes_exact():
-    lut = reflectance_lut(A, LAM, angles=91)
+    lut = reflectance_lut(LAM, A, angles=91)
     theta = lut.axes["theta"]
     ref = bragg_reflectance(LAM, torch.cos(theta).unsqueeze(-1), 1.0, 1.5, 250.0, 250.0, 10)
     torch.testing.assert_close(lut.values, ref, rtol=0, atol=1e-15)
@@ -118,7 +118,7 @@ def test_reflectance_lut_nodes_exact():
 
 def test_layer_probabilities_sum_to_one():
     c = torch.linspace(0.05, 1.0, 7, dtype=F64)
-    p = layer_reflection_probabilities(LayeredBragg([A, B], base_albedo=0.5), c, LAM)
+    p = layer_reflection_probabilities(LAM, c, LayeredBragg([A, B], base_albedo=0.5))
     assert p.shape == (7, 3)
     assert bool((p >= 0).all())
     torch.testing.assert_close(p.sum(-1), torch.ones(7, dtype=F64))
@@ -133,9 +133,9 @@ def test_sampling_is_unbiased(coat):
     wi = _dir(35.0, 0.0).to(F64)
     g = torch.Generator().manual_seed(3)
     u = torch.rand(20000, 3, generator=g, dtype=F64)
-    wo, pdf = sample_single_reflection(s, wi.expand(20000, 3), LAM, u)
+    wo, pdf = sample_single_reflection(LAM, wi.expand(20000, 3), s, u)
     ok = pdf > 0
-    f = single_reflection_brdf(s, wi.expand(int(ok.sum()), 3), wo[ok], LAM)
+    f = single_reflection_brdf(LAM, wi.expand(int(ok.sum()), 3), wo[ok], s)
     est = f * (wo[ok][:, 2] / pdf[ok]).unsqueeze(-1)
     mean = est.sum(0) / 20000
     se = torch.cat([est, torch.zeros(20000 - est.shape[0], 3, dtype=F64)]).std(0) / math.sqrt(20000)
@@ -145,12 +145,12 @@ def test_sampling_is_unbiased(coat):
     phi = torch.arange(nphi, dtype=F64) * 2 * math.pi / nphi
     T, P = torch.meshgrid(xt, phi, indexing="ij")
     wq = torch.stack([torch.sin(T) * torch.cos(P), torch.sin(T) * torch.sin(P), torch.cos(T)], -1)
-    fq = single_reflection_brdf(s, wi.expand_as(wq), wq, LAM)
+    fq = single_reflection_brdf(LAM, wi.expand_as(wq), wq, s)
     w = (wt[:, None] * (2 * math.pi / nphi) * torch.sin(T) * torch.cos(T)).unsqueeze(-1)
     albedo = (fq * w).sum((0, 1))
     assert bool(((mean - albedo).abs() < 4 * se + 2e-3 * albedo).all()), (mean, albedo, se)
     # the density integrates to at most one (trapped / absorbed samples are lost)
-    pq = single_reflection_pdf(s, wi.expand_as(wq), wq, LAM)
+    pq = single_reflection_pdf(LAM, wi.expand_as(wq), wq, s)
     total = (pq * w[..., 0] / torch.cos(T).clamp_min(1e-300)).sum()
     assert 0.5 < float(total) <= 1.0 + 1e-3
 
@@ -168,11 +168,11 @@ def test_gradients_finite_at_normal_incidence_and_grazing():
     s = LayeredBragg([A, B], base_albedo=0.5)
     n = torch.tensor([0.0, 0.0, 1.0], dtype=F64)
     wi = n.clone().requires_grad_(True)
-    f = single_reflection_brdf(s, wi, n, LAM).sum()
+    f = single_reflection_brdf(LAM, wi, n, s).sum()
     f.backward()
     assert torch.isfinite(wi.grad).all()
     graze = torch.tensor([1.0, 0.0, 0.0], dtype=F64, requires_grad=True)
-    f = single_reflection_brdf(s, graze, n, LAM)
+    f = single_reflection_brdf(LAM, graze, n, s)
     assert torch.isfinite(f).all() and bool((f == 0).all())
     f.sum().backward()
     assert torch.isfinite(graze.grad).all()
@@ -181,13 +181,13 @@ def test_gradients_finite_at_normal_incidence_and_grazing():
 def test_validation():
     w = torch.tensor([0.0, 0.0, 1.0], dtype=F64)
     with pytest.raises(ValueError, match="wi"):
-        single_reflection_brdf(LayeredBragg([A]), torch.tensor([0.0, 0.0, -1.0], dtype=F64), w, LAM)
+        single_reflection_brdf(LAM, torch.tensor([0.0, 0.0, -1.0], dtype=F64), w, LayeredBragg([A]))
     with pytest.raises(ValueError, match="wo"):
-        single_reflection_brdf(LayeredBragg([A]), w, torch.ones(2, dtype=F64), LAM)
+        single_reflection_brdf(LAM, w, torch.ones(2, dtype=F64), LayeredBragg([A]))
     with pytest.raises(ValueError, match="wavelength"):
-        single_reflection_brdf(LayeredBragg([A]), w, w, torch.tensor([-1.0], dtype=F64))
+        single_reflection_brdf(torch.tensor([-1.0], dtype=F64), w, w, LayeredBragg([A]))
     with pytest.raises(ValueError, match="structure"):
-        single_reflection_brdf("A", w, w, LAM)
+        single_reflection_brdf(LAM, w, w, "A")
     with pytest.raises(ValueError, match="n1"):
         LayeredBragg([A, RoughBraggLayer(1.35, 1.5, 250.0, 250.0, 10, 0.1)])
     with pytest.raises(ValueError, match="alpha"):
@@ -197,17 +197,17 @@ def test_validation():
 
 
 def test_layer_with_another_host_uses_appendix_d():
-    # mirrors (n2 | n1) × N standing in air (n_host = 1 ≠ n1): the layer's R is appendix D's
-    layer = RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_host=1.0)
+    # mirrors (n2 | n1) × N standing in air (n_incident = 1 ≠ n1): the layer's R is appendix D's
+    layer = RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_incident=1.0)
     s = LayeredBragg([layer])
-    assert not s.coated and s.n_host == 1.0
+    assert not s.coated and s.n_coating == 1.0
     wi, wo = _pairs()
     h = wi + wo
     h = h / h.norm(dim=-1, keepdim=True)
-    R = bragg_reflectance(LAM, (wi * h).sum(-1, keepdim=True), 1.56, 1.68, 120.0, 110.0, 12, n_host=1.0)
+    R = bragg_reflectance(LAM, (wi * h).sum(-1, keepdim=True), 1.56, 1.68, 120.0, 110.0, 12, n_incident=1.0)
     D = _paper_d(h[..., 2], 0.05)
     G = _paper_g1(wi[..., 2], 0.05) * _paper_g1(wo[..., 2], 0.05)
     ref = (D * G / (4 * wi[..., 2] * wo[..., 2])).unsqueeze(-1) * R
-    torch.testing.assert_close(single_reflection_brdf(s, wi, wo, LAM), ref, rtol=1e-10, atol=0)
-    with pytest.raises(ValueError, match="n_host"):
-        RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_host=-1.0)
+    torch.testing.assert_close(single_reflection_brdf(LAM, wi, wo, s), ref, rtol=1e-10, atol=0)
+    with pytest.raises(ValueError, match="n_incident"):
+        RoughBraggLayer(1.56, 1.68, 120.0, 110.0, 12, 0.05, n_incident=-1.0)

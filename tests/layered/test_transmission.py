@@ -68,11 +68,11 @@ def test_tau_matches_brute_force_hemisphere_integral(theta_deg):
     ref, err = tau_hemisphere(layer, theta, lam)
     assert err.max() < 1e-9
     c = t64([math.cos(theta)])
-    tau = integrated_transmissivity(layer, c.unsqueeze(-1), t64(lam), nodes=512)[0].numpy()
+    tau = integrated_transmissivity(t64(lam), c.unsqueeze(-1), layer, nodes=512)[0].numpy()
     np.testing.assert_allclose(tau, ref, rtol=0, atol=1e-7)
-    tau_default = integrated_transmissivity(layer, c.unsqueeze(-1), t64(lam))[0].numpy()
+    tau_default = integrated_transmissivity(t64(lam), c.unsqueeze(-1), layer)[0].numpy()
     np.testing.assert_allclose(tau_default, ref, rtol=0, atol=1e-4)
-    lut = transmissivity_lut(layer, t64(lam))
+    lut = transmissivity_lut(t64(lam), layer)
     np.testing.assert_allclose(lut(c)[0].numpy(), ref, rtol=0, atol=2e-4)
 
 
@@ -89,29 +89,29 @@ def test_tau_is_g1_when_transparent_and_below_g1_otherwise():
     lam = t64([400.0, 550.0, 700.0])
     for alpha in (0.02, 0.3, 1.0):
         g1 = smith_g1(c, alpha)
-        tau = integrated_transmissivity(_Clear(1.0, 1.5, 100.0, 80.0, 10, alpha), c.unsqueeze(-1), lam, nodes=32)
+        tau = integrated_transmissivity(lam, c.unsqueeze(-1), _Clear(1.0, 1.5, 100.0, 80.0, 10, alpha), nodes=32)
         torch.testing.assert_close(tau, g1.unsqueeze(-1).expand_as(tau), rtol=1e-13, atol=1e-15)
-        lut = transmissivity_lut(_Clear(1.0, 1.5, 100.0, 80.0, 10, alpha), lam, theta_d_cells=256)
+        lut = transmissivity_lut(lam, _Clear(1.0, 1.5, 100.0, 80.0, 10, alpha), theta_d_cells=256)
         torch.testing.assert_close(lut.values, smith_g1(lut.axes["cos_theta"], alpha).unsqueeze(-1).expand_as(lut.values),
                                    rtol=1e-12, atol=1e-15)
         layer = RoughBraggLayer(1.0, 1.6, 90.0, 70.0, 30, alpha)
-        tau = integrated_transmissivity(layer, c.unsqueeze(-1), lam, nodes=64)
+        tau = integrated_transmissivity(lam, c.unsqueeze(-1), layer, nodes=64)
         assert bool((tau >= 0).all()) and bool((tau <= g1.unsqueeze(-1) * (1 + 1e-14)).all())
 
 
 def test_lut_layout_values_and_round_trip(tmp_path):
     layer = RoughBraggLayer(1.0, 1.5, 110.0, 75.0, 10, 0.1)
     lam = torch.linspace(420.0, 680.0, 5, dtype=F64)
-    lut = transmissivity_lut(layer, lam)
+    lut = transmissivity_lut(lam, layer)
     c = lut.axes["cos_theta"]
     assert lut.axis_names == ("cos_theta",) and lut.channel_shape == (5,)
     assert float(c[0]) == 0.0 and float(c[-1]) == 1.0 and c.numel() >= 361
     # at its nodes the table is the integral (product integration vs 2048-node quadrature)
-    ref = integrated_transmissivity(layer, c[::7].unsqueeze(-1), lam, nodes=2048)
+    ref = integrated_transmissivity(lam, c[::7].unsqueeze(-1), layer, nodes=2048)
     torch.testing.assert_close(lut.values[::7], ref, rtol=0, atol=5e-6)
     # between nodes: linear interpolation over the incidence angle (0.25° steps)
     cm = 0.5 * (c[1:] + c[:-1])[::5]
-    ref = integrated_transmissivity(layer, cm.unsqueeze(-1), lam, nodes=2048)
+    ref = integrated_transmissivity(lam, cm.unsqueeze(-1), layer, nodes=2048)
     assert float((lut(cm) - ref).abs().max()) < 2e-3
     path = lut.save(tmp_path / "tau.npz")
     back = LUT.load(path, builder="torchirid.layered.transmission.transmissivity_lut",
@@ -122,7 +122,7 @@ def test_lut_layout_values_and_round_trip(tmp_path):
 
 def test_lut_is_differentiable_and_float32():
     layer = RoughBraggLayer(1.0, 1.5, 110.0, 75.0, 10, 0.1)
-    lut = transmissivity_lut(layer, torch.tensor([450.0, 550.0]))
+    lut = transmissivity_lut(torch.tensor([450.0, 550.0]), layer)
     assert lut.dtype == torch.float32
     c = torch.tensor([0.0, 0.5, 1.0], requires_grad=True)
     out = lut(c)
@@ -172,7 +172,7 @@ def test_probability_from_real_tau_in_unit_interval():
     layer = RoughBraggLayer(1.0, 1.7, 95.0, 70.0, 20, 0.15)
     c = torch.linspace(0, 1, 21, dtype=F64)
     lam = torch.linspace(400, 700, 6, dtype=F64)
-    tau = integrated_transmissivity(layer, c.unsqueeze(-1), lam, nodes=64)
+    tau = integrated_transmissivity(lam, c.unsqueeze(-1), layer, nodes=64)
     for multiplexed in (True, False):
         p = transmission_probability(tau, c, layer.alpha, multiplexed=multiplexed)
         assert bool(((p >= 0) & (p <= 1)).all())
@@ -182,13 +182,13 @@ def test_gradients():
     layer = RoughBraggLayer(1.0, 1.5, 110.0, 75.0, 6, 0.25)
     lam = t64([500.0, 640.0])
     c = t64([[0.35], [0.8]]).requires_grad_()
-    assert torch.autograd.gradcheck(lambda x: integrated_transmissivity(layer, x, lam, nodes=24), (c,))
+    assert torch.autograd.gradcheck(lambda x: integrated_transmissivity(lam, x, layer, nodes=24), (c,))
     # finite at grazing and at normal incidence; at cos θ = 1 it is the limit of the slope
     c = t64([[0.0], [1.0]]).requires_grad_()
-    (g,) = torch.autograd.grad(integrated_transmissivity(layer, c, lam, nodes=256).sum(), c)
+    (g,) = torch.autograd.grad(integrated_transmissivity(lam, c, layer, nodes=256).sum(), c)
     assert bool(torch.isfinite(g).all())
     h = 1e-3
-    ends = integrated_transmissivity(layer, t64([[1.0], [1.0 - h]]), lam, nodes=256).sum(-1)
+    ends = integrated_transmissivity(lam, t64([[1.0], [1.0 - h]]), layer, nodes=256).sum(-1)
     slope = float((ends[0] - ends[1]) / h)
     assert abs(float(g[1]) - slope) < 2e-2 * abs(slope)
     tau = t64([[0.2, 0.4]]).requires_grad_()
@@ -198,12 +198,12 @@ def test_gradients():
 
 def test_broadcasting_and_float32():
     layer = RoughBraggLayer(1.0, 1.5, 110.0, 75.0, 10, 0.1)
-    tau = integrated_transmissivity(layer, torch.rand(2, 3, 1, dtype=F64), t64([450.0, 500.0, 550.0, 600.0]), nodes=16)
+    tau = integrated_transmissivity(t64([450.0, 500.0, 550.0, 600.0]), torch.rand(2, 3, 1, dtype=F64), layer, nodes=16)
     assert tau.shape == (2, 3, 4)
     c = torch.linspace(0, 1, 9)
     lam = torch.tensor([450.0, 650.0])
-    t32 = integrated_transmissivity(layer, c.unsqueeze(-1), lam, nodes=64)
-    t64_ = integrated_transmissivity(layer, c.double().unsqueeze(-1), lam.double(), nodes=64)
+    t32 = integrated_transmissivity(lam, c.unsqueeze(-1), layer, nodes=64)
+    t64_ = integrated_transmissivity(lam.double(), c.double().unsqueeze(-1), layer, nodes=64)
     assert t32.dtype == torch.float32 and bool(torch.isfinite(t32).all())
     assert float((t32.double() - t64_).abs().max()) < 1e-5
 
@@ -212,14 +212,14 @@ def test_validation_names_the_parameter():
     layer = RoughBraggLayer(1.0, 1.5, 110.0, 75.0, 10, 0.1)
     lam = t64([500.0])
     cases = [
-        (lambda: integrated_transmissivity("layer", 0.5, lam), "layer"),
-        (lambda: integrated_transmissivity(layer, 1.5, lam), "cos_theta"),
-        (lambda: integrated_transmissivity(layer, 0.5, t64([-1.0])), "wavelength"),
-        (lambda: integrated_transmissivity(layer, 0.5, lam, nodes=1), "nodes"),
-        (lambda: integrated_transmissivity(layer, t64([0.1, 0.2]), t64([1.0, 2.0, 3.0])), "broadcast"),
-        (lambda: transmissivity_lut(layer, t64([[500.0]])), "wavelength"),
-        (lambda: transmissivity_lut(layer, lam, angles=1), "angles"),
-        (lambda: transmissivity_lut(layer, lam, theta_d_cells=0), "theta_d_cells"),
+        (lambda: integrated_transmissivity(lam, 0.5, "layer"), "layer"),
+        (lambda: integrated_transmissivity(lam, 1.5, layer), "cos_theta"),
+        (lambda: integrated_transmissivity(t64([-1.0]), 0.5, layer), "wavelength"),
+        (lambda: integrated_transmissivity(lam, 0.5, layer, nodes=1), "nodes"),
+        (lambda: integrated_transmissivity(t64([1.0, 2.0, 3.0]), t64([0.1, 0.2]), layer), "broadcast"),
+        (lambda: transmissivity_lut(t64([[500.0]]), layer), "wavelength"),
+        (lambda: transmissivity_lut(lam, layer, angles=1), "angles"),
+        (lambda: transmissivity_lut(lam, layer, theta_d_cells=0), "theta_d_cells"),
         (lambda: absorption(-0.1, 0.1), "cos_theta"),
         (lambda: absorption(0.5, 0.0), "alpha"),
         (lambda: transmission_probability(t64(0.3), t64(0.5), 0.1), "tau"),

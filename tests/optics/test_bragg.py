@@ -45,19 +45,19 @@ def _ours(P, pol, dtype=F64):
         torch.as_tensor(P["lam"], dtype=dtype), torch.as_tensor(P["c"], dtype=dtype),
         torch.as_tensor(P["n1"], dtype=dtype), torch.as_tensor(P["n2"], dtype=dtype),
         torch.as_tensor(P["d1"], dtype=dtype), torch.as_tensor(P["d2"], dtype=dtype),
-        torch.as_tensor(P["N"]), n_host=nh, polarization=pol,
+        torch.as_tensor(P["N"]), n_incident=nh, polarization=pol,
     )
 
 
 def _tmm(P, i, pol):
     nh = None if P["nh"] is None else P["nh"][i]
-    idx, d = bragg_stack(P["n1"][i], P["n2"][i], P["d1"][i], P["d2"][i], int(P["N"][i]), n_host=nh)
+    idx, d = bragg_stack(P["n1"][i], P["n2"][i], P["d1"][i], P["d2"][i], int(P["N"][i]), n_incident=nh)
     with np.errstate(all="ignore"):  # tmm's unnormalised matrices overflow for evanescent stacks
         R = tmm_RT(P["lam"][i], P["c"][i], idx, d, pol)[0]
     if not np.isfinite(R):
         # tmm multiplies unnormalised matrices: evanescent stacks overflow; use mpmath there
         R = mpmath_bragg_R(P["lam"][i], P["c"][i], P["n1"][i], P["n2"][i], P["d1"][i], P["d2"][i],
-                           int(P["N"][i]), n_host=nh, polarization=pol)
+                           int(P["N"][i]), n_incident=nh, polarization=pol)
     return R
 
 
@@ -84,8 +84,8 @@ def test_absorbing_layers_match_tmm():
             d1, d2, N = rng.uniform(0, 400), rng.uniform(0, 400), int(rng.integers(1, 80))
             R = ti.bragg_reflectance(t64(lam), c, torch.tensor(n1, dtype=torch.complex128),
                                      torch.tensor(n2, dtype=torch.complex128), d1, d2, N,
-                                     n_host=nh, polarization=pol)
-            idx, d = bragg_stack(n1, n2, d1, d2, N, n_host=nh)
+                                     n_incident=nh, polarization=pol)
+            idx, d = bragg_stack(n1, n2, d1, d2, N, n_incident=nh)
             assert abs(float(R) - tmm_RT(lam, c, idx, d, pol)[0]) <= 1e-9
 
 
@@ -96,9 +96,9 @@ def test_equals_multilayer_on_the_same_stack():
             lam = t64(rng.uniform(380, 780, 50))
             c = t64(rng.uniform(0, 1, 50))
             n1, n2, d1, d2 = 1.1, 1.7, 140.0, 90.0
-            idx, d = bragg_stack(n1, n2, d1, d2, N, n_host=host)
+            idx, d = bragg_stack(n1, n2, d1, d2, N, n_incident=host)
             Rm, _ = ti.multilayer(lam, c, t64(idx), t64(d))
-            Rb = ti.bragg_reflectance(lam, c, n1, n2, d1, d2, N, n_host=host)
+            Rb = ti.bragg_reflectance(lam, c, n1, n2, d1, d2, N, n_incident=host)
             assert (Rm - Rb).abs().max() <= 1e-10
 
 
@@ -107,7 +107,7 @@ def test_one_cell_is_the_thin_film():
     c = torch.linspace(0, 1, 11, dtype=F64)[:, None]
     for pol in ("s", "p", "unpolarized"):
         Rb = ti.bragg_reflectance(lam, c, 1.2, 1.9, 300.0, 210.0, 1, polarization=pol)
-        Rf = ti.thin_film_reflectance(lam, c, 1.9, 210.0, 1.2, n_outer=1.2, polarization=pol)
+        Rf = ti.thin_film_reflectance(lam, c, 1.9, 210.0, 1.2, n_incident=1.2, polarization=pol)
         assert (Rb - Rf).abs().max() <= 1e-12
 
 
@@ -128,7 +128,7 @@ def test_quarter_wave_stack(N):
 @pytest.mark.parametrize("pol", ["s", "p", "unpolarized"])
 def test_grazing_is_total_reflection(host, pol):
     lam = torch.linspace(380, 780, 41, dtype=F64)
-    R = ti.bragg_reflectance(lam, t64(0.0), 1.0, 1.5, 125.0, 375.0, 20, n_host=host, polarization=pol)
+    R = ti.bragg_reflectance(lam, t64(0.0), 1.0, 1.5, 125.0, 375.0, 20, n_incident=host, polarization=pol)
     assert torch.all(R == 1) or (R - 1).abs().max() <= 1e-12
 
 
@@ -148,8 +148,8 @@ def test_brewster_angle_p_reflectance_vanishes():
 def test_normal_incidence_s_equals_p():
     lam = torch.linspace(380, 780, 201, dtype=F64)
     for host in (None, 1.5):
-        Rs = ti.bragg_reflectance(lam, 1.0, 1.0, 1.5, 125.0, 375.0, 20, n_host=host, polarization="s")
-        Rp = ti.bragg_reflectance(lam, 1.0, 1.0, 1.5, 125.0, 375.0, 20, n_host=host, polarization="p")
+        Rs = ti.bragg_reflectance(lam, 1.0, 1.0, 1.5, 125.0, 375.0, 20, n_incident=host, polarization="s")
+        Rp = ti.bragg_reflectance(lam, 1.0, 1.0, 1.5, 125.0, 375.0, 20, n_incident=host, polarization="p")
         assert (Rs - Rp).abs().max() <= 1e-13
 
 
@@ -159,7 +159,7 @@ def test_every_layer_evanescent_is_total_reflection():
     c = t64([0.0, 0.2, 0.4])[:, None]
     for N in (1, 5, 200, 10**6):
         for pol in ("s", "p"):
-            R = ti.bragg_reflectance(lam, c, 1.2, 1.4, 80.0, 60.0, N, n_host=2.0, polarization=pol)
+            R = ti.bragg_reflectance(lam, c, 1.2, 1.4, 80.0, 60.0, N, n_incident=2.0, polarization=pol)
             assert torch.isfinite(R).all()
             assert (R - 1).abs().max() <= 1e-12
     # evanescent in n2 only (host = n1 = 1.6, n2 = 1.2): compare with the references
@@ -241,9 +241,9 @@ def test_huge_cell_counts_against_mpmath():
 def test_host_medium_huge_cells_against_mpmath():
     for N in (1000, 10**6):
         for lam in (420.0, 555.5, 700.0):
-            R = float(ti.bragg_reflectance(t64(lam), t64(0.7), 1.2, 1.6, 120.0, 90.0, N, n_host=1.0,
+            R = float(ti.bragg_reflectance(t64(lam), t64(0.7), 1.2, 1.6, 120.0, 90.0, N, n_incident=1.0,
                                            polarization="s"))
-            ref = mpmath_bragg_R(lam, 0.7, 1.2, 1.6, 120.0, 90.0, N, n_host=1.0, polarization="s")
+            ref = mpmath_bragg_R(lam, 0.7, 1.2, 1.6, 120.0, 90.0, N, n_incident=1.0, polarization="s")
             _, spread = _backward_tolerance(lam, 0.7, 1.2, 1.6, 120.0, 90.0, N, "s")
             assert abs(R - ref) <= 1e-9 + spread
 
@@ -342,7 +342,7 @@ def test_float32_hard_cases_finite_and_in_range():
     for N in (1, 20, 100, 10**4, 10**6):
         for host in (None, 1.33, 2.4):
             for pol in ("s", "p"):
-                R = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, N, n_host=host, polarization=pol)
+                R = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, N, n_incident=host, polarization=pol)
                 assert torch.isfinite(R).all() and (R >= 0).all() and (R <= 1).all()
 
 
@@ -354,7 +354,7 @@ def test_gradcheck_interior(host):
     args = [t64(v).requires_grad_() for v in ([455.0, 612.0], [0.83, 0.41], 1.05, 1.55, 131.0, 352.0)]
 
     def f(lam, c, n1, n2, d1, d2):
-        return ti.bragg_reflectance(lam, c, n1, n2, d1, d2, 13, n_host=host, polarization="unpolarized")
+        return ti.bragg_reflectance(lam, c, n1, n2, d1, d2, 13, n_incident=host, polarization="unpolarized")
 
     assert torch.autograd.gradcheck(f, args, eps=1e-6, atol=1e-6, rtol=1e-5)
 
@@ -378,7 +378,7 @@ def _hard_cases():
         dict(lam=500.0, c=math.cos(math.atan(n2 / n1))),  # Brewster
         dict(lam=500.0, c=0.7, N=10**6),  # huge N
         dict(lam=500.0, c=0.7, d1=0.0),  # zero thickness
-        dict(lam=500.0, c=0.3, n_host=2.4),  # every layer evanescent
+        dict(lam=500.0, c=0.3, n_incident=2.4),  # every layer evanescent
         dict(lam=500.0, c=0.6, n1=1.6, n2=1.2),  # evanescent in n2
         dict(lam=600.0, c=1.0, d1=150.0, d2=100.0, N=10**6),  # quarter-wave stack, deep in the gap
     ]
@@ -388,7 +388,7 @@ def _hard_cases():
             cases.append(dict(lam=e + dl, c=0.8, N=10**6))
     out = []
     for case in cases:
-        p = dict(n1=n1, n2=n2, d1=d1, d2=d2, N=20, n_host=None)
+        p = dict(n1=n1, n2=n2, d1=d1, d2=d2, N=20, n_incident=None)
         p.update(case)
         out.append(p)
     return out
@@ -399,7 +399,7 @@ def test_gradients_finite_at_hard_cases(pol):
     for p in _hard_cases():
         leaves = {k: t64(p[k]).requires_grad_() for k in ("lam", "c", "n1", "n2", "d1", "d2")}
         R = ti.bragg_reflectance(leaves["lam"], leaves["c"], leaves["n1"], leaves["n2"], leaves["d1"],
-                                 leaves["d2"], p["N"], n_host=p["n_host"], polarization=pol)
+                                 leaves["d2"], p["N"], n_incident=p["n_incident"], polarization=pol)
         R.backward()
         for k, v in leaves.items():
             assert v.grad is not None and torch.isfinite(v.grad).all(), (p, k, v.grad)
@@ -429,8 +429,8 @@ def test_property_closed_form_equals_recursion(lam, c, n1, n2, d1, d2, N, host, 
     # closed form — loses ~√ε (the documented near-critical limitation of multilayer).
     h = n1 if host is None else host
     assume(all(a == b or abs(a - b) > 1e-6 for a, b in ((h, n1), (h, n2), (n1, n2))))
-    R = ti.bragg_reflectance(t64(lam), t64(c), n1, n2, d1, d2, N, n_host=host, polarization=pol)
-    idx, d = bragg_stack(n1, n2, d1, d2, N, n_host=host)
+    R = ti.bragg_reflectance(t64(lam), t64(c), n1, n2, d1, d2, N, n_incident=host, polarization=pol)
+    idx, d = bragg_stack(n1, n2, d1, d2, N, n_incident=host)
     Rm, _ = ti.multilayer(t64(lam), t64(c), t64(idx), t64(d), polarization=pol)
     assert 0 <= float(R) <= 1
     assert abs(float(R) - float(Rm)) <= 1e-9
@@ -443,8 +443,8 @@ def test_n2_exactly_at_its_critical_angle(pol, n1):
     # the closed form takes sin b / q2 → k0 d2, the scattering path the slab's exact limit
     n1t = torch.tensor(n1, dtype=torch.complex128) if isinstance(n1, complex) else n1
     for N in (1, 3, 40):
-        R = ti.bragg_reflectance(t64(500.0), t64(0.6), n1t, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
-        ref = mpmath_bragg_R(500.0, 0.6, n1, 1.0, 30.0, 80.0, N, n_host=1.25, polarization=pol)
+        R = ti.bragg_reflectance(t64(500.0), t64(0.6), n1t, 1.0, 30.0, 80.0, N, n_incident=1.25, polarization=pol)
+        ref = mpmath_bragg_R(500.0, 0.6, n1, 1.0, 30.0, 80.0, N, n_incident=1.25, polarization=pol)
         assert abs(float(R) - ref) <= 1e-12
 
 
@@ -452,17 +452,17 @@ def test_host_equal_to_n1_takes_the_plain_path_and_keeps_gradients():
     lam = torch.linspace(400.0, 700.0, 31, dtype=torch.float64)
     c = torch.linspace(0.0, 1.0, 7, dtype=torch.float64)[:, None]
     plain = ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20)
-    assert torch.equal(ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33), plain)
-    # through appendix D's host layer (n_host ≠ n1, or carrying a gradient) it is the same to ~1e-15
+    assert torch.equal(ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_incident=1.33), plain)
+    # through appendix D's host layer (n_incident ≠ n1, or carrying a gradient) it is the same to ~1e-15
     nh = torch.tensor(1.33, dtype=torch.float64, requires_grad=True)
-    R = ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=nh)
+    R = ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_incident=nh)
     assert torch.allclose(R, plain, rtol=0, atol=1e-13)
     (g,) = torch.autograd.grad(R.sum(), nh)  # (grazing incidence, R ≡ 1, is in the batch: no NaN)
     h = 1e-7
-    fd = (ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33 + h)
-          - ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_host=1.33 - h)).sum() / (2 * h)
-    # (the derivative at n_host = n1 used to miss Snell's law and the host interface: 0 at normal incidence)
+    fd = (ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_incident=1.33 + h)
+          - ti.bragg_reflectance(lam, c, 1.33, 1.5, 100.0, 150.0, 20, n_incident=1.33 - h)).sum() / (2 * h)
+    # (the derivative at n_incident = n1 used to miss Snell's law and the host interface: 0 at normal incidence)
     assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-5 * abs(float(fd))
     # a host with its own shape broadcasts the batch as before
-    assert ti.bragg_reflectance(lam, 1.0, 1.33, 1.5, 100.0, 150.0, 20, n_host=torch.full((3, 1), 1.33,
+    assert ti.bragg_reflectance(lam, 1.0, 1.33, 1.5, 100.0, 150.0, 20, n_incident=torch.full((3, 1), 1.33,
                                 dtype=torch.float64)).shape == (3, 31)

@@ -58,9 +58,9 @@ def _hemisphere(nt=48, nphi=48):
 def test_roughness_factor_and_attenuation_vs_mpmath(lam, ci, co, sigma, n):
     mpmath.mp.dps = 30
     g_ref = (2 * mpmath.pi * sigma * n * (mpmath.mpf(ci) + co) / lam) ** 2
-    g = rs.roughness_factor(t64(lam), ci, co, sigma, n_medium=n)
+    g = rs.roughness_factor(t64(lam), ci, co, sigma, n_incident=n)
     assert abs(float(g) - float(g_ref)) <= 1e-14 * max(1.0, float(g_ref))
-    e = rs.coherent_attenuation(t64(lam), ci, sigma, n_medium=n)
+    e = rs.coherent_attenuation(t64(lam), ci, sigma, n_incident=n)
     e_ref = mpmath.exp(-(4 * mpmath.pi * sigma * n * mpmath.mpf(ci) / lam) ** 2)
     assert abs(float(e) - float(e_ref)) <= 1e-15
 
@@ -375,13 +375,13 @@ def test_roughness_only_batches_are_not_mixed(polarization):
     (dict(sigma=-1.0), "sigma"),
     (dict(tau=0.0), "tau"),
     (dict(cos_phi=1.5), "cos_phi"),
-    (dict(cos_light=1.2), "cos_light"),
+    (dict(cos_theta_i=1.2), "cos_theta_i"),
     (dict(indices=[1.0, 1.4 + 0.1j, 1 + 6j]), "rough interface"),
     (dict(indices=[1.0, 1.4, 1.5, 1 + 6j]), "len\\(thicknesses\\)"),
     (dict(polarization="x"), "polarization"),
 ])
 def test_validation(kwargs, match):
-    args = dict(wavelength=t64(500.0), cos_light=0.5, cos_view=0.5, cos_phi=-1.0, indices=[1.0, 1.4, 1 + 6j],
+    args = dict(wavelength=t64(500.0), cos_theta_i=0.5, cos_theta_o=0.5, cos_phi=-1.0, indices=[1.0, 1.4, 1 + 6j],
                 thicknesses=[100.0], sigma=10.0, tau=TAU, polarization="unpolarized")
     args.update(kwargs)
     args["indices"] = tc128(args["indices"])
@@ -436,7 +436,7 @@ def test_single_film_diffuse_vs_independent_composition(lam, tl, tv, cphi):
         Ts, c1 = _T_down_one_film(lam, c, n1, d, n2, sigma, "s")
         Tp, _ = _T_down_one_film(lam, c, n1, d, n2, sigma, "p")
         T[name] = (0.5 * (Ts + Tp), c1)
-    rho = rs.he_directional_diffuse(t64(lam), T["l"][1], T["v"][1], cphi, sigma, TAU, n2, n_medium=n1, shadowing=False)
+    rho = rs.he_directional_diffuse(t64(lam), T["l"][1], T["v"][1], cphi, sigma, TAU, n2, n_incident=n1, shadowing=False)
     ref = (1 / n1) ** 2 * T["l"][0] * float(rho) * T["v"][0]
     got = rs.rough_multilayer_diffuse(t64(lam), cl, cv, cphi, tc128([1.0, n1, n2]), t64([d]), sigma, TAU,
                                       shadowing=False)

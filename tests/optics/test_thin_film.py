@@ -1,7 +1,7 @@
 """Tests of torchirid.thin_film_reflectance (Airy summation of one film on a substrate).
 
 References: the ``tmm`` package (oracles.tmm_RT) on the explicit stack
-``[n_outer, n_film, n_substrate]`` and torchirid.fresnel_reflectance for the bare interface
+``[n_incident, n_film, n_substrate]`` and torchirid.fresnel_reflectance for the bare interface
 (d = 0); physics spot checks (grazing, normal incidence, Brewster), broadcasting, dtypes,
 gradients (float64 gradcheck, finite gradients at the hard cases) and NaN propagation.
 """
@@ -21,7 +21,7 @@ from tensors import C128, F64, METALS, POLS, t64, tc128  # noqa: F401
 
 
 # ----------------------------------------------------------------------------------------
-# random points (a fixed seed): dielectric, absorbing films, metal substrates, n_outer != 1,
+# random points (a fixed seed): dielectric, absorbing films, metal substrates, n_incident != 1,
 # total internal reflection, plus exact grazing / normal incidence / zero thickness
 # ----------------------------------------------------------------------------------------
 def _random_points(n=210, seed=20240611):
@@ -44,7 +44,7 @@ def _random_points(n=210, seed=20240611):
             ns[i] = complex(material_nk(METALS[(i // 7) % len(METALS)], wl[i]))
         elif k == 4:  # denser outer medium
             n0[i] = g.uniform(1.2, 1.7)
-        elif k == 5:  # total internal reflection at steep angles (n_outer > film, substrate)
+        elif k == 5:  # total internal reflection at steep angles (n_incident > film, substrate)
             n0[i] = g.uniform(1.7, 2.0)
             nf[i] = g.uniform(1.2, 1.5)
             ns[i] = g.uniform(1.2, 1.6)
@@ -66,7 +66,7 @@ def test_vs_tmm_random_batched(polarization):
     wl, c, n0, nf, d, ns = _random_points()
     # ONE batched call ...
     R = torchirid.thin_film_reflectance(t64(wl), t64(c), tc128(nf), t64(d), tc128(ns),
-                                        n_outer=t64(n0), polarization=polarization)
+                                        n_incident=t64(n0), polarization=polarization)
     assert R.shape == (wl.size,) and R.dtype == F64
     # ... against a Python loop over the oracle
     # Exactly at grazing (c = 0) tmm sees cos(arccos 0) = 6e-17; next to a guided-mode
@@ -100,7 +100,7 @@ def test_vs_mpmath_few_points():
            complex(material_nk("Ag", 600.0))), (520.0, 0.3, 1.8, 1.3, 200.0, 1.4)]
     for wl, c, n0, nf, d, ns in pts:
         for pol in ("s", "p"):
-            R = torchirid.thin_film_reflectance(t64(wl), c, tc128(nf), d, tc128(ns), n_outer=n0,
+            R = torchirid.thin_film_reflectance(t64(wl), c, tc128(nf), d, tc128(ns), n_incident=n0,
                                                 polarization=pol)
             Rm, _ = mpmath_stack_RT(wl, c, [n0, nf, ns], [d], pol)
             assert abs(R.item() - Rm) <= 1e-12
@@ -124,28 +124,28 @@ _BARE_CASES = [
 def test_zero_thickness_is_bare_interface(n0, nf, ns, polarization):
     c = t64(np.concatenate([[0.0, 1.0], np.linspace(0.01, 0.99, 41)]))
     wl = t64([400.0, 550.0, 700.0])[:, None]
-    R0 = torchirid.thin_film_reflectance(wl, c, tc128(nf), 0.0, tc128(ns), n_outer=n0,
+    R0 = torchirid.thin_film_reflectance(wl, c, tc128(nf), 0.0, tc128(ns), n_incident=n0,
                                          polarization=polarization)
     Rf = torchirid.fresnel_reflectance(c, n0, tc128(ns), polarization=polarization)
     assert torch.isfinite(R0).all()
     assert (R0 - Rf).abs().max().item() <= 1e-14
     # continuity d -> 0: 1e-6 nm changes R by far less than 1e-6
-    Rd = torchirid.thin_film_reflectance(wl, c, tc128(nf), 1e-6, tc128(ns), n_outer=n0,
+    Rd = torchirid.thin_film_reflectance(wl, c, tc128(nf), 1e-6, tc128(ns), n_incident=n0,
                                          polarization=polarization)
     assert (Rd - R0).abs().max().item() < 1e-6
 
 
 def test_zero_thickness_grazing_same_outer_and_substrate():
-    # d = 0 means 'no film': the bare n_outer | n_outer interface, R = 0 (fresnel convention)
+    # d = 0 means 'no film': the bare n_incident | n_incident interface, R = 0 (fresnel convention)
     R = torchirid.thin_film_reflectance(t64(500.0), 0.0, 1.4, 0.0, 1.0)
     Rf = torchirid.fresnel_reflectance(t64(0.0), 1.0, 1.0)
     assert torch.isfinite(R) and abs(R.item() - Rf.item()) <= 1e-14
 
 
 def test_exact_critical_angle_of_the_film():
-    # n_outer = 1.25, n_film = 1.0, cos θ = 0.6: s² = 1.25² · 0.64 = 1 = n_film² exactly
+    # n_incident = 1.25, n_film = 1.0, cos θ = 0.6: s² = 1.25² · 0.64 = 1 = n_film² exactly
     for pol in ("s", "p"):
-        R = torchirid.thin_film_reflectance(t64(500.0), t64(0.6), 1.0, 100.0, 1.5, n_outer=1.25,
+        R = torchirid.thin_film_reflectance(t64(500.0), t64(0.6), 1.0, 100.0, 1.5, n_incident=1.25,
                                             polarization=pol)
         Rm, _ = mpmath_stack_RT(500.0, 0.6, [1.25, 1.0, 1.5], [100.0], pol)
         assert abs(R.item() - Rm) <= 1e-9
@@ -160,7 +160,7 @@ def test_grazing_is_total_reflection(polarization):
     for nf, d, ns, n0 in ((1.4, 300.0, 1.5, 1.0), (2.0 + 0.1j, 50.0, 1.5, 1.0),
                           (1.4, 1e-3, complex(material_nk("Ag", 550.0)), 1.0),
                           (1.6, 700.0, 1.2, 1.33), (1.4, 0.0, 1.5, 1.0)):
-        R = torchirid.thin_film_reflectance(wl, 0.0, tc128(nf), d, tc128(ns), n_outer=n0,
+        R = torchirid.thin_film_reflectance(wl, 0.0, tc128(nf), d, tc128(ns), n_incident=n0,
                                             polarization=polarization)
         assert (R - 1).abs().max().item() <= 1e-14
 
@@ -181,12 +181,12 @@ def test_brewster_p_vanishes(n1, n2):
     cb = n1 / math.hypot(n1, n2)  # tan θ_B = n2 / n1
     wl = t64([400.0, 550.0, 700.0])
     # bare interface (d = 0) and a film of the substrate's index (any thickness)
-    R0 = torchirid.thin_film_reflectance(wl, t64(cb), 1.9, 0.0, n2, n_outer=n1, polarization="p")
-    Rf = torchirid.thin_film_reflectance(wl, t64(cb), n2, 437.0, n2, n_outer=n1, polarization="p")
+    R0 = torchirid.thin_film_reflectance(wl, t64(cb), 1.9, 0.0, n2, n_incident=n1, polarization="p")
+    Rf = torchirid.thin_film_reflectance(wl, t64(cb), n2, 437.0, n2, n_incident=n1, polarization="p")
     assert R0.max().item() < 1e-28
     assert Rf.max().item() < 1e-28
     # and s does not vanish there
-    Rs = torchirid.thin_film_reflectance(wl, t64(cb), n2, 437.0, n2, n_outer=n1, polarization="s")
+    Rs = torchirid.thin_film_reflectance(wl, t64(cb), n2, 437.0, n2, n_incident=n1, polarization="s")
     assert Rs.min().item() > 1e-3
 
 
@@ -256,7 +256,7 @@ def test_float32_accuracy_and_range(polarization):
     for dt, cdt in ((torch.float32, torch.complex64), (F64, C128)):
         R = torchirid.thin_film_reflectance(
             torch.tensor(wl, dtype=dt), torch.tensor(c, dtype=dt), torch.tensor(nf, dtype=cdt),
-            torch.tensor(d, dtype=dt), torch.tensor(ns, dtype=cdt), n_outer=torch.tensor(n0, dtype=dt),
+            torch.tensor(d, dtype=dt), torch.tensor(ns, dtype=cdt), n_incident=torch.tensor(n0, dtype=dt),
             polarization=polarization)
         assert R.dtype == dt
         out[dt] = R
@@ -280,7 +280,7 @@ def test_gradcheck_interior(polarization):
     n0 = t64([1.0, 1.1, 1.33]).requires_grad_()
 
     def f(wl, c, d, nf, ns, n0):
-        return torchirid.thin_film_reflectance(wl, c, nf, d, ns, n_outer=n0, polarization=polarization)
+        return torchirid.thin_film_reflectance(wl, c, nf, d, ns, n_incident=n0, polarization=polarization)
 
     assert torch.autograd.gradcheck(f, (wl, c, d, nf, ns, n0))
 
@@ -304,7 +304,7 @@ def test_gradcheck_absorbing_and_metal():
 
 
 _HARD = [
-    # (wl, cos, n_film, d, n_substrate, n_outer)
+    # (wl, cos, n_film, d, n_substrate, n_incident)
     (500.0, 0.0, 1.4, 300.0, 1.5, 1.0),  # grazing
     (500.0, 1.0, 1.4, 300.0, 1.5, 1.0),  # normal incidence
     (500.0, 0.5, 1.4, 0.0, 1.5, 1.0),  # zero thickness
@@ -337,10 +337,10 @@ def test_gradients_finite_at_hard_cases(polarization, dtype):
         else:
             nst = torch.tensor(ns, dtype=dtype, requires_grad=True)
             leaves.append(nst)
-        R = torchirid.thin_film_reflectance(lam, ct, nft, th, nst, n_outer=n0t, polarization=polarization)
+        R = torchirid.thin_film_reflectance(lam, ct, nft, th, nst, n_incident=n0t, polarization=polarization)
         assert R.dtype == dtype and torch.isfinite(R) and 0.0 <= R.item() <= 1.0
         grads = torch.autograd.grad(R, leaves, allow_unused=True)
-        for name, g in zip(("wavelength", "cos_theta", "n_film", "thickness", "n_outer", "n_sub"), grads):
+        for name, g in zip(("wavelength", "cos_theta", "n_film", "thickness", "n_incident", "n_sub"), grads):
             assert g is None or torch.isfinite(g).all(), (wl, c, nf, d, ns, n0, name, g)
 
 
@@ -367,10 +367,10 @@ def test_nan_propagates():
     base = dict(wavelength=t64([500.0, 500.0]), cos_theta=t64([0.7, 0.7]), n_film=t64([1.4, 1.4]),
                 thickness=t64([100.0, 100.0]), n_substrate=t64([1.5, 1.5]))
     good = torchirid.thin_film_reflectance(**base)
-    for key in list(base) + ["n_outer"]:
+    for key in list(base) + ["n_incident"]:
         kw = dict(base)
-        if key == "n_outer":
-            kw["n_outer"] = t64([nan, 1.0])
+        if key == "n_incident":
+            kw["n_incident"] = t64([nan, 1.0])
         else:
             v = kw[key].clone()
             v[0] = nan
@@ -391,10 +391,10 @@ def test_gradient_where_the_film_index_equals_the_outer_one(polarization):
     wl = torch.linspace(400, 700, 7, dtype=F64)
     c = t64([0.0, 0.3, 0.7, 1.0])[:, None]
     nf = t64(1.0).requires_grad_(True)
-    R = torchirid.thin_film_reflectance(wl, c, nf, 300.0, 1.5, n_outer=1.0, polarization=polarization)
+    R = torchirid.thin_film_reflectance(wl, c, nf, 300.0, 1.5, n_incident=1.0, polarization=polarization)
     (g,) = torch.autograd.grad(R.sum(), nf)
     h = 1e-7
-    fd = (torchirid.thin_film_reflectance(wl, c, 1.0 + h, 300.0, 1.5, n_outer=1.0, polarization=polarization)
-          - torchirid.thin_film_reflectance(wl, c, 1.0 - h, 300.0, 1.5, n_outer=1.0, polarization=polarization)
+    fd = (torchirid.thin_film_reflectance(wl, c, 1.0 + h, 300.0, 1.5, n_incident=1.0, polarization=polarization)
+          - torchirid.thin_film_reflectance(wl, c, 1.0 - h, 300.0, 1.5, n_incident=1.0, polarization=polarization)
           ).sum() / (2 * h)
     assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-5 * abs(float(fd))

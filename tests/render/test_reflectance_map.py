@@ -15,15 +15,15 @@ GRID = dict(wavelengths=(400.0, 700.0, 7), angles=4)
 
 
 def test_bragg_map_matches_library():
-    m = render.bragg_reflectance_map(1.0, 1.6, 100.0, 150.0, 7, n_host=1.2, **GRID)
+    m = render.bragg_reflectance_map(1.0, 1.6, 100.0, 150.0, 7, n_incident=1.2, **GRID)
     assert m.reflectance.shape == (4, 7) and m.reflectance.dtype == np.float64
     np.testing.assert_allclose(m.theta_deg, [0.0, 30.0, 60.0, 90.0])
     np.testing.assert_allclose(m.wavelength_nm[[0, -1]], [400.0, 700.0])
     f64 = torch.float64
     expected = torchirid.bragg_reflectance(torch.as_tensor(m.wavelength_nm), torch.as_tensor(m.cos_theta)[:, None],
-                                           1.0, 1.6, 100.0, 150.0, 7, n_host=torch.tensor(1.2, dtype=f64))
+                                           1.0, 1.6, 100.0, 150.0, 7, n_incident=torch.tensor(1.2, dtype=f64))
     np.testing.assert_allclose(m.reflectance, expected.numpy(), rtol=1e-12, atol=1e-14)
-    assert m.params["kind"] == "bragg" and m.params["n_host"] == 1.2 and m.params["cells"] == 7
+    assert m.params["kind"] == "bragg" and m.params["n_incident"] == 1.2 and m.params["cells"] == 7
     assert "N=7" in m.title
 
 

@@ -80,7 +80,7 @@ def test_normal_incidence_is_rotationally_symmetric():
     torch.testing.assert_close(img.flip(1), img, rtol=1e-9, atol=1e-12)
     # and a pixel against the BRDF at its direction, off the pixel grid's symmetry axes
     wo = sg.directions[3, 2]
-    f = single_reflection_brdf(s, torch.tensor([0.0, 0.0, 1.0], dtype=F64), wo[None], LAM, **NO_TAU)[0]
+    f = single_reflection_brdf(LAM, torch.tensor([0.0, 0.0, 1.0], dtype=F64), wo[None], s, **NO_TAU)[0]
     torch.testing.assert_close(img[3, 2], f @ xyz_weights(LAM))
 
 
@@ -101,7 +101,7 @@ def test_white_centre_matches_one_dimensional_integral():
     sg = render.scatterogram(s, resolution=7, wavelength=LAM)
     t = torch.linspace(0.0, math.pi / 2, 20001, dtype=F64)  # the GGX tail holds ~2.5 % beyond θi = 0.6
     wi = torch.stack([torch.sin(t), torch.zeros_like(t), torch.cos(t)], -1)
-    f = single_reflection_brdf(s, wi, torch.tensor([0.0, 0.0, 1.0], dtype=F64), LAM, **NO_TAU)
+    f = single_reflection_brdf(LAM, wi, torch.tensor([0.0, 0.0, 1.0], dtype=F64), s, **NO_TAU)
     g = f * (torch.cos(t) * torch.sin(t) * 2 * math.pi).unsqueeze(-1)
     ref = torch.trapezoid(g, t, dim=0) @ xyz_weights(LAM)
     torch.testing.assert_close(sg.xyz[3, 3], ref, rtol=3e-3, atol=0)
@@ -131,7 +131,7 @@ def test_gradients_flow_to_every_layer_parameter():
          for k, v in dict(n1=1.6, n2=1.68, d1=93.1, d2=96.9, alpha=0.05).items()}
 
     def white(n1, n2, d1, d2, alpha):
-        s = LayeredBragg([RoughBraggLayer(n1, n2, d1, d2, 8, alpha, n_host=1.0)])
+        s = LayeredBragg([RoughBraggLayer(n1, n2, d1, d2, 8, alpha, n_incident=1.0)])
         return render.scatterogram(s, resolution=3, profile_angles=3, wavelength=LAM, lobe_nodes=(4, 4)).xyz
 
     out = white(**p)
@@ -148,7 +148,7 @@ def test_gradcheck_beam_in_thickness_and_incidence():
     theta = torch.tensor(20.0, dtype=F64, requires_grad=True)
 
     def beam(d2, theta):
-        s = LayeredBragg([RoughBraggLayer(1.59, 1.67, 78.4, d2, 8, 0.05, n_host=1.0)])
+        s = LayeredBragg([RoughBraggLayer(1.59, 1.67, 78.4, d2, 8, 0.05, n_incident=1.0)])
         return render.scatterogram(s, incident=(theta, 0.0), resolution=4, wavelength=LAM).xyz
 
     assert torch.autograd.gradcheck(beam, (d2, theta), eps=1e-6, atol=1e-6, rtol=1e-4)

@@ -29,14 +29,14 @@ def test_choices_follow_the_measured_tables():
     assert thin["config"] == {"method": "sampled", "samples": 64}  # a thin film: ~1 fringe
     # outside the approximations' setting (few cells; host ≠ n1) the sampled count scales with N
     few = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 5, tolerance=1.0)["config"]
-    many = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 200, n_host=1.33, tolerance=1.0)["config"]
+    many = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 200, n_incident=1.33, tolerance=1.0)["config"]
     assert few["method"] == many["method"] == "sampled" and many["samples"] > 5 * few["samples"]
     # the envelope/piecewise cost does not grow with N: one of them wins for many cells
     for N in (20, 200, 2000):
         chosen = choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, N, tolerance=1.0)["config"]["method"]
         assert chosen in ("envelope", "piecewise")
     # not their setting (host ≠ n1): never an approximation
-    assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 2000, n_host=1.33,
+    assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 2000, n_incident=1.33,
                                tolerance=3.0)["config"]["method"] not in ("piecewise", "envelope")
     # tighter than anything measured but spectral: spectral
     assert choose_bragg_method(c, 1.0, 1.5, 125.0, 375.0, 20, tolerance=0.005)["config"] == {"method": "spectral"}

@@ -17,7 +17,7 @@ def _random_mirrors(seed, count):
         lam_ = rng.uniform(150, 1000)  # period Λ (nm)
         f = rng.uniform(0.1, 0.9)
         yield dict(n2=rng.uniform(1.1, 2.5), d1=f * lam_, d2=(1 - f) * lam_, N=int(rng.integers(1, 51)),
-                   n_host=None if k % 3 else float(rng.uniform(1.0, 1.5)))
+                   n_incident=None if k % 3 else float(rng.uniform(1.0, 1.5)))
 
 
 def test_spectral_method_is_converged():
@@ -26,8 +26,8 @@ def test_spectral_method_is_converged():
     c = torch.cos(torch.deg2rad(torch.tensor([0.0, 20, 40, 55, 65, 75, 80, 85, 88, 89], dtype=F64)))
     worst = 0.0
     for m in _random_mirrors(0, 10):
-        base = bragg_xyz(c, 1.0, m["n2"], m["d1"], m["d2"], m["N"], n_host=m["n_host"])
-        dense = bragg_xyz(c, 1.0, m["n2"], m["d1"], m["d2"], m["N"], n_host=m["n_host"], samples_per_fringe=4 * 192.0,
+        base = bragg_xyz(c, 1.0, m["n2"], m["d1"], m["d2"], m["N"], n_incident=m["n_incident"])
+        dense = bragg_xyz(c, 1.0, m["n2"], m["d1"], m["d2"], m["N"], n_incident=m["n_incident"], samples_per_fringe=4 * 192.0,
                           max_samples=10**6)
         worst = max(worst, float(delta_e_2000(xyz_to_lab(base), xyz_to_lab(dense)).max()))
     assert worst <= 0.05
@@ -35,11 +35,11 @@ def test_spectral_method_is_converged():
 
 def test_sampling_rule_counts_fringes():
     # N (n1 d1 + n2 d2) Δω / π fringes, 192 samples each, at least 401
-    assert spectral_samples(1, 1.0, 1.5, 10.0, 10.0) == 401
-    k20 = spectral_samples(20, 1.0, 1.5, 125.0, 375.0)
-    k40 = spectral_samples(40, 1.0, 1.5, 125.0, 375.0)
+    assert spectral_samples(1.0, 1.5, 10.0, 10.0, 1) == 401
+    k20 = spectral_samples(1.0, 1.5, 125.0, 375.0, 20)
+    k40 = spectral_samples(1.0, 1.5, 125.0, 375.0, 40)
     assert abs(k40 - 1 - 2 * (k20 - 1)) <= 2
-    assert spectral_samples(10**6, 1.0, 1.5, 125.0, 375.0) == 262144  # capped
+    assert spectral_samples(1.0, 1.5, 125.0, 375.0, 10**6) == 262144  # capped
     with pytest.warns(RuntimeWarning, match="not converged"):
         bragg_xyz(t64(1.0), 1.0, 1.5, 125.0, 375.0, 10**6, max_samples=2048)
 
@@ -105,7 +105,7 @@ def test_inference_mode_results_are_ordinary_tensors_and_caches_stay_usable(meth
     # cache on the way (here filled afresh from inside inference mode), must still work with autograd
     import importlib
 
-    cmfs_module = importlib.import_module("torchirid.color.cmfs")  # (torchirid.color.cmfs is also a function)
+    cmfs_module = importlib.import_module("torchirid.color.colorimetry")  # (torchirid.color.colorimetry is also a function)
     cumulative, envelope, piecewise = (importlib.import_module(f"torchirid.spectral.{m}")
                                        for m in ("cumulative", "envelope", "piecewise"))
 

@@ -22,8 +22,8 @@ from torchirid.spectral import cumulative as cm
 from torchirid.spectral.cumulative import (
     CUMULATIVE_CMF_BUILDER,
     box_integrals,
-    build_cumulative_cmf,
-    cumulative_cmf,
+    cumulative_cmf_lut,
+    shipped_cumulative_cmf_lut,
     cumulative_cmf_path,
 )
 
@@ -61,13 +61,13 @@ def _edges_omega(rng, batch, boxes):
 
 @pytest.fixture(scope="module")
 def lut():
-    return cumulative_cmf()
+    return shipped_cumulative_cmf_lut()
 
 
 # ----------------------------------------------------------------------------- totals
 @pytest.mark.parametrize("observer, illuminant", SHIPPED)
 def test_total_is_the_perfect_reflector(observer, illuminant):
-    table = cumulative_cmf(observer, illuminant)
+    table = shipped_cumulative_cmf_lut(observer, illuminant)
     wl = torch.linspace(LO, HI, 4001, dtype=F64)  # 0.1 nm: holds the 1 nm knots
     white = spectrum_to_xyz(torch.ones_like(wl), wl, observer=observer, illuminant=illuminant)
     assert torch.allclose(table.values[-1], white, rtol=0, atol=1e-6)
@@ -86,7 +86,7 @@ def test_total_is_the_perfect_reflector(observer, illuminant):
 def test_piecewise_constant_spectra(observer, illuminant, boxes):
     rng = np.random.default_rng(boxes)
     omega, w = _edges_omega(rng, 8, boxes)
-    table = cumulative_cmf(observer, illuminant)
+    table = shipped_cumulative_cmf_lut(observer, illuminant)
     got = (torch.from_numpy(w)[..., None] * box_integrals(torch.from_numpy(omega), table)).sum(-2)
     ref = _xyz_of_boxes(np.flip(TWO_PI / omega, -1), np.flip(w, -1), observer, illuminant)
     err = (got - ref).abs()
@@ -112,7 +112,7 @@ def test_boxes_tile_the_range(lut):
 def test_interpolation_accuracy(observer, illuminant):
     rng = np.random.default_rng(7)
     omega = rng.uniform(TWO_PI / HI, TWO_PI / LO, 300)
-    table = cumulative_cmf(observer, illuminant)
+    table = shipped_cumulative_cmf_lut(observer, illuminant)
     got = table(omega=torch.from_numpy(omega))
     # exact C̄(ω): the XYZ of the box [2π/ω, λ_max] with weight 1 (independent reference)
     lam = TWO_PI / omega
@@ -129,8 +129,8 @@ def test_interpolation_accuracy(observer, illuminant):
 def test_recorded_error_is_the_true_maximum():
     """The recorded error is what a much denser check finds (to 1 %), and halves ~4x with 2x nodes."""
     exact = cm._exact("CIE 1931 2", "D65", LO, HI)
-    coarse = build_cumulative_cmf(nodes=400)
-    fine = build_cumulative_cmf(nodes=799)  # half the spacing
+    coarse = cumulative_cmf_lut(nodes=400)
+    fine = cumulative_cmf_lut(nodes=799)  # half the spacing
     for table in (coarse, fine):
         omega = torch.linspace(TWO_PI / HI, TWO_PI / LO, 400_001, dtype=F64)
         dense = (table(omega=omega) - torch.from_numpy(exact.cumulative(omega.numpy()))).abs().amax(0)
@@ -150,7 +150,7 @@ def test_shipped_file_matches_a_fresh_build(observer, illuminant):
     shipped = LUT.load(path, builder=CUMULATIVE_CMF_BUILDER,
                        parameters={"observer": observer, "illuminant": illuminant,
                                    "wavelength_range": [LO, HI]})
-    fresh = build_cumulative_cmf(observer, illuminant)
+    fresh = cumulative_cmf_lut(observer, illuminant)
     assert shipped.parameters == fresh.parameters
     assert torch.equal(shipped.axes["omega"], fresh.axes["omega"])
     assert torch.allclose(shipped.values, fresh.values, rtol=0, atol=1e-15)
@@ -173,7 +173,7 @@ def test_tampered_file_is_refused(tmp_path):
 
 
 def test_stale_or_corrupt_shipped_file_falls_back_to_a_build(tmp_path, monkeypatch):
-    other = build_cumulative_cmf(nodes=50)  # not the automatic table: parameters differ
+    other = cumulative_cmf_lut(nodes=50)  # not the automatic table: parameters differ
     other.save(tmp_path / "cie_1931_2_d65_380_780nm.npz")
     (tmp_path / "cie_1931_2_d65_380_780nm.npz").with_name("cie_1931_2_e_380_780nm.npz").write_bytes(b"junk")
     monkeypatch.setattr(cm, "cumulative_cmf_path",
@@ -186,9 +186,9 @@ def test_stale_or_corrupt_shipped_file_falls_back_to_a_build(tmp_path, monkeypat
 
 
 def test_cache_dtype_device(lut):
-    assert cumulative_cmf() is lut and cumulative_cmf("CIE 1931 2", "D65", [380, 780]) is lut
-    f32 = cumulative_cmf(dtype=torch.float32)
-    assert f32.dtype == torch.float32 and f32 is cumulative_cmf(dtype=torch.float32)
+    assert shipped_cumulative_cmf_lut() is lut and shipped_cumulative_cmf_lut("CIE 1931 2", "D65", [380, 780]) is lut
+    f32 = shipped_cumulative_cmf_lut(dtype=torch.float32)
+    assert f32.dtype == torch.float32 and f32 is shipped_cumulative_cmf_lut(dtype=torch.float32)
     assert torch.allclose(f32.values.double(), lut.values, rtol=0, atol=1e-7)
     # float32 landmarks: within ~1e-6 (ω rounding × slope c̄), see the module docstring
     rng = np.random.default_rng(3)
@@ -250,9 +250,9 @@ def test_nan_propagates(lut):
 ])
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):
-        build_cumulative_cmf(**kwargs)
+        cumulative_cmf_lut(**kwargs)
     with pytest.raises(ValueError, match=match):
-        cumulative_cmf(**kwargs)
+        shipped_cumulative_cmf_lut(**kwargs)
 
 
 def test_bad_box_arguments(lut):
@@ -267,10 +267,10 @@ def test_bad_box_arguments(lut):
     with pytest.raises(ValueError, match="3 channels"):
         box_integrals(torch.tensor([0.01, 0.012], dtype=F64), lut.values)
     with pytest.raises(ValueError, match="nodes"):
-        build_cumulative_cmf(nodes=1)
+        cumulative_cmf_lut(nodes=1)
     with pytest.raises(ValueError, match="tolerance"):
-        build_cumulative_cmf(tolerance=0.0)
+        cumulative_cmf_lut(tolerance=0.0)
     with pytest.raises(ValueError, match="dtype"):
-        cumulative_cmf(dtype=torch.int64)
+        shipped_cumulative_cmf_lut(dtype=torch.int64)
     with pytest.raises(ValueError, match="dtype"):
-        cumulative_cmf(dtype=torch.float16)
+        shipped_cumulative_cmf_lut(dtype=torch.float16)

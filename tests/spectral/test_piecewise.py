@@ -50,8 +50,8 @@ def test_grazing_is_white_and_shapes():
 
 def test_scope_errors():
     c = t64([0.5])
-    with pytest.raises(ValueError, match="n_host"):
-        ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="piecewise", n_host=1.33)
+    with pytest.raises(ValueError, match="n_incident"):
+        ti.bragg_xyz(c, 1.0, 1.5, 125.0, 375.0, 20, method="piecewise", n_incident=1.33)
     with pytest.raises(ValueError, match="propagating"):
         ti.bragg_xyz(t64([0.1]), 1.6, 1.2, 125.0, 375.0, 20, method="piecewise")
     with pytest.raises(ValueError, match="real"):

@@ -1,7 +1,7 @@
 """Colour: CMFs and illuminants (colour-science data as cached tensors), spectrum → XYZ →
 L*a*b* / sRGB, and colour differences (ΔE*ab, CIEDE2000). Batched and differentiable."""
 
-from .cmfs import ILLUMINANTS, OBSERVERS, cmfs, illuminant_spd, white_point_xy, white_point_xyz
+from .colorimetry import ILLUMINANTS, OBSERVERS, cmfs, illuminant_spd, white_point_xy, white_point_xyz
 from .convert import (
     lab_to_xyz,
     linear_srgb_to_srgb,

@@ -36,7 +36,7 @@ from kornia.color import linear_rgb_to_rgb as _kornia_linear_rgb_to_rgb
 from kornia.color import xyz_to_rgb as _kornia_xyz_to_rgb
 
 from .. import _checks
-from .cmfs import _product_tensor, _white_tensor, check_illuminant, check_observer
+from .colorimetry import _product_tensor, _white_tensor, check_illuminant, check_observer
 
 __all__ = [
     "xyz_weights",

@@ -119,7 +119,7 @@ def noise_level(cube) -> float:
 
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
-                  passband: str = "box", polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5),
+                  passband: str = "box", polarization: str = "s", n_incident=1.0, n_range=(1.2, 3.5),
                   thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
                   iterations: int = 10, final_iterations: int = 2, seed: int = 0, progress=None) -> FilmEstimate:
     """Film index (shared) and per-pixel thickness from a cube (module docstring).
@@ -153,7 +153,7 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     if lam.shape != (B,) or c.shape != (A,):
         raise ValueError(f"wavelength must have {B} values and cos_theta {A} for a cube of shape {tuple(y.shape)}")
     ns = float(n_substrate)
-    kw = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_outer=n_outer)
+    kw = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_incident=n_incident)
     step = progress if progress is not None else (lambda name: None)
 
     def terms_for(n, lam_, c_):
@@ -197,7 +197,7 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     else:
         restarted = False
     step("index scan")
-    s2 = (float(n_outer) ** 2) * (1 - c * c)
+    s2 = (float(n_incident) ** 2) * (1 - c * c)
     lam_mid = float(lam.median())
 
     def period(n):
@@ -320,7 +320,7 @@ def film_metrics(estimate: FilmEstimate, truth) -> dict:
     between the true noise-free band spectra and the re-rendered estimate, averaged over
     pixels and angles; spectral RMSE (reflectance units) averaged the same way.
     """
-    kw = {k: estimate.settings[k] for k in ("bandwidth", "passband", "polarization", "n_outer")}
+    kw = {k: estimate.settings[k] for k in ("bandwidth", "passband", "polarization", "n_incident")}
     est = model_cube(estimate.params, estimate.index_model, estimate.thickness, truth.wavelength, truth.cos_theta,
                      truth.sample.n_substrate, **kw)
     lab_t = xyz_to_lab(spectrum_to_xyz(truth.clean, truth.wavelength))

@@ -90,7 +90,7 @@ def band_reflectance(
     bandwidth: float = 4.0,
     passband: str = "box",
     nodes: int = 8,
-    n_outer=1.0,
+    n_incident=1.0,
     polarization: str = "s",
 ) -> torch.Tensor:
     r"""Band-integrated reflectance of a film on a substrate, as a hyperspectral camera sees it.
@@ -105,7 +105,7 @@ def band_reflectance(
         bandwidth: full passband width w in nm (box) or FWHM (gaussian); 0 = point sampling.
         passband: ``"box"`` or ``"gaussian"``.
         nodes: quadrature nodes Q per band (8 integrates 4 nm bands of a 1 µm film to ~1e-9).
-        n_outer: real index of the incident medium.
+        n_incident: real index of the incident medium.
         polarization: ``"s"`` (as in the paper), ``"p"`` or ``"unpolarized"``.
 
     Returns:
@@ -140,12 +140,12 @@ def band_reflectance(
     nf = node(n_film, "n_film", real=False)
     ns = node(n_substrate, "n_substrate", real=False)
     R = thin_film_reflectance(
-        lam_q, c, _film_index(nf, lam_q), d, _film_index(ns, lam_q), n_outer=n_outer, polarization=polarization
+        lam_q, c, _film_index(nf, lam_q), d, _film_index(ns, lam_q), n_incident=n_incident, polarization=polarization
     )
     return (R * wts).sum(-1)
 
 
-def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_outer=1.0, polarization: str = "s"):
+def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_incident=1.0, polarization: str = "s"):
     r"""Terms (a, b, e, k) of the lossless closed form :math:`R = (a + b\cos kd)/(e + b\cos kd)`.
 
     All indices must be real (lossless film and substrate, no total internal reflection in
@@ -165,7 +165,7 @@ def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_outer=1.0, polar
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     ns = _checks.as_real(n_substrate, "n_substrate", dtype, device)
-    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_cosine(c)
     s2 = n0 * n0 * (1 - c * c)
     q0 = n0 * c
@@ -217,7 +217,7 @@ def band_variance(bandwidth: float, passband: str = "box") -> float:
 
 
 def band_terms(wavelength, cos_theta, n_film, n_substrate, *, bandwidth: float = 4.0, passband: str = "box",
-               n_outer=1.0, polarization: str = "s"):
+               n_incident=1.0, polarization: str = "s"):
     r"""Terms (a, b, e, k, h) of the fast band model :func:`band_reflectance_fast` (lossless film).
 
     (a, b, e, k) are :func:`airy_terms` at the band centre (``n_film`` may be a callable of λ
@@ -236,7 +236,7 @@ def band_terms(wavelength, cos_theta, n_film, n_substrate, *, bandwidth: float =
     var = band_variance(bandwidth, passband)
 
     def terms(l):
-        return airy_terms(l, cos_theta, _film_index(n_film, l), _film_index(n_substrate, l), n_outer=n_outer,
+        return airy_terms(l, cos_theta, _film_index(n_film, l), _film_index(n_substrate, l), n_incident=n_incident,
                           polarization=polarization)
 
     (a, b, e, k), (_, _, _, kp) = torch.func.jvp(terms, (lam,), (torch.ones_like(lam),))

@@ -198,7 +198,7 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
     return p_sel.reshape(*batch, K), k_sel.reshape(*batch, K), W
 
 
-def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_outer=1.0, tolerance=0.01):
+def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_incident=1.0, tolerance=0.01):
     r"""Follow each extremum of the first angle through the following angles (step 2).
 
     Args:
@@ -227,7 +227,7 @@ def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_outer=1.0,
     if A > 1 and bool((c.diff() > 0).any()):
         raise ValueError("angles must be sorted by increasing incidence angle (decreasing cos_theta)")
     n_min = float(n_range[0])
-    s2 = (float(n_outer) ** 2) * (1 - c * c)
+    s2 = (float(n_incident) ** 2) * (1 - c * c)
     cur = pos[..., 0, :]  # (*, K)
     knd = kind[..., 0, :]
     out = [cur]
@@ -244,7 +244,7 @@ def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_outer=1.0,
     return torch.stack(out, dim=-1), knd
 
 
-def index_from_tracks(tracks, cos_theta, *, n_outer=1.0, min_angles: int = 3):
+def index_from_tracks(tracks, cos_theta, *, n_incident=1.0, min_angles: int = 3):
     r"""Per-track index from the least-squares line λ² = α − β sin²θ (eq. 12 over all angles).
 
     Args:
@@ -264,7 +264,7 @@ def index_from_tracks(tracks, cos_theta, *, n_outer=1.0, min_angles: int = 3):
     """
     tr = torch.as_tensor(tracks)
     c = torch.as_tensor(cos_theta, dtype=tr.dtype, device=tr.device)
-    s2 = (float(n_outer) ** 2) * (1 - c * c)
+    s2 = (float(n_incident) ** 2) * (1 - c * c)
     m = ~tr.isnan()
     cnt = m.sum(-1)
     y = torch.where(m, tr * tr, torch.zeros_like(tr))
@@ -281,7 +281,7 @@ def index_from_tracks(tracks, cos_theta, *, n_outer=1.0, min_angles: int = 3):
 
 
 def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thickness_range=(20.0, 2000.0),
-                         n_outer=1.0, polarization="s", max_candidates: int = 24):
+                         n_incident=1.0, polarization="s", max_candidates: int = 24):
     r"""Thickness candidates of eq. 13, d = m λ / (2√(n² − sin²θ)), for every admissible order.
 
     Per pixel the track seen at the most angles is used; d is the mean over its angles of
@@ -305,7 +305,7 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
     """
     tr = torch.as_tensor(tracks)
     c = torch.as_tensor(cos_theta, dtype=tr.dtype, device=tr.device)
-    s2 = (float(n_outer) ** 2) * (1 - c * c)
+    s2 = (float(n_incident) ** 2) * (1 - c * c)
     nf = float(n_film)
     if not nf > 0:
         raise ValueError(f"n_film must be > 0; got {n_film!r}")
@@ -318,7 +318,7 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
     u = (sel / (2 * torch.sqrt(nf * nf - s2))).nanmean(-1)  # d per unit order
     # parity: maxima at integer orders iff r01 r12 > 0 (sign of b at the track's mean wavelength, first angle)
     lam_mean = sel.nanmean(-1).nan_to_num(550.0)
-    _, b, _, _ = airy_terms(lam_mean, c[0], nf, float(n_substrate), n_outer=n_outer, polarization=polarization)
+    _, b, _, _ = airy_terms(lam_mean, c[0], nf, float(n_substrate), n_incident=n_incident, polarization=polarization)
     bpos = b.mean(0) > 0
     half = torch.where((kind > 0) == bpos, 0.0, 0.5).to(tr.dtype)  # max & b>0 → integer, etc.
     j = torch.arange(0, max_candidates + 1, dtype=tr.dtype, device=tr.device)
@@ -381,7 +381,7 @@ class PeakResult:
 
 
 def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 4.0, passband: str = "box",
-                polarization: str = "s", n_outer=1.0, n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0),
+                polarization: str = "s", n_incident=1.0, n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0),
                 n_film=None, window=None, score_stride: int = 3) -> PeakResult:
     r"""Kobayashi et al.'s estimate of n (eq. 12) and per-pixel d (eq. 13–14) from a cube ``(*, A, B)``.
 
@@ -406,8 +406,8 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     Y = y.reshape(-1, A, B)
     P = Y.shape[0]
     pos, kind, W = detect_extrema(Y, lam, window=window)
-    tracks, kinds = track_extrema(pos, kind, c, n_range=n_range, n_outer=n_outer)  # (P, K, A), (P, K)
-    n_tr, cnt = index_from_tracks(tracks, c, n_outer=n_outer, min_angles=min(3, A))
+    tracks, kinds = track_extrema(pos, kind, c, n_range=n_range, n_incident=n_incident)  # (P, K, A), (P, K)
+    n_tr, cnt = index_from_tracks(tracks, c, n_incident=n_incident, min_angles=min(3, A))
     in_range = (n_tr >= n_range[0]) & (n_tr <= n_range[1])
     if n_film is None:
         vals = n_tr[in_range]
@@ -417,11 +417,11 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     else:
         n_est = float(n_film)
     cand = thickness_candidates(tracks, kinds, c, n_est, n_substrate, thickness_range=thickness_range,
-                                n_outer=n_outer, polarization=polarization)
+                                n_incident=n_incident, polarization=polarization)
     a_sel = sorted({0, A // 2, A - 1}) if score_stride > 1 else list(range(A))
     b_sel = list(range(0, B, max(1, int(score_stride))))
     terms = band_terms(lam[b_sel], c[a_sel, None], n_est, float(n_substrate), bandwidth=bandwidth, passband=passband,
-                       n_outer=n_outer, polarization=polarization)
+                       n_incident=n_incident, polarization=polarization)
     Ys = Y[:, a_sel][:, :, b_sel]
     d = torch.full((P,), math.nan, dtype=dtype)
     sse = torch.full((P,), math.inf, dtype=dtype)

@@ -40,12 +40,12 @@ __all__ = ["RefineResult", "model_terms", "lm_jacobian", "d_only_gauss_newton", 
 
 
 def model_terms(params, index_model_name, wavelength, cos_theta, n_substrate, *, bandwidth=4.0, passband="box",
-                n_outer=1.0, polarization="s"):
+                n_incident=1.0, polarization="s"):
     """Terms (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.band_reflectance_fast`
     for index parameters ``params`` ``(K,)``; ``wavelength`` ``(B,)`` nm, ``cos_theta`` ``(A,)``.
     """
     return band_terms(wavelength, cos_theta[:, None], lambda lam: index_model(lam, params, index_model_name),
-                      n_substrate, bandwidth=bandwidth, passband=passband, n_outer=n_outer, polarization=polarization)
+                      n_substrate, bandwidth=bandwidth, passband=passband, n_incident=n_incident, polarization=polarization)
 
 
 def _chunks(P: int, per_pixel: int, budget: int = 200_000):
@@ -212,7 +212,7 @@ class RefineResult:
 
 
 def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, rel_range=0.15, steps: int = 21,
-               slopes=(0.0,), bandwidth=4.0, passband="box", polarization="s", n_outer=1.0):
+               slopes=(0.0,), bandwidth=4.0, passband="box", polarization="s", n_incident=1.0):
     """Best index n(λ) = A + B/λ_µm² on a grid by total misfit of ``cube`` ``(P, A, B)``.
 
     The grid: n(λ_mid) ∈ n_start·[1 − r, 1 + r] (``steps`` values) × B ∈ ``slopes`` (µm²;
@@ -224,7 +224,7 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
     dtype = cube.dtype
     lam = torch.as_tensor(wavelength, dtype=dtype)
     c = torch.as_tensor(cos_theta, dtype=dtype)
-    s2 = (n_outer ** 2) * (1 - c * c)
+    s2 = (n_incident ** 2) * (1 - c * c)
     lam_mid = float(lam.median())
     inv_mid = (1000.0 / lam_mid) ** 2
     mids = n_start * torch.linspace(1 - rel_range, 1 + rel_range, steps, dtype=dtype)
@@ -234,7 +234,7 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
     for A_, B_ in grid.tolist():
         n_mid = A_ + B_ * inv_mid
         terms = band_terms(lam, c[:, None], lambda l: A_ + B_ * (1000.0 / l) ** 2, n_substrate, bandwidth=bandwidth,
-                           passband=passband, n_outer=n_outer, polarization=polarization)
+                           passband=passband, n_incident=n_incident, polarization=polarization)
         nc = float(torch.sqrt(n_mid ** 2 - s2).mean())
         D = (thickness * (nc0 / nc))[:, None] + (lam_mid / (2 * nc)) * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
         D = torch.where(D > 0, D, torch.full_like(D, math.nan))
@@ -249,7 +249,7 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
 
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, *, index_model_name="constant",
-                bandwidth=4.0, passband="box", polarization="s", n_outer=1.0, smoothness: float = 0.0,
+                bandwidth=4.0, passband="box", polarization="s", n_incident=1.0, smoothness: float = 0.0,
                 iterations: int = 12, fit_index: bool = True, order_check: bool = True, tol: float = 1e-7,
                 progress=None) -> RefineResult:
     r"""Joint Levenberg–Marquardt fit of the shared index model and per-pixel thickness (module docstring).
@@ -296,7 +296,7 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
     image = len(batch) == 2 and smoothness > 0
 
     def terms_of(th):
-        return model_terms(th, index_model_name, lam, c, ns, bandwidth=bandwidth, passband=passband, n_outer=n_outer,
+        return model_terms(th, index_model_name, lam, c, ns, bandwidth=bandwidth, passband=passband, n_incident=n_incident,
                            polarization=polarization)
 
     def sse_of(th, dd):
@@ -381,7 +381,7 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
     if order_check:
         terms = terms_of(theta)
         n_mid = index_model(lam.median(), theta, index_model_name)
-        s2 = (n_outer ** 2) * (1 - c * c)
+        s2 = (n_incident ** 2) * (1 - c * c)
         T = float(lam.median()) / (2 * float(torch.sqrt(n_mid ** 2 - s2).mean()))
         D = d[:, None] + T * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
         D = torch.where(D > 0, D, torch.full_like(D, math.nan))
@@ -402,7 +402,7 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
 
 
 def grid_scan(cube, wavelength, cos_theta, n_substrate, n_grid, *, thickness_range=(20.0, 2000.0),
-              bandwidth=4.0, passband="box", polarization="s", n_outer=1.0):
+              bandwidth=4.0, passband="box", polarization="s", n_incident=1.0):
     """Exhaustive search, independent of any peak: for each constant index of ``n_grid`` the
     best thickness of every pixel of ``cube`` ``(P, A, B)`` on a grid of step λ_min/(8√(n²−s²))
     (inside one interference basin), polished by two Gauss–Newton steps.
@@ -413,11 +413,11 @@ def grid_scan(cube, wavelength, cos_theta, n_substrate, n_grid, *, thickness_ran
     dtype = cube.dtype
     lam = torch.as_tensor(wavelength, dtype=dtype)
     c = torch.as_tensor(cos_theta, dtype=dtype)
-    s2 = (n_outer ** 2) * (1 - c * c)
+    s2 = (n_incident ** 2) * (1 - c * c)
     lo, hi = map(float, thickness_range)
     losses, ds = [], []
     for n in torch.as_tensor(n_grid, dtype=dtype).tolist():
-        terms = band_terms(lam, c[:, None], n, n_substrate, bandwidth=bandwidth, passband=passband, n_outer=n_outer,
+        terms = band_terms(lam, c[:, None], n, n_substrate, bandwidth=bandwidth, passband=passband, n_incident=n_incident,
                            polarization=polarization)
         step = float(lam.min()) / (8 * float(torch.sqrt(n * n - s2).max()))
         grid = torch.arange(lo, hi + step, step, dtype=dtype)

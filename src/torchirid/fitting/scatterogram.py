@@ -73,17 +73,17 @@ _LOSSES = ("lab", "de2000")
 # ----------------------------------------------------------------------------------------
 # the model
 # ----------------------------------------------------------------------------------------
-def bragg_structure(period, delta, n1, n2, cells: int, alpha, *, n_host: float = 1.0,
+def bragg_structure(period, delta, n1, n2, cells: int, alpha, *, n_incident: float = 1.0,
                     base_albedo: float = 0.0) -> LayeredBragg:
     """One rough Bragg layer ``d2 = δΛ``, ``d1 = (1 − δ)Λ`` (the preset convention) as a
     :class:`~torchirid.layered.structure.LayeredBragg`; tensor parameters keep their graph.
 
     >>> s = bragg_structure(160.0, 0.51, 1.59, 1.67, 8, 0.05)
     >>> l = s.layers[0]
-    >>> round(l.d1, 6), round(l.d2, 6), l.n_host
+    >>> round(l.d1, 6), round(l.d2, 6), l.n_incident
     (78.4, 81.6, 1.0)
     """
-    layer = RoughBraggLayer(n1, n2, (1.0 - delta) * period, delta * period, cells, alpha, n_host=n_host)
+    layer = RoughBraggLayer(n1, n2, (1.0 - delta) * period, delta * period, cells, alpha, n_incident=n_incident)
     return LayeredBragg([layer], base_albedo=base_albedo)
 
 
@@ -198,10 +198,10 @@ class ScatterogramFit:
     seconds: float
     stages: dict = field(default_factory=dict, repr=False)
 
-    def structure(self, *, n_host: float = 1.0, base_albedo: float = 0.0) -> LayeredBragg:
+    def structure(self, *, n_incident: float = 1.0, base_albedo: float = 0.0) -> LayeredBragg:
         """The recovered layer as a structure (float parameters)."""
         return bragg_structure(self.period, self.delta, self.n1, self.n2, self.cells, self.alpha,
-                               n_host=n_host, base_albedo=base_albedo)
+                               n_incident=n_incident, base_albedo=base_albedo)
 
     def numbers(self) -> dict:
         """JSON-ready parameters and figures (no stage log)."""
@@ -213,9 +213,9 @@ class ScatterogramFit:
 class _Problem:
     """Target, renderer and the unconstrained parametrisation shared by the stages."""
 
-    def __init__(self, target, mask, incs, lam, projection, lut, n_host, base_albedo, fit_n1, loss):
+    def __init__(self, target, mask, incs, lam, projection, lut, n_incident, base_albedo, fit_n1, loss):
         self.target, self.mask, self.incs, self.lam = target, mask, incs, lam
-        self.projection, self.lut, self.n_host, self.base_albedo = projection, lut, n_host, base_albedo
+        self.projection, self.lut, self.n_incident, self.base_albedo = projection, lut, n_incident, base_albedo
         self.fit_n1, self.loss_name = fit_n1, loss
         self.resolution = target.shape[-2]
         self.full_mask = mask.expand(target.shape[:-1])
@@ -239,7 +239,7 @@ class _Problem:
 
     def render(self, period, delta, n1, n2, cells, alpha):
         self.evaluations += 1
-        s = bragg_structure(period, delta, n1, n2, cells, alpha, n_host=self.n_host, base_albedo=self.base_albedo)
+        s = bragg_structure(period, delta, n1, n2, cells, alpha, n_incident=self.n_incident, base_albedo=self.base_albedo)
         return render_targets(s, self.incs, resolution=self.resolution, wavelength=self.lam,
                               projection=self.projection, lut=self.lut)
 
@@ -307,7 +307,7 @@ def match_scatterogram(
     wavelength=None,
     projection: str = "equidistant",
     lut: bool = False,
-    n_host: float = 1.0,
+    n_incident: float = 1.0,
     base_albedo: float = 0.0,
     loss: str = "lab",
     log=None,
@@ -341,7 +341,7 @@ def match_scatterogram(
         projection: the scatterogram's angular mapping (see
             :data:`~torchirid.render.scatterogram.PROJECTIONS`).
         lut: render the mirrors' reflectance from a per-call angle table.
-        n_host, base_albedo: the medium above the layer and the base (the jewel-beetle
+        n_incident, base_albedo: the medium above the layer and the base (the jewel-beetle
             presets: air, black).
         loss: ``"lab"`` (mean ΔE*ab², default) or ``"de2000"`` (mean ΔE00).
         log: optional callable receiving one progress string per stage.
@@ -422,7 +422,7 @@ def match_scatterogram(
 
     norm = float(peak)
     target_n = target.detach() / norm
-    prob = _Problem(target_n, mask, incs, lam, projection, lut, float(n_host), float(base_albedo), bool(fit_n1), loss)
+    prob = _Problem(target_n, mask, incs, lam, projection, lut, float(n_incident), float(base_albedo), bool(fit_n1), loss)
     stages: dict = {}
     n_mid = cells[len(cells) // 2]
 

@@ -3,11 +3,11 @@
 from .fourier import (  # noqa: F401
     FOURIER_SENSITIVITY_BUILDER,
     SENSITIVITY_MODES,
-    build_fourier_sensitivity,
-    build_prefiltered_sensitivity,
+    fourier_sensitivity_lut,
+    prefiltered_sensitivity_lut,
     fourier_sensitivity,
     fourier_sensitivity_exact,
-    fourier_sensitivity_lut,
+    shipped_fourier_sensitivity_lut,
     fourier_sensitivity_path,
     prefiltered_fourier_sensitivity,
     thin_film_fourier_terms,
@@ -18,11 +18,11 @@ from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz  # noq
 from .fitted import (  # noqa: F401
     DEFAULT_QUANTILES,
     LIGHT_MIXTURE_BUILDER,
-    build_light_mixture_table,
+    light_mixture_lut,
     fitted_thin_film_xyz,
     light_mixture,
     light_mixture_path,
-    light_mixture_table,
+    shipped_light_mixture_lut,
 )
 from .uniform import (  # noqa: F401
     cos_theta1_distribution,

@@ -44,7 +44,7 @@ import math
 import torch
 
 from .. import _checks
-from .fourier import (_check_names, prefiltered_fourier_sensitivity, prefiltered_fourier_sensitivity_lut,
+from .fourier import (_check_names, prefiltered_fourier_sensitivity, lookup_prefiltered_sensitivity,
                       thin_film_fourier_terms)
 
 #: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
@@ -68,7 +68,7 @@ def _vectors(x, name, dtype, device):
 
 
 def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
-                           n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
+                           n_incident=1.0, terms: int = 2, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
                            sensitivity: str = "exact") -> torch.Tensor:
     r"""Thin-film XYZ averaged over a light-direction distribution (Kneiphof et al. 2019, eq. 20–29).
@@ -82,10 +82,10 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
             unit vectors; not renormalised).
         light_cov: covariance Σ_ωi of the light directions, ``(*, 3, 3)`` (symmetric PSD;
             ω_oᵀΣω_o is clamped at 0 against rounding).
-        n_film: real film index η₂ ≥ ``n_outer``. Shape ``(*)``.
+        n_film: real film index η₂ ≥ ``n_incident``. Shape ``(*)``.
         thickness: film thickness d in nm (≥ 0). Shape ``(*)``.
         n_substrate: base index η₃ + iκ₃ (non-dispersive, κ ≥ 0). Shape ``(*)``.
-        n_outer: real outer index η₁ (default 1).
+        n_incident: real outer index η₁ (default 1).
         terms: M ≥ 0, Fourier terms kept (paper: 2).
         observer, illuminant: the sensitivity (see :func:`~torchirid.ibl.fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
@@ -109,7 +109,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wo, light_mean, light_cov, n_film, thickness,
-                                                 n_substrate, n_outer)
+                                                 n_substrate, n_incident)
     w = _vectors(wo, "wo", dtype, device)
     mu = _vectors(light_mean, "light_mean", dtype, device)
     cov = _checks.as_real(light_cov, "light_cov", dtype, device)
@@ -117,9 +117,9 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         raise ValueError(f"light_cov must have shape (*, 3, 3); got {tuple(cov.shape)}")
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_positive(nf, "n_film", "")
-    _checks.check_positive(n0, "n_outer", "")
+    _checks.check_positive(n0, "n_incident", "")
     _checks.check_nonnegative(d, "thickness")
     with torch.no_grad():
         wn = torch.linalg.vector_norm(w, dim=-1)
@@ -137,7 +137,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     # eq. 22 at the mean: cos θ1* = ⟨h, ω_i⟩ (safe sqrt: backscatter μ = −1 is grazing, cos θ1 = 0)
     cos1 = _checks.safe_sqrt(0.5 * (1.0 + mean_c))
     # C0*, a* = r21 r23 = |a| e^{iφ2*}, K* of eq. 4 at the mean direction
-    C0, a, K, _ = thin_film_fourier_terms(cos1, nf, d, n_substrate, n_outer=n0, polarization=polarization)
+    C0, a, K, _ = thin_film_fourier_terms(cos1, nf, d, n_substrate, n_incident=n0, polarization=polarization)
     # eq. 25: μ_cosθ2 (= √(1 − η1²/η2² sin²θ1*), what thin_film_fourier_terms uses for D)
     k = (n0 * n0) / (2.0 * nf * nf)
     mean_c2 = _checks.safe_sqrt(1.0 + k * (mean_c - 1.0))  # > 0 unless η2 = η1 at grazing
@@ -154,7 +154,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
 def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivity="exact"):
     """Eq. 29 from the series terms (polarization-leading C0, a, K) and D ~ N(mean_D, var_D)."""
     dtype, device = mean_D.dtype, mean_D.device
-    fn = prefiltered_fourier_sensitivity if sensitivity == "exact" else prefiltered_fourier_sensitivity_lut
+    fn = prefiltered_fourier_sensitivity if sensitivity == "exact" else lookup_prefiltered_sensitivity
     # eq. 29: Ŝ(0) is the white; Ŝ(−mμ, m²σ²) = conj Ŝ(mμ, m²σ²) (the Gaussian damping is real)
     zero = torch.zeros((), dtype=dtype, device=device)
     white = prefiltered_fourier_sensitivity(zero, zero, observer=observer, illuminant=illuminant).real
@@ -171,7 +171,7 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivit
 
 
 def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
-                                n_outer=1.0, terms: int = 2, observer: str = "CIE 1931 2",
+                                n_incident=1.0, terms: int = 2, observer: str = "CIE 1931 2",
                                 illuminant: str = "D65", polarization: str = "unpolarized",
                                 sensitivity: str = "exact") -> torch.Tensor:
     r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.
@@ -184,7 +184,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
 
     Args:
         cos_theta: cos θ₁* (incidence on the facet) at which C*_m and φ₂* are evaluated, in [0, 1].
-        n_film, thickness, n_substrate, n_outer, terms, observer, illuminant, polarization: as
+        n_film, thickness, n_substrate, n_incident, terms, observer, illuminant, polarization: as
             :func:`filtered_thin_film_xyz` (C*_m and φ₂* do not depend on the thickness; it is
             validated and broadcast like the rest, and a NaN thickness gives NaN); sensitivity:
             ``"exact"`` or ``"lut"``.
@@ -206,11 +206,11 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, path_mean,
-                                                 path_var, n_outer)
+                                                 path_var, n_incident)
     mD = _checks.as_real(path_mean, "path_mean", dtype, device)
     vD = _checks.as_real(path_var, "path_var", dtype, device)
     _checks.check_nonnegative(vD, "path_var", "nm^2")
-    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_outer=n_outer,
+    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident=n_incident,
                                           polarization=polarization)
     shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
     P = C0.shape[0]

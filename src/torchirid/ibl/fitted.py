@@ -45,14 +45,14 @@ from .uniform import cos_theta1_distribution
 __all__ = [
     "LIGHT_MIXTURE_BUILDER",
     "DEFAULT_QUANTILES",
-    "build_light_mixture_table",
-    "light_mixture_table",
+    "light_mixture_lut",
+    "shipped_light_mixture_lut",
     "light_mixture",
     "light_mixture_path",
     "fitted_thin_film_xyz",
 ]
 
-LIGHT_MIXTURE_BUILDER = "torchirid.ibl.fitted:build_light_mixture_table"
+LIGHT_MIXTURE_BUILDER = "torchirid.ibl.fitted:light_mixture_lut"
 DEFAULT_QUANTILES = (0.05, 0.3, 0.7, 0.95)
 _ALPHA_MIN = 1e-4  # the √α = 0 node is evaluated here (GGX needs α > 0; a mirror to ≲ 1e-5)
 _THETA_MAX_DEG = 89.5  # the θo = 90° node is evaluated here (a view above the horizon)
@@ -103,7 +103,7 @@ def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int 
     return _quantile_pieces(grid, w, q)
 
 
-def build_light_mixture_table(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alpha_nodes: int = 48,
+def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alpha_nodes: int = 48,
                               bins: int = 2048, nodes: int = 64, dtype: torch.dtype = torch.float32) -> LUT:
     r"""Tabulate :func:`light_mixture` over (cos θo, √α) (module docstring).
 
@@ -148,25 +148,25 @@ def _shipped(dtype, device) -> LUT:
         if p.exists():
             lut = LUT.load(p, builder=LIGHT_MIXTURE_BUILDER, parameters=_SHIPPED)
         else:  # a source tree without the data file: build it (≈ 5 s) rather than fail
-            lut = build_light_mixture_table(**_SHIPPED)
+            lut = light_mixture_lut(**_SHIPPED)
     return lut.to(dtype=dtype, device=device)
 
 
-def light_mixture_table(*, dtype: torch.dtype = torch.float64, device=None) -> LUT:
+def shipped_light_mixture_lut(*, dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """The shipped K = 5 mixture table (48 θo × 48 √α nodes), cached per dtype/device."""
     return _shipped(dtype, torch.device("cpu") if device is None else torch.device(device))
 
 
-def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_outer=1.0, table=None,
+def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
                          terms: int = 2, observer: str = "CIE 1931 2", illuminant: str = "D65",
                          polarization: str = "unpolarized", sensitivity: str = "exact") -> torch.Tensor:
     r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
 
     Args:
         cos_theta_o: cos θo in [0, 1]; alpha: GGX roughness in [0, 1] (clamped to the table).
-        n_film: real film index η₂ ≥ ``n_outer``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
-        n_outer: real outer index η₁ (default 1).
-        table: a :class:`~torchirid.lut.LUT` from :func:`build_light_mixture_table`; default
+        n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
+        n_incident: real outer index η₁ (default 1).
+        table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut`; default
             the shipped one.
         terms, observer, illuminant, polarization, sensitivity: as
             :func:`~torchirid.ibl.filtered_thin_film_xyz` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
@@ -187,21 +187,21 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     _check_names(observer, illuminant)
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_outer)
+    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_incident)
     c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
     a = _checks.as_real(alpha, "alpha", dtype, device)
     _checks.check_cosine(c, "cos_theta_o")
     _checks.check_nonnegative(a, "alpha", "(GGX roughness)")
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_positive(nf, "n_film", "")
-    _checks.check_positive(n0, "n_outer", "")
+    _checks.check_positive(n0, "n_incident", "")
     _checks.check_nonnegative(d, "thickness")
     if table is None:
-        table = light_mixture_table(dtype=dtype, device=device)
+        table = shipped_light_mixture_lut(dtype=dtype, device=device)
     elif not isinstance(table, LUT) or table.builder != LIGHT_MIXTURE_BUILDER:
-        raise ValueError("table must be a LUT built by build_light_mixture_table")
+        raise ValueError("table must be a LUT built by light_mixture_lut")
     else:
         table = table.to(dtype=dtype, device=device)
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
@@ -218,7 +218,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     c2 = torch.sqrt((1.0 - k * (1.0 - c1 * c1)).clamp_min(torch.finfo(dtype).tiny))
     slope = k * c1 / c2
     scale = 2.0 * nf * d
-    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, ns, n_outer=n0, polarization=polarization)
+    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, ns, n_incident=n0, polarization=polarization)
     shape = C0.shape[1:]
     xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
                       terms, observer, illuminant, sensitivity)  # (K, *, 3)

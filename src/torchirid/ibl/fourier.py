@@ -70,20 +70,20 @@ import numpy as np
 import torch
 
 from .. import _checks
-from ..color.cmfs import _product_numpy, check_illuminant, check_observer
+from ..color.colorimetry import _product_numpy, check_illuminant, check_observer
 from ..lut import LUT
 from ..optics.fresnel import admittance, interface, normal_wavenumber
 
 __all__ = [
     "fourier_sensitivity",
     "fourier_sensitivity_exact",
-    "fourier_sensitivity_lut",
+    "shipped_fourier_sensitivity_lut",
     "fourier_sensitivity_path",
-    "build_fourier_sensitivity",
+    "fourier_sensitivity_lut",
     "prefiltered_fourier_sensitivity",
-    "build_prefiltered_sensitivity",
     "prefiltered_sensitivity_lut",
-    "prefiltered_fourier_sensitivity_lut",
+    "shipped_prefiltered_sensitivity_lut",
+    "lookup_prefiltered_sensitivity",
     "thin_film_fourier_terms",
     "thin_film_xyz_fourier",
     "FOURIER_SENSITIVITY_BUILDER",
@@ -91,8 +91,8 @@ __all__ = [
 ]
 
 #: ``builder`` string stored in the Ŝ tables (checked when a shipped file is loaded).
-FOURIER_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:build_fourier_sensitivity"
-PREFILTERED_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:build_prefiltered_sensitivity"
+FOURIER_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:fourier_sensitivity_lut"
+PREFILTERED_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:prefiltered_sensitivity_lut"
 #: How :func:`thin_film_xyz_fourier` evaluates Ŝ.
 SENSITIVITY_MODES = ("lut", "exact")
 _D_MAX = 20000.0  # nm: covers m·D for M = 4 terms on films up to 1 µm of index 2 (16 µm)
@@ -216,7 +216,7 @@ def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
 # ---------------------------------------------------------------------------------------
 
 
-def build_fourier_sensitivity(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
+def fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                               d_max: float = _D_MAX, step: float = _D_STEP) -> LUT:
     r"""Tabulate Ŝ(D), D ∈ [0, d_max] nm every ``step`` nm, as (magnitude, unwrapped phase).
 
@@ -227,7 +227,7 @@ def build_fourier_sensitivity(observer: str = "CIE 1931 2", illuminant: str = "D
         cell midpoints and quarter points.
 
     Example:
-        >>> lut = build_fourier_sensitivity(d_max=1000.0)
+        >>> lut = fourier_sensitivity_lut(d_max=1000.0)
         >>> lut.values.shape, max(lut.parameters["max_interp_error"]) < 1e-5
         (torch.Size([201, 3, 2]), True)
     """
@@ -294,18 +294,18 @@ def _cached(observer, illuminant, dtype, device) -> LUT:
                                 expect={"axes": ("D",), "channels": (3, 2), "units": {"D": "nm"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead
             warnings.warn(f"fourier_sensitivity: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild it with luts/build_fourier_sensitivity.py)",
+                          f"memory (rebuild it with luts/fourier_sensitivity_lut.py)",
                           RuntimeWarning, stacklevel=3)
-    return build_fourier_sensitivity(observer, illuminant)
+    return fourier_sensitivity_lut(observer, illuminant)
 
 
-def fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
+def shipped_fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                             dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """The Ŝ(D) table (shipped for CIE 1931 2° and Stiles & Burch 1959 10° under D65; any
     other observer/illuminant is built in memory, ≈ 1–3 s), cached; treat it as read-only.
 
     Example:
-        >>> fourier_sensitivity_lut().values.shape
+        >>> shipped_fourier_sensitivity_lut().values.shape
         torch.Size([4001, 3, 2])
     """
     _check_names(observer, illuminant)
@@ -328,7 +328,7 @@ def fourier_sensitivity(D, *, observer: str = "CIE 1931 2", illuminant: str = "D
     _check_names(observer, illuminant)
     dtype, device = _checks.resolve_dtype_device(D)
     d = _checks.as_real(D, "D", dtype, device)
-    return _from_lut(fourier_sensitivity_lut(observer, illuminant, dtype=dtype, device=device), d)
+    return _from_lut(shipped_fourier_sensitivity_lut(observer, illuminant, dtype=dtype, device=device), d)
 
 
 _PREFILTERED_REPRESENTATION = "demodulated_real_imag"
@@ -347,7 +347,7 @@ def _sigma_warp(sigma2: torch.Tensor, lam_w: float) -> torch.Tensor:
     return -torch.expm1(sigma2 * (-2.0 * math.pi**2 / lam_w**2))
 
 
-def build_prefiltered_sensitivity(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
+def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                                   d_max: float = _D_MAX, step: float = 10.0,
                                   sigma_max: float = 1000.0, sigma_nodes: int = 41) -> LUT:
     r"""Kneiphof's 2-D table Ŝ(μ_D, σ²_D) (eq. 18), built in memory (not shipped).
@@ -360,7 +360,7 @@ def build_prefiltered_sensitivity(observer: str = "CIE 1931 2", illuminant: str 
     **demodulated** :math:`\hat S_j(μ, σ^2)\,e^{+2πiar ν_j μ}` (ν̄_j = the channel's centroid
     wavenumber, ``parameters["carrier_nm"]`` = 1/ν̄_j): the slowly varying envelope, which
     interpolates without the 2π branch cuts that per-σ unwrapped phases have where |Ŝ_X|
-    passes near 0. Read it with :func:`prefiltered_fourier_sensitivity_lut`.
+    passes near 0. Read it with :func:`lookup_prefiltered_sensitivity`.
 
     Accuracy (default grid, max over channels of |Ŝ_lut − Ŝ| at 30,000 random (μ, σ) with
     μ ∈ [0, 20 µm] and σ ∈ [0, 1000] nm, a third of them below 50 nm; float64): 4.7e-4
@@ -373,7 +373,7 @@ def build_prefiltered_sensitivity(observer: str = "CIE 1931 2", illuminant: str 
     ``benchmarks/thin_film_fig7.py --sensitivity-accuracy``.
 
     Example:
-        >>> lut = build_prefiltered_sensitivity(d_max=500.0, sigma_max=100.0, sigma_nodes=3)
+        >>> lut = prefiltered_sensitivity_lut(d_max=500.0, sigma_max=100.0, sigma_nodes=3)
         >>> lut.values.shape, lut.axis_names
         (torch.Size([51, 3, 3, 2]), ('mu', 'w'))
     """
@@ -436,31 +436,31 @@ def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _prefiltered_cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype,
                                                                                                 device=device)
-    return build_prefiltered_sensitivity(observer, illuminant)
+    return prefiltered_sensitivity_lut(observer, illuminant)
 
 
-def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
+def shipped_prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                                 dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """Kneiphof's 2-D Ŝ(μ_D, σ²_D) table with the default grid (μ 0–20 µm every 10 nm, 41 σ nodes
-    to 1000 nm, see :func:`build_prefiltered_sensitivity`), built in memory on first use (≈ 3–6 s)
+    to 1000 nm, see :func:`prefiltered_sensitivity_lut`), built in memory on first use (≈ 3–6 s)
     and cached per observer/illuminant/dtype/device; treat it as read-only."""
     _check_names(observer, illuminant)
     return _prefiltered_cached(observer, illuminant, dtype,
                                torch.device(device) if device is not None else torch.device("cpu"))
 
 
-def prefiltered_fourier_sensitivity_lut(mu, sigma2, *, observer: str = "CIE 1931 2",
+def lookup_prefiltered_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
                                         illuminant: str = "D65", lut: LUT | None = None) -> torch.Tensor:
-    r"""Ŝ(μ, σ²) read from Kneiphof's 2-D table (:func:`prefiltered_sensitivity_lut`, or ``lut`` from
-    :func:`build_prefiltered_sensitivity`): bilinear in (|μ|, w(σ²)) on the demodulated real and
+    r"""Ŝ(μ, σ²) read from Kneiphof's 2-D table (:func:`shipped_prefiltered_sensitivity_lut`, or ``lut`` from
+    :func:`prefiltered_sensitivity_lut`): bilinear in (|μ|, w(σ²)) on the demodulated real and
     imaginary parts, then remodulated; conjugate for μ < 0, 0 beyond μ = 20 µm, σ clamped at
     1000 nm (where |Ŝ| < 1e-20). Within 5e-4 of :func:`prefiltered_fourier_sensitivity` (exact)
-    on the default grid (measured, see :func:`build_prefiltered_sensitivity`). What a shader does
+    on the default grid (measured, see :func:`prefiltered_sensitivity_lut`). What a shader does
     with Kneiphof's texture.
 
     Example:
         >>> import torch
-        >>> s = prefiltered_fourier_sensitivity_lut(torch.tensor(1000.0, dtype=torch.float64), 100.0**2)
+        >>> s = lookup_prefiltered_sensitivity(torch.tensor(1000.0, dtype=torch.float64), 100.0**2)
         >>> round(abs(s[1]).item(), 4)
         0.3742
     """
@@ -469,10 +469,10 @@ def prefiltered_fourier_sensitivity_lut(mu, sigma2, *, observer: str = "CIE 1931
     s2 = _checks.as_real(sigma2, "sigma2", dtype, device)
     _checks.check_nonnegative(s2, "sigma2", "nm^2")
     if lut is None:
-        lut = prefiltered_sensitivity_lut(observer, illuminant, dtype=dtype, device=device)
+        lut = shipped_prefiltered_sensitivity_lut(observer, illuminant, dtype=dtype, device=device)
     elif not isinstance(lut, LUT) or lut.builder != PREFILTERED_SENSITIVITY_BUILDER \
             or lut.parameters.get("representation") != _PREFILTERED_REPRESENTATION:
-        raise ValueError("lut must be a table from build_prefiltered_sensitivity")
+        raise ValueError("lut must be a table from prefiltered_sensitivity_lut")
     else:
         lut = lut.to(dtype=dtype, device=device)
     return _from_prefiltered_lut(lut, m, s2)
@@ -483,7 +483,7 @@ def prefiltered_fourier_sensitivity_lut(mu, sigma2, *, observer: str = "CIE 1931
 # ---------------------------------------------------------------------------------------
 
 
-def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_outer=1.0,
+def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0,
                             polarization: str = "unpolarized"):
     r"""The eq. 4 series of a film for wavelength-independent indices.
 
@@ -494,19 +494,19 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_oute
     (nm, real, no polarization axis). BB's ``C_m = |a|^m K``. See the module docstring.
     """
     _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_outer)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
+    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_cosine(c)
     _checks.check_nonnegative(d, "thickness")
     _checks.check_index(ns, "n_substrate")
-    _checks.check_positive(n0, "n_outer", "")
+    _checks.check_positive(n0, "n_incident", "")
     _checks.check_positive(nf, "n_film", "")
     if bool((nf < n0).any()):  # a film below the outer index can be evanescent (TIR): not a Fourier series in Φ
-        raise ValueError("n_film must be a real index >= n_outer (Belcour–Barla's series needs a "
+        raise ValueError("n_film must be a real index >= n_incident (Belcour–Barla's series needs a "
                          "propagating wave in the film)")
     c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(dtype)
@@ -539,7 +539,7 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_oute
     return st(C0s), st(As), st(Ks), D
 
 
-def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_outer=1.0, terms: int = 4,
+def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0, terms: int = 4,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", sensitivity: str = "lut") -> torch.Tensor:
     r"""XYZ of a thin film by Belcour & Barla's Fourier series (Kneiphof et al. 2019, eq. 4–5).
@@ -553,10 +553,10 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_outer=
 
     Args:
         cos_theta: cosine of the incidence angle in the outer medium, in [0, 1]. Shape ``(*)``.
-        n_film: real film index η₂ ≥ ``n_outer`` (non-dispersive).
+        n_film: real film index η₂ ≥ ``n_incident`` (non-dispersive).
         thickness: film thickness d in nm (≥ 0).
         n_substrate: base index η₃ + iκ₃ (κ ≥ 0; dielectric or conductor; non-dispersive).
-        n_outer: real outer index η₁ (default 1).
+        n_incident: real outer index η₁ (default 1).
         terms: M ≥ 0, the number of m terms kept (Belcour & Barla suggest 2–4).
         observer, illuminant: the sensitivity (see :func:`fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
@@ -577,7 +577,7 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_outer=
     if sensitivity not in SENSITIVITY_MODES:
         raise ValueError(f"sensitivity must be one of {_checks.names(SENSITIVITY_MODES)}; got {sensitivity!r}")
     _check_names(observer, illuminant)
-    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_outer=n_outer,
+    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident=n_incident,
                                           polarization=polarization)
     fn = fourier_sensitivity if sensitivity == "lut" else fourier_sensitivity_exact
     white = fn(torch.zeros((), dtype=D.dtype, device=D.device), observer=observer, illuminant=illuminant).real

@@ -118,7 +118,7 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
 
 
 def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, view, alpha, n_film, thickness,
-                                n_substrate, *, n_outer=1.0, method: str = "kneiphof", terms: int = 2,
+                                n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 2,
                                 observer: str = "CIE 1931 2", polarization: str = "unpolarized",
                                 sensitivity: str = "exact", output: str = "rgb", dfg=None) -> torch.Tensor:
     r"""Radiance reflected by a rough thin-film surface under a prefiltered environment (Kneiphof eq. 12).
@@ -135,9 +135,9 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         view: direction towards the viewer ω_o, ``(*, 3)`` (normalised here; ⟨n, ω_o⟩ > 0).
         alpha: GGX roughness, ``(*)``, within the prefiltered levels [min α, max α] and ≤ 1
             (the DFG table's range); interpolated linearly between levels.
-        n_film: real film index η₂ ≥ ``n_outer``; thickness: film thickness d in nm (≥ 0);
+        n_film: real film index η₂ ≥ ``n_incident``; thickness: film thickness d in nm (≥ 0);
             n_substrate: base η₃ + iκ₃ (non-dispersive) — each ``(*)``.
-        n_outer: real outer index η₁ (default 1).
+        n_incident: real outer index η₁ (default 1).
         method: ``"kneiphof"`` (default: eq. 20–29 with the prefiltered moments) or
             ``"belcour_barla"`` (eq. 4 at the ideal reflection, cos θ₁ = ⟨n, ω_o⟩) —
             :data:`SHADING_METHODS`.
@@ -177,7 +177,7 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
     _check_names(observer, "D65")
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(normal, view, alpha, n_film, thickness, n_substrate, n_outer,
+    dtype, device = _checks.resolve_dtype_device(normal, view, alpha, n_film, thickness, n_substrate, n_incident,
                                                  prefiltered.radiance)
     n = _vectors(normal, "normal", dtype, device)
     v = _vectors(view, "view", dtype, device)
@@ -213,7 +213,7 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
     ab = table(cos_theta_o=cos_o.expand(shape), alpha=a_)
     albedo = ab[..., 0] + ab[..., 1]
     # eq. 12, third factor
-    kw = dict(n_outer=n_outer, terms=terms, observer=observer, illuminant="D65", polarization=polarization,
+    kw = dict(n_incident=n_incident, terms=terms, observer=observer, illuminant="D65", polarization=polarization,
               sensitivity=sensitivity)
     if method == "kneiphof":
         mean, cov = light_moments_to_mean_cov(moments)

@@ -240,7 +240,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     return grid, torch.cat(out).reshape(*shape, bins + 1), torch.cat(alb).reshape(shape)
 
 
-def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.0, bins: int = 2048,
+def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident=1.0, bins: int = 2048,
                             nodes: int = 64):
     r"""Exact mean and variance of the path difference D = 2η₂d cos θ₂ under p_R (uniform light).
 
@@ -250,8 +250,8 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.
 
     Args:
         cos_theta_o, alpha: geometry, shape ``(*G)``.
-        n_film: real film index η₂ ≥ ``n_outer``; thickness: nm ≥ 0; both broadcast with ``(*G)``.
-        n_outer: real outer index η₁.
+        n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; both broadcast with ``(*G)``.
+        n_incident: real outer index η₁.
         bins, nodes: resolution (see :func:`cos_theta1_distribution`).
 
     Returns:
@@ -263,15 +263,15 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.
         >>> round(float(mD), 1)  # a near-mirror at normal incidence: D = 2·1.3·600
         1560.0
     """
-    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_outer)
+    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_outer, "n_outer", dtype, device)
-    _checks.check_positive(n0, "n_outer", "")
+    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
+    _checks.check_positive(n0, "n_incident", "")
     _checks.check_nonnegative(d, "thickness")
     if bool((nf < n0).any()):
-        raise ValueError("n_film must be >= n_outer (a propagating wave in the film)")
+        raise ValueError("n_film must be >= n_incident (a propagating wave in the film)")
     k = (n0 / nf)[..., None] ** 2
     c2 = torch.sqrt((1.0 - k * (1.0 - grid * grid)).clamp_min(0.0))  # (*, bins+1)
     m1 = (w * c2).sum(-1)
@@ -281,7 +281,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_outer=1.
     return scale * m1, scale * scale * var, m1, var
 
 
-def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_outer=1.0,
+def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", bins: int = 2048, nodes: int = 64,
                           wavelength=None):
@@ -296,7 +296,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         cos_theta_o: cos θo in (0, 1]; alpha: GGX roughness > 0 — geometry, shape ``(*G)``.
         n_film: real film index η₂; thickness: d in nm; n_substrate: base η₃ + iκ₃ (non-dispersive
             here, as in Belcour–Barla) — broadcast with ``(*G)`` to ``(*)``.
-        n_outer: real outer index η₁ (default 1).
+        n_incident: real outer index η₁ (default 1).
         observer, illuminant: colour space (XYZ normalised so the perfect reflector has Y = 1).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         bins, nodes: cos θ1 grid cells and lobe quadrature nodes per axis.
@@ -311,7 +311,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0647, 0.067, 0.1077]
     """
-    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_outer)
+    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
     grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
     if wavelength is None:
         wavelength = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
@@ -330,7 +330,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
     for s in range(0, max(nf.numel(), 1), per):  # (once for an empty batch)
         sl = slice(s, s + per)
         R = thin_film_reflectance(lam, grid[:, None], nf[sl, None, None], d[sl, None, None],
-                                  ns[sl, None, None], n_outer=n_outer, polarization=polarization)
+                                  ns[sl, None, None], n_incident=n_incident, polarization=polarization)
         rows.append(R @ W)  # (f, bins+1, 3)
     F = torch.cat(rows).reshape(*film_shape, grid.numel(), 3)
     return torch.matmul(w[..., None, :], F)[..., 0, :]

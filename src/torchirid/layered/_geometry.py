@@ -63,7 +63,7 @@ def refract_in(w: torch.Tensor, n1: float):
 
 def nan_rows(*vectors: torch.Tensor) -> torch.Tensor:
     """Mask (*) of the entries where any of the vectors ``(*, k)`` has a NaN component (their
-    results are set to NaN: DESIGN.md, NaN inputs propagate instead of being masked to 0)."""
+    results are set to NaN: docs/conventions.md, NaN inputs propagate instead of being masked to 0)."""
     bad = None
     for v in vectors:
         b = torch.isnan(v).any(-1)

@@ -331,17 +331,17 @@ def _check_range(t: torch.Tensor, name: str, lo: float, hi: float, what: str) ->
 
 def _prepare_angles(theta_i, theta_d, alpha):
     dtype, device = _checks.resolve_dtype_device(theta_i, theta_d, alpha)
-    ti = _checks.as_real(theta_i, "theta_i", dtype, device)
-    td = _checks.as_real(theta_d, "theta_d", dtype, device)
+    ti = _checks.as_real(theta_i, "theta_i_rad", dtype, device)
+    td = _checks.as_real(theta_d, "theta_d_rad", dtype, device)
     a = _checks.as_real(alpha, "alpha", dtype, device)
     hi, _ = _half_pi_parts(dtype)
-    _check_range(ti, "theta_i", 0.0, hi, "radians, incidence angle")
-    _check_range(td, "theta_d", 0.0, hi, "radians, difference angle θd = ∠(i, m)")
+    _check_range(ti, "theta_i_rad", 0.0, hi, "radians, incidence angle")
+    _check_range(td, "theta_d_rad", 0.0, hi, "radians, difference angle θd = ∠(i, m)")
     _checks.check_positive(a, "alpha", unit="(GGX roughness)")
     return ti, td, a
 
 
-def transmission_filter(theta_i, theta_d, alpha) -> torch.Tensor:
+def transmission_filter(theta_i_rad, theta_d_rad, alpha) -> torch.Tensor:
     r"""Transmission filter :math:`F_\alpha(\theta_i, \theta_d)` (Fourneau et al. 2024 eq. 29), in rad⁻¹.
 
     Exact closed form of the ψ integral (derivation in the module docstring): no quadrature,
@@ -349,9 +349,9 @@ def transmission_filter(theta_i, theta_d, alpha) -> torch.Tensor:
     kink :math:`\theta_d = \pi/2 - \theta_i` included.
 
     Args:
-        theta_i: incidence angle in **radians**, in [0, π/2] (angles, not cosines: F_α is a
-            density in θd). ``F = 0`` at grazing (θi = π/2, where G1 = 0).
-        theta_d: difference angle θd = ∠(i, m) in radians, in [0, π/2].
+        theta_i_rad: incidence angle θi in **radians**, in [0, π/2] (angles, not cosines: F_α
+            is a density in θd). ``F = 0`` at grazing (θi = π/2, where G1 = 0).
+        theta_d_rad: difference angle θd = ∠(i, m) in radians, in [0, π/2].
         alpha: GGX roughness, > 0 (α > 1 allowed: analytic continuation, ``β² < 0``).
 
     Returns:
@@ -365,7 +365,7 @@ def transmission_filter(theta_i, theta_d, alpha) -> torch.Tensor:
     >>> round(float(transmission_filter(theta_i, 0.5, 0.1)), 9)
     5.064837242
     """
-    ti, td, a = _prepare_angles(theta_i, theta_d, alpha)
+    ti, td, a = _prepare_angles(theta_i_rad, theta_d_rad, alpha)
     return _filter(ti, td, a)
 
 

@@ -156,7 +156,7 @@ class _Layer:
         lut = _TABLES.get(self._key)
         if lut is None:
             # (outside inference mode: a table cached by a call in inference mode must serve autograd calls)
-            lut = _checks.normal_tensors(transmissivity_lut)(self.layer, self.lam, **self.tau_kw)
+            lut = _checks.normal_tensors(transmissivity_lut)(self.lam, self.layer, **self.tau_kw)
             while len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[self._key] = lut
@@ -172,7 +172,7 @@ class _Transport:
 
     def __init__(self, structure: LayeredBragg, wi, wo, lam, *, single, mode, tau_angles, tau_cells,
                  max_depth, rr_depth, multiple=False):
-        self.n1 = float(structure.n_host)
+        self.n1 = float(structure.n_coating)
         self.rho = float(structure.base_albedo)
         self.layers = [_Layer(layer, lam, tau_angles, tau_cells) for layer in structure.layers]
         self.L = len(self.layers)
@@ -386,10 +386,10 @@ def _progress_bar(total: int, progress, desc: str):
 
 
 def montecarlo_brdf(
-    structure,
+    wavelength,
     wi,
     wo,
-    wavelength,
+    structure,
     *,
     samples: int = 1024,
     seed: int = 0,
@@ -456,7 +456,7 @@ def montecarlo_brdf(
         >>> s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 100.0, 100.0, 5, 0.2)])
         >>> w = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64)
         >>> lam = torch.tensor([400.0, 600.0], dtype=torch.float64)
-        >>> f, err = montecarlo_brdf(s, w, w, lam, samples=16, transmission="microfacet")
+        >>> f, err = montecarlo_brdf(lam, w, w, s, samples=16, transmission="microfacet")
         >>> [round(v, 6) for v in f.tolist()], bool(err.max() < 1e-12)
         ([0.047742, 1.158475], True)
     """
@@ -522,7 +522,7 @@ def montecarlo_brdf(
             if bar is not None:
                 bar.close()
         err = torch.sqrt(m2 / ((samples - 1) * samples))
-        bad = _geometry.nan_rows(i, o).unsqueeze(-1)  # NaN directions: NaN estimates, not 0 (DESIGN.md)
+        bad = _geometry.nan_rows(i, o).unsqueeze(-1)  # NaN directions: NaN estimates, not 0 (docs/conventions.md)
         mean, err = torch.where(bad, torch.nan, mean), torch.where(bad, torch.nan, err)
     return mean.to(dtype).reshape(*batch, W), err.to(dtype).reshape(*batch, W)
 

@@ -13,7 +13,7 @@ Table 3 gives n1, n2, the period Λ, a ratio δ and the number of cells N, but d
 
 >>> from torchirid.layered.presets import jewel_beetle
 >>> layer = jewel_beetle("green").layers[0]
->>> round(layer.d1, 6), round(layer.d2, 6), layer.cells, layer.alpha, layer.n_host
+>>> round(layer.d1, 6), round(layer.d2, 6), layer.cells, layer.alpha, layer.n_incident
 (78.4, 81.6, 8, 0.05, 1.0)
 """
 
@@ -48,7 +48,7 @@ def jewel_beetle(name: str, *, alpha: float = JEWEL_BEETLE_ALPHA, base_albedo: f
     r"""The layered Bragg structure of one jewel-beetle cuticle area (Fourneau et al. 2024, Table 3).
 
     A single :class:`~torchirid.layered.structure.RoughBraggLayer` ``(n1, n2, d1 = (1 − δ)Λ,
-    d2 = δΛ, N, α)`` with ``n_host = 1`` (air: appendix D reflectance, no coating) over a
+    d2 = δΛ, N, α)`` with ``n_incident = 1`` (air: appendix D reflectance, no coating) over a
     Lambertian base of albedo ``base_albedo`` (0: the paper's absorbing base).
 
     Args:
@@ -74,5 +74,5 @@ def jewel_beetle(name: str, *, alpha: float = JEWEL_BEETLE_ALPHA, base_albedo: f
     row = JEWEL_BEETLE[name]
     period, delta = row["period"], row["delta"]
     layer = RoughBraggLayer(row["n1"], row["n2"], (1.0 - delta) * period, delta * period, row["cells"], alpha,
-                            n_host=1.0)
+                            n_incident=1.0)
     return LayeredBragg([layer], base_albedo=base_albedo)

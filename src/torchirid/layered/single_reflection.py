@@ -82,36 +82,36 @@ def _check_structure(structure):
 # ----------------------------------------------------------------------------------------
 # geometry
 # ----------------------------------------------------------------------------------------
-def refract_into_host(w: torch.Tensor, n_host: float) -> torch.Tensor:
-    """Direction ``w`` (*, 3) above a smooth air | ``n_host`` interface, refracted into the host.
+def refract_into_host(w: torch.Tensor, n_incident: float) -> torch.Tensor:
+    """Direction ``w`` (*, 3) above a smooth air | ``n_incident`` interface, refracted into the host.
 
-    Snell: the tangential part scales by ``1/n_host``; ``z' = sqrt(1 − |t|²/n²)``. For
-    ``n_host = 1`` the input is returned unchanged (for ``n_host < 1``, directions beyond
+    Snell: the tangential part scales by ``1/n_incident``; ``z' = sqrt(1 − |t|²/n²)``. For
+    ``n_incident = 1`` the input is returned unchanged (for ``n_incident < 1``, directions beyond
     the critical angle have no host direction and become the normal; their coating
     transmittance is 0).
     """
-    return _geometry.refract_in(w, n_host)[0]
+    return _geometry.refract_in(w, n_incident)[0]
 
 
 _refract_out = _geometry.refract_out
 coating_transmittance = _geometry.coating_transmittance
 
 
-def coating_reflectance(cos_theta, n_host) -> torch.Tensor:
+def coating_reflectance(cos_theta, n_incident) -> torch.Tensor:
     """The coating's specular reflectance ``F`` (unpolarized), i.e. the weight of the Dirac
-    delta :math:`f_{r,0}` of eq. 34 in the mirror direction (0 when ``n_host = 1``)."""
+    delta :math:`f_{r,0}` of eq. 34 in the mirror direction (0 when ``n_incident = 1``)."""
     dtype, device = _checks.resolve_dtype_device(cos_theta)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     _checks.check_cosine(c)
-    if float(n_host) == 1.0:
+    if float(n_incident) == 1.0:
         return torch.zeros_like(c)
-    return fresnel_reflectance(c, 1.0, float(n_host))
+    return fresnel_reflectance(c, 1.0, float(n_incident))
 
 
 # ----------------------------------------------------------------------------------------
 # tables
 # ----------------------------------------------------------------------------------------
-def reflectance_lut(layer: RoughBraggLayer, wavelength, *, angles: int = REFLECTANCE_ANGLES) -> LUT:
+def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECTANCE_ANGLES) -> LUT:
     """The layer's unpolarized Yeh reflectance tabulated over the angle in the host (the "LUT"
     variant of the model, Fourneau et al. 2024 §5 / Table 2 "Model-LUT").
 
@@ -148,12 +148,12 @@ class _LayerTables:
         self.lam = lam
         self._angles = transmissivity_angles
         self._tau = None
-        self.R = reflectance_lut(layer, lam, angles=reflectance_angles) if use_reflectance_lut else None
+        self.R = reflectance_lut(lam, layer, angles=reflectance_angles) if use_reflectance_lut else None
 
     @property
     def tau(self):
         if self._tau is None:
-            self._tau = transmissivity_lut(self.layer, self.lam, angles=self._angles)
+            self._tau = transmissivity_lut(self.lam, self.layer, angles=self._angles)
         return self._tau
 
     def transmissivity(self, cos_theta: torch.Tensor) -> torch.Tensor:
@@ -173,10 +173,10 @@ def _tables(structure, lam, transmissivity_angles, reflectance_angles, use_lut):
 # evaluation (eq. 34)
 # ----------------------------------------------------------------------------------------
 def single_reflection_brdf(
-    structure,
+    wavelength,
     wi,
     wo,
-    wavelength,
+    structure,
     *,
     lut: bool = False,
     transmissivity_angles: int = TRANSMISSIVITY_ANGLES,
@@ -214,7 +214,7 @@ def single_reflection_brdf(
         >>> from torchirid.layered import LayeredBragg, RoughBraggLayer
         >>> s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.1)])
         >>> w = torch.tensor([[0.0, 0.0, 1.0]], dtype=torch.float64)
-        >>> f = single_reflection_brdf(s, w, w, torch.tensor([500.0, 600.0], dtype=torch.float64))
+        >>> f = single_reflection_brdf(torch.tensor([500.0, 600.0], dtype=torch.float64), w, w, s)
         >>> f.shape
         torch.Size([1, 2])
     """
@@ -241,7 +241,7 @@ def _half_vector(wi_h: torch.Tensor, wo_h: torch.Tensor) -> torch.Tensor:
 
 
 def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torch.Tensor:
-    n = structure.n_host
+    n = structure.n_coating
     ci, co = wi[..., 2], wo[..., 2]
     wi_h = refract_into_host(wi, n)
     wo_h = refract_into_host(wo, n)
@@ -284,8 +284,8 @@ def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torc
 # light bouncing between the Lambertian base and the layers above it (opt-in)
 # ----------------------------------------------------------------------------------------
 def base_return_fraction(
-    structure,
     wavelength,
+    structure,
     *,
     transmissivity_angles: int = TRANSMISSIVITY_ANGLES,
     mu_nodes: int = BASE_MU_NODES,
@@ -377,7 +377,7 @@ def base_return_fraction(
         >>> import torch
         >>> from torchirid.layered import LayeredBragg, RoughBraggLayer
         >>> s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.1)], base_albedo=0.5)
-        >>> rd = base_return_fraction(s, torch.tensor([500.0, 680.0], dtype=torch.float64))
+        >>> rd = base_return_fraction(torch.tensor([500.0, 680.0], dtype=torch.float64), s)
         >>> [round(v, 3) for v in rd.tolist()]
         [0.317, 0.13]
     """
@@ -398,7 +398,7 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
                  azimuth_nodes=BASE_AZIMUTH_NODES, reflectance_angles=BASE_REFLECTANCE_ANGLES):
     """R_d (W,) of :func:`base_return_fraction` from the call's per-layer tables."""
     dtype, device = lam.dtype, lam.device
-    n = structure.n_host
+    n = structure.n_coating
     x, w_x = gauss_legendre01(mu_nodes, dtype, device)
     if structure.coated and n > 1.0:  # F_in has a kink at the critical cosine: one rule on each side
         mu_c = math.sqrt(1.0 - 1.0 / (n * n))
@@ -445,13 +445,13 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
 def _reflectance_table(tab, angles):
     if tab.R is not None and tab.R.values.shape[0] >= angles:
         return tab.R
-    return reflectance_lut(tab.layer, tab.lam, angles=angles)
+    return reflectance_lut(tab.lam, tab.layer, angles=angles)
 
 
 # ----------------------------------------------------------------------------------------
 # importance sampling (eq. 35)
 # ----------------------------------------------------------------------------------------
-def layer_reflection_probabilities(structure, cos_theta, wavelength, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
+def layer_reflection_probabilities(wavelength, cos_theta, structure, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
     r"""Probabilities of eq. 35 that the single reflection happens on layer ``l`` (last entry:
     the base), multiplexed over wavelengths: ``(*, L + 1)`` summing to 1.
 
@@ -484,7 +484,7 @@ def _cosine_hemisphere(u: torch.Tensor) -> torch.Tensor:
     return torch.stack([r * torch.cos(phi), r * torch.sin(phi), z], dim=-1)
 
 
-def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
+def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
     r"""Importance-sample an outgoing direction of the single-reflection model (eq. 35).
 
     A layer is chosen with the probabilities of eq. 35 (``u[..., 0]``), then a visible
@@ -509,7 +509,7 @@ def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_ang
         raise ValueError(f"u must have shape (*, 3) (uniforms in [0, 1)); got {tuple(u.shape)}")
     wi, u = torch.broadcast_tensors(wi, u)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
-    n = structure.n_host
+    n = structure.n_coating
     wi_h = refract_into_host(wi, n)
     probs = _reflection_probabilities(structure, tables, wi_h[..., 2])
     cdf = torch.cumsum(probs, dim=-1)
@@ -533,7 +533,7 @@ def sample_single_reflection(structure, wi, wavelength, u, *, transmissivity_ang
     return torch.where(bad.unsqueeze(-1), torch.nan, wo), torch.where(bad, torch.nan, pdf)
 
 
-def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES) -> torch.Tensor:
+def single_reflection_pdf(wavelength, wi, wo, structure, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES) -> torch.Tensor:
     """Solid-angle density (sr⁻¹, in the outer medium) of :func:`sample_single_reflection`."""
     structure = _check_structure(structure)
     dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
@@ -542,12 +542,12 @@ def single_reflection_pdf(structure, wi, wo, wavelength, *, transmissivity_angle
     lam = _geometry.wavelengths(wavelength, dtype, device)
     wi, wo = torch.broadcast_tensors(wi, wo)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
-    probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_host)[..., 2])
+    probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_coating)[..., 2])
     return torch.where(_geometry.nan_rows(wi, wo), torch.nan, _pdf(structure, tables, wi, wo, probs))
 
 
 def _pdf(structure, tables, wi, wo, probs):
-    n = structure.n_host
+    n = structure.n_coating
     wi_h = refract_into_host(wi, n)
     wo_h = refract_into_host(wo, n)
     zi, zo = wi_h[..., 2], wo_h[..., 2]

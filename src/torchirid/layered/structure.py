@@ -31,8 +31,8 @@ class RoughBraggLayer:
         d1, d2: thicknesses in nm (> 0).
         cells: number of (n2, n1) cells N ≥ 1.
         alpha: GGX roughness of the mirror orientations, > 0.
-        n_host: index of the medium around the mirrors, real > 0; ``None`` (default) means
-            ``n1`` (eq. 2–10). Otherwise each mirror is ``n_host | (n2, d2), (n1, d1) × N | n1``
+        n_incident: index of the medium the mirrors are lit from (the host around them), real
+            > 0; ``None`` (default) is replaced by ``n1`` at construction (eq. 2–10). Otherwise each mirror is ``n_incident | (n2, d2), (n1, d1) × N | n1``
             with Fourneau's appendix D reflectance (e.g. the jewel-beetle cuticle in air).
 
     ``n1``, ``n2``, ``d1``, ``d2`` and ``alpha`` may also be 0-dim floating tensors (``n2``
@@ -40,7 +40,7 @@ class RoughBraggLayer:
     their values, and gradients flow through the mirrors' reflectance and the GGX shading of
     :func:`~torchirid.layered.single_reflection.single_reflection_brdf`. Not through the
     integrated transmissivity's filter weights, which are tabulated per ``float(alpha)``
-    (τ still depends on ``n1, n2, d1, d2``). ``cells`` stays a Python int, ``n_host`` a number.
+    (τ still depends on ``n1, n2, d1, d2``). ``cells`` stays a Python int, ``n_incident`` a number (or ``n1``).
     """
 
     n1: float
@@ -49,7 +49,7 @@ class RoughBraggLayer:
     d2: float
     cells: int
     alpha: float
-    n_host: float | None = None
+    n_incident: float | None = None
 
     def __post_init__(self):
         for name in ("n1", "d1", "d2", "alpha"):
@@ -69,11 +69,13 @@ class RoughBraggLayer:
             raise ValueError(f"n2 must be a refractive index with real part > 0; got {self.n2!r}")
         if isinstance(n2, complex) and n2.imag < 0:
             raise ValueError(f"n2 must have Im(n2) >= 0 (absorption); got {self.n2!r}")
-        nh = self.n_host
+        nh = self.n_incident
         if nh is not None and (isinstance(nh, bool) or not isinstance(nh, (int, float)) or not nh > 0):
-            raise ValueError(f"n_host must be None or a real number > 0; got {nh!r}")
+            raise ValueError(f"n_incident must be None or a real number > 0; got {nh!r}")
         if isinstance(self.cells, bool) or not isinstance(self.cells, int) or self.cells < 1:
             raise ValueError(f"cells must be an integer >= 1; got {self.cells!r}")
+        if nh is None:  # resolved once: the mirrors are lit from their own low index
+            object.__setattr__(self, "n_incident", self.n1)
 
     def numbers(self) -> dict:
         """The parameters as plain Python numbers (tensors detached): JSON-ready metadata.
@@ -87,19 +89,14 @@ class RoughBraggLayer:
                 return complex(v) if v.dtype.is_complex else float(v)
             return v
 
-        return {name: plain(getattr(self, name)) for name in ("n1", "n2", "d1", "d2", "cells", "alpha", "n_host")}
-
-    @property
-    def host(self) -> float:
-        """The index of the medium around the mirrors (``n_host``, or ``n1`` when None)."""
-        return self.n1 if self.n_host is None else self.n_host
+        return {name: plain(getattr(self, name)) for name in ("n1", "n2", "d1", "d2", "cells", "alpha", "n_incident")}
 
     def reflectance(self, wavelength, cos_theta) -> torch.Tensor:
         """Unpolarized Yeh reflectance R_λ of one mirror lit from the host at ``cos_theta``
         (the cosine in the host medium; broadcast with ``wavelength`` in nm)."""
-        nh = None if self.n_host is None or self.n_host == self.n1 else self.n_host
+        nh = None if self.n_incident is self.n1 or self.n_incident == self.n1 else self.n_incident
         return bragg_reflectance(
-            wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, n_host=nh,
+            wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, n_incident=nh,
             polarization="unpolarized",
         )
 
@@ -112,8 +109,8 @@ class LayeredBragg:
         layers: the rough Bragg layers, top first (at least one). All share the host ``n1``.
         base_albedo: Lambertian albedo ρd ∈ [0, 1] of the base (0: a black, absorbing base).
 
-    The coating is implied by the host index (``n1``, or the layers' ``n_host``): 1 means no coating (f_r,0 = 0,
-    f_t,0 = 1 in eq. 34); otherwise a smooth air | n_host interface sits on top.
+    The coating is implied by the host index (``n1``, or the layers' ``n_incident``): 1 means no coating (f_r,0 = 0,
+    f_t,0 = 1 in eq. 34); otherwise a smooth air | n_incident interface sits on top.
     """
 
     layers: Sequence[RoughBraggLayer]
@@ -123,22 +120,22 @@ class LayeredBragg:
         layers = tuple(self.layers)
         if not layers or not all(isinstance(layer, RoughBraggLayer) for layer in layers):
             raise ValueError("layers must be a non-empty sequence of RoughBraggLayer")
-        hosts = {float(layer.host) for layer in layers}  # by value: tensor parameters hash by id
+        hosts = {float(layer.n_incident) for layer in layers}  # by value: tensor parameters hash by id
         if len(hosts) != 1:
-            raise ValueError(f"layers must share one host index n1 / n_host (the coating medium); got {sorted(hosts)}")
+            raise ValueError(f"layers must share one host index n1 / n_incident (the coating medium); got {sorted(hosts)}")
         rho = self.base_albedo
         if isinstance(rho, bool) or not isinstance(rho, (int, float)) or not 0.0 <= rho <= 1.0:
             raise ValueError(f"base_albedo must lie in [0, 1]; got {rho!r}")
         object.__setattr__(self, "layers", layers)
 
     @property
-    def n_host(self) -> float:
-        """The host index shared by all layers (the coating's index)."""
-        return self.layers[0].host
+    def n_coating(self) -> float:
+        """The host index shared by all layers: the coating's index (1: no coating)."""
+        return self.layers[0].n_incident
 
     @property
     def coated(self) -> bool:
         """True when a smooth coating air | n1 sits on top (n1 ≠ 1)."""
-        return self.n_host != 1.0
+        return self.n_coating != 1.0
 
 

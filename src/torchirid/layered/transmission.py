@@ -91,7 +91,7 @@ def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int)
     return torch.where(near, tau + (exact - tau).detach(), tau)
 
 
-def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFAULT_NODES) -> torch.Tensor:
+def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFAULT_NODES) -> torch.Tensor:
     r"""Integrated transmissivity :math:`\tau = f_t(\theta_i)\cos\theta_i` of a rough Bragg layer
     (Fourneau et al. 2024 eq. 28), the weight of a ballistic transmission.
 
@@ -128,8 +128,8 @@ def integrated_transmissivity(layer, cos_theta, wavelength, *, nodes: int = DEFA
     >>> import torch
     >>> from torchirid.layered import RoughBraggLayer
     >>> layer = RoughBraggLayer(1.0, 1.5, 100.0, 80.0, 10, 0.1)
-    >>> tau = integrated_transmissivity(layer, torch.tensor([[1.0], [0.5]], dtype=torch.float64),
-    ...                                 torch.tensor([450.0, 550.0], dtype=torch.float64))
+    >>> tau = integrated_transmissivity(torch.tensor([450.0, 550.0], dtype=torch.float64),
+    ...                                 torch.tensor([[1.0], [0.5]], dtype=torch.float64), layer)
     >>> tau.shape
     torch.Size([2, 2])
     """
@@ -187,7 +187,7 @@ def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, devi
     return cos, grid, weights
 
 
-def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
+def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
                        theta_d_cells: int = DEFAULT_THETA_D_CELLS) -> LUT:
     r"""The integrated transmissivity of eq. 28 tabulated over the incidence angle — the paper's
     "1-D table per layer" (§4.2.2) — with one channel per wavelength.
@@ -221,7 +221,7 @@ def transmissivity_lut(layer, wavelength, *, angles: int = DEFAULT_ANGLES,
     >>> import torch
     >>> from torchirid.layered import RoughBraggLayer
     >>> layer = RoughBraggLayer(1.0, 1.5, 100.0, 80.0, 10, 0.1)
-    >>> lut = transmissivity_lut(layer, torch.tensor([450.0, 550.0], dtype=torch.float64))
+    >>> lut = transmissivity_lut(torch.tensor([450.0, 550.0], dtype=torch.float64), layer)
     >>> lut(torch.tensor([0.3, 0.9], dtype=torch.float64)).shape
     torch.Size([2, 2])
     """

@@ -2,10 +2,10 @@ r"""Bragg mirrors (1-D photonic crystals): Yeh's closed form (Fourneau et al. 20
 
 The mirror is exactly the stack
 
-    ``n_host | (n2, d2), (n1, d1)`` repeated ``N = cells`` times ``| n1`` (semi-infinite),
+    ``n_incident | (n2, d2), (n1, d1)`` repeated ``N = cells`` times ``| n1`` (semi-infinite),
 
-lit from the host medium at incidence cosine ``cos_theta``; ``n_host = None`` means
-``n_host = n1`` (eq. 2–10), otherwise appendix D's infinitesimal host layer is added:
+lit from the host medium at incidence cosine ``cos_theta``; ``n_incident = None`` means
+``n_incident = n1`` (eq. 2–10), otherwise appendix D's infinitesimal host layer is added:
 :math:`r_{hN} = (r_N + r_{h1})/(1 + r_{h1} r_N)`.
 
 With :math:`a = k_{1z} d_1`, :math:`b = k_{2z} d_2` and the admittances η (η = q for s,
@@ -60,15 +60,15 @@ _EDGE_SERIES = 5e-5
 _NO_CELLS = object()
 
 
-def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=_NO_CELLS):
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells=_NO_CELLS):
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2, n_incident)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     n1 = _checks.as_index(n1, "n1", dtype, device)
     n2 = _checks.as_index(n2, "n2", dtype, device)
     d1 = _checks.as_real(d1, "d1", dtype, device)
     d2 = _checks.as_real(d2, "d2", dtype, device)
-    nh = None if n_host is None else _checks.as_index(n_host, "n_host", dtype, device)
+    nh = None if n_incident is None else _checks.as_index(n_incident, "n_incident", dtype, device)
     N = None if cells is _NO_CELLS else _checks.as_cells(cells, device)
     _checks.check_positive(lam, "wavelength")
     _checks.check_cosine(c)
@@ -77,15 +77,15 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells=_NO_CELLS):
     _checks.check_index(n1, "n1")
     _checks.check_index(n2, "n2")
     if nh is not None:
-        _checks.check_real_index(nh, "n_host")
+        _checks.check_real_index(nh, "n_incident")
         nh = nh.real if nh.is_complex() else nh
         # a host equal to n1 is the plain mirror (appendix D's host layer then changes nothing, to
-        # ~1e-15): take the cheaper n_host = None path, unless n_host carries a gradient or a shape
+        # ~1e-15): take the cheaper n_incident = None path, unless n_incident carries a gradient or a shape
         if (not nh.requires_grad and not n1.is_complex() and (nh.dim() == 0 or nh.shape == n1.shape)
                 and bool((nh == n1).all())):
             nh = None
     elif n1.is_complex() and bool((n1.imag != 0).any()):
-        raise ValueError("n1 must be real when n_host is None (n1 is then the incident medium)")
+        raise ValueError("n1 must be real when n_incident is None (n1 is then the incident medium)")
     return dtype, lam, c, n1, n2, d1, d2, nh, N
 
 
@@ -445,11 +445,11 @@ def _needs_general(c, n1, n2, nh):
 
 
 def bragg_reflectance(
-    wavelength, cos_theta, n1, n2, d1, d2, cells, *, n_host=None, polarization: str = "unpolarized"
+    wavelength, cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, polarization: str = "unpolarized"
 ) -> torch.Tensor:
     r"""Reflectance of a Bragg mirror of ``cells`` periods (Yeh; Fourneau et al. 2024 eq. 2–10, app. D).
 
-    The mirror is the stack ``n_host | (n2, d2), (n1, d1) × cells | n1``; the cost does not
+    The mirror is the stack ``n_incident | (n2, d2), (n1, d1) × cells | n1``; the cost does not
     depend on ``cells`` for lossless propagating light (the closed form), and grows as
     ``log₂ cells`` for absorbing layers or total internal reflection.
 
@@ -457,10 +457,10 @@ def bragg_reflectance(
         wavelength: vacuum wavelength λ in nm (> 0). Shape ``(*)``.
         cos_theta: cosine of the incidence angle in the host (incident) medium, in [0, 1].
         n1, n2: indices ``n + iκ`` (κ ≥ 0) of the two layers; n1 is also the semi-infinite
-            medium below the mirror (and the incident medium when ``n_host`` is None).
+            medium below the mirror (and the incident medium when ``n_incident`` is None).
         d1, d2: layer thicknesses in nm (≥ 0); the period is Λ = d1 + d2.
         cells: number N ≥ 1 of (n2, n1) periods: an int or an integer tensor that broadcasts.
-        n_host: real index of the incident medium, or None for n1 (appendix D when ≠ n1).
+        n_incident: real index of the incident medium, or None for n1 (appendix D when ≠ n1).
         polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
 
     Returns:
@@ -474,7 +474,7 @@ def bragg_reflectance(
         [0.999998, 0.038657]
     """
     _checks.check_polarization(polarization)
-    dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host, cells)
+    dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells)
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
                                    () if nh is None else nh.shape)
     c = _checks.flush_grazing(c)
@@ -490,13 +490,13 @@ def bragg_reflectance(
     return R.expand(batch)
 
 
-def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polarization: str = "s") -> torch.Tensor:
+def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, polarization: str = "s") -> torch.Tensor:
     r"""Dispersion relation :math:`\cos KΛ = \cos a\cos b - \tfrac12 Ω \sin a \sin b` (Fourneau eq. 8).
 
     ``|cos KΛ| > 1`` marks a photonic band gap; band edges are where it equals ±1.
 
     Args:
-        wavelength, cos_theta, n1, n2, d1, d2, n_host: as in :func:`bragg_reflectance`.
+        wavelength, cos_theta, n1, n2, d1, d2, n_incident: as in :func:`bragg_reflectance`.
         polarization: ``"s"`` or ``"p"`` (Ω depends on it, eq. 6–7).
 
     Returns:
@@ -510,7 +510,7 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, pola
     """
     if polarization not in ("s", "p"):
         raise ValueError(f"polarization must be 's' or 'p' for the dispersion relation; got {polarization!r}")
-    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident)
     c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(dtype)
     complex_in = n1.is_complex() or n2.is_complex()
@@ -537,11 +537,11 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, pola
     return x if complex_in else x.real
 
 
-def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polarization: str = "unpolarized") -> torch.Tensor:
+def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, polarization: str = "unpolarized") -> torch.Tensor:
     r"""Reflectance envelope :math:`R^e = |C|^2 / (|C|^2 + \sin^2 KΛ)` (Fourneau eq. 11), 1 in band gaps.
 
     The large-N envelope of the oscillating Yeh spectrum, for a mirror embedded in n1
-    (``n_host`` only sets the angle: ``cos_theta`` is measured in the host medium).
+    (``n_incident`` only sets the angle: ``cos_theta`` is measured in the host medium).
 
     Args: as :func:`bragg_reflectance` without ``cells``.
 
@@ -555,7 +555,7 @@ def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_host=None, polari
         1.0
     """
     _checks.check_polarization(polarization)
-    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_host)
+    dtype, lam, c, n1, n2, d1, d2, nh, _ = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident)
     if n1.is_complex() or n2.is_complex():
         raise ValueError("bragg_envelope needs real n1 and n2 (the envelope is defined for lossless layers)")
     if bool(_needs_general(c, n1, n2, nh).any()):

@@ -105,13 +105,13 @@ def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     return torch.where(same, torch.zeros_like(den), (eta_i - eta_j) / den)
 
 
-def fresnel_reflectance(cos_theta, n_outer, n_inner, *, polarization: str = "unpolarized") -> torch.Tensor:
+def fresnel_reflectance(cos_theta, n_incident, n_substrate, *, polarization: str = "unpolarized") -> torch.Tensor:
     r"""Reflectance of a single smooth interface, :math:`R = |r|^2`.
 
     Args:
         cos_theta: cosine of the incidence angle in the outer medium, in [0, 1]. Shape ``(*)``.
-        n_outer: real refractive index of the incident medium (> 0).
-        n_inner: refractive index ``n + iκ`` (κ ≥ 0) of the second medium.
+        n_incident: real refractive index of the incident medium (> 0).
+        n_substrate: refractive index ``n + iκ`` (κ ≥ 0) of the second medium.
         polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p reflectances).
 
     Returns:
@@ -123,13 +123,13 @@ def fresnel_reflectance(cos_theta, n_outer, n_inner, *, polarization: str = "unp
         0.04
     """
     _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_outer, n_inner)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n_incident, n_substrate)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    n0 = _checks.as_index(n_outer, "n_outer", dtype, device)
-    n1 = _checks.as_index(n_inner, "n_inner", dtype, device)
+    n0 = _checks.as_index(n_incident, "n_incident", dtype, device)
+    n1 = _checks.as_index(n_substrate, "n_substrate", dtype, device)
     _checks.check_cosine(c)
-    _checks.check_real_index(n0, "n_outer")
-    _checks.check_index(n1, "n_inner")
+    _checks.check_real_index(n0, "n_incident")
+    _checks.check_index(n1, "n_substrate")
     c = _checks.flush_grazing(c)
     n0 = n0.real if n0.is_complex() else n0
     s2 = n0 * n0 * (1 - c * c)

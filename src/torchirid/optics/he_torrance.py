@@ -55,16 +55,16 @@ def _g(lam, q_in, q_out, sigma):
     return x * x
 
 
-def roughness_factor(wavelength, cos_in, cos_out, sigma, *, n_medium=1.0) -> torch.Tensor:
+def roughness_factor(wavelength, cos_theta_i, cos_theta_o, sigma, *, n_incident=1.0) -> torch.Tensor:
     r"""He's roughness factor g (He et al. 1991, eq. 79) in a lossless medium of index n.
 
     .. math:: g = \Big(\frac{2π σ n}{λ}(\cos θ_i + \cos θ_r)\Big)^2
 
     Args:
         wavelength: vacuum wavelength λ in nm (> 0).
-        cos_in, cos_out: cosines of the incident and reflected directions in the medium, [0, 1].
+        cos_theta_i, cos_theta_o: cosines of the incident and reflected directions in the medium, [0, 1].
         sigma: rms roughness σ in nm (≥ 0).
-        n_medium: real index of the medium above the rough interface (> 0).
+        n_incident: real index of the medium above the rough interface (> 0).
 
     Returns:
         g ≥ 0 (dimensionless), the broadcast shape, real dtype of the inputs.
@@ -74,21 +74,21 @@ def roughness_factor(wavelength, cos_in, cos_out, sigma, *, n_medium=1.0) -> tor
         >>> round(float(roughness_factor(torch.tensor(550.0, dtype=torch.float64), 1.0, 1.0, 25.0)), 6)
         0.326268
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_in, cos_out, sigma, n_medium)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta_i, cos_theta_o, sigma, n_incident)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    ci = _checks.as_real(cos_in, "cos_in", dtype, device)
-    co = _checks.as_real(cos_out, "cos_out", dtype, device)
+    ci = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
+    co = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
     s = _checks.as_real(sigma, "sigma", dtype, device)
-    n = _checks.as_real(n_medium, "n_medium", dtype, device)
+    n = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_positive(lam, "wavelength")
-    _checks.check_cosine(ci, "cos_in")
-    _checks.check_cosine(co, "cos_out")
+    _checks.check_cosine(ci, "cos_theta_i")
+    _checks.check_cosine(co, "cos_theta_o")
     _checks.check_nonnegative(s, "sigma")
-    _checks.check_positive(n, "n_medium", unit="")
+    _checks.check_positive(n, "n_incident", unit="")
     return _g(lam, n * ci, n * co, s)
 
 
-def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch.Tensor:
+def coherent_attenuation(wavelength, cos_theta, sigma, *, n_incident=1.0) -> torch.Tensor:
     r"""Power factor :math:`e^{-g}` of the coherent (specular) reflection (He eq. 31, Hirayama eq. 9).
 
     ``g`` is :func:`roughness_factor` at ``θ_i = θ_r = θ``: :math:`e^{-g} = e^{-(4π σ n \cos θ/λ)^2}`,
@@ -99,7 +99,7 @@ def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch
         wavelength: vacuum wavelength λ in nm (> 0).
         cos_theta: cosine of the incidence angle in the medium, [0, 1].
         sigma: rms roughness σ in nm (≥ 0).
-        n_medium: real index of the medium above the rough interface.
+        n_incident: real index of the medium above the rough interface.
 
     Returns:
         e^{-g} in (0, 1].
@@ -109,10 +109,10 @@ def coherent_attenuation(wavelength, cos_theta, sigma, *, n_medium=1.0) -> torch
         >>> round(float(coherent_attenuation(torch.tensor(550.0, dtype=torch.float64), 1.0, 25.0)), 6)
         0.721612
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, sigma, n_medium)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, sigma, n_incident)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)  # (validated under its own name here)
     _checks.check_cosine(c)
-    return torch.exp(-roughness_factor(wavelength, c, c, sigma, n_medium=n_medium))
+    return torch.exp(-roughness_factor(wavelength, c, c, sigma, n_incident=n_incident))
 
 
 def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
@@ -187,7 +187,7 @@ def _effective_roughness(ci, co, sigma, tau):
     return sigma / torch.sqrt(1 + x * x)
 
 
-def effective_roughness(cos_in, cos_out, sigma, tau) -> torch.Tensor:
+def effective_roughness(cos_theta_i, cos_theta_o, sigma, tau) -> torch.Tensor:
     r"""He's effective roughness σ (He 1991, eq. 80–83): the rms height of the *lit and seen* part.
 
     .. math::
@@ -200,7 +200,7 @@ def effective_roughness(cos_in, cos_out, sigma, tau) -> torch.Tensor:
     σ → σ₀ at normal incidence and for τ ≫ σ₀ (K → 0).
 
     Args:
-        cos_in, cos_out: cosines of the two directions, [0, 1].
+        cos_theta_i, cos_theta_o: cosines of the two directions, [0, 1].
         sigma: rms roughness σ₀ in nm (≥ 0).
         tau: autocorrelation length τ in nm (> 0).
 
@@ -213,13 +213,13 @@ def effective_roughness(cos_in, cos_out, sigma, tau) -> torch.Tensor:
         >>> round(float(effective_roughness(c, c, 50.0, 300.0)), 4)
         30.0072
     """
-    dtype, device = _checks.resolve_dtype_device(cos_in, cos_out, sigma, tau)
-    ci = _checks.as_real(cos_in, "cos_in", dtype, device)
-    co = _checks.as_real(cos_out, "cos_out", dtype, device)
+    dtype, device = _checks.resolve_dtype_device(cos_theta_i, cos_theta_o, sigma, tau)
+    ci = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
+    co = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
     s = _checks.as_real(sigma, "sigma", dtype, device)
     t = _checks.as_real(tau, "tau", dtype, device)
-    _checks.check_cosine(ci, "cos_in")
-    _checks.check_cosine(co, "cos_out")
+    _checks.check_cosine(ci, "cos_theta_i")
+    _checks.check_cosine(co, "cos_theta_o")
     _check_roughness(s, t)
     return _effective_roughness(ci, co, s, t)
 
@@ -249,7 +249,7 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     out = (sin θr cos φ, sin θr sin φ, cos θr); the mirror direction has cos φ = −1.
     """
     # guard: sin θ = √(1 − cos²θ) has an infinite slope in cos θ at normal incidence; its
-    # derivative there is reported as 0 (as table_reflectance does), not 0·∞ = NaN
+    # derivative there is reported as 0 (as lookup_film_reflectance does), not 0·∞ = NaN
     si = _checks.safe_sqrt(1 - ci * ci)
     so = _checks.safe_sqrt(1 - co * co)
     # v = k_r − k_i = in + out (unit-free); v_xy² = |xy(in + out)|²
@@ -282,7 +282,7 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
 
 
 def he_directional_diffuse(
-    wavelength, cos_light, cos_view, cos_phi, sigma, tau, n_substrate, *, n_medium=1.0, shadowing: bool = True
+    wavelength, cos_theta_i, cos_theta_o, cos_phi, sigma, tau, n_substrate, *, n_incident=1.0, shadowing: bool = True
 ) -> torch.Tensor:
     r"""He–Torrance directional-diffuse BRDF of a rough interface (He et al. 1991, eq. 76–84).
 
@@ -302,11 +302,11 @@ def he_directional_diffuse(
 
     Args:
         wavelength: vacuum wavelength in nm (> 0).
-        cos_light, cos_view: cosines of the (outward) light and view directions, [0, 1].
+        cos_theta_i, cos_theta_o: cosines of the (outward) light and view directions, [0, 1].
         cos_phi: cosine of the azimuth between them, [-1, 1] (−1: mirror plane, same side as
             the mirror direction).
         sigma: rms roughness σ₀ in nm (≥ 0); tau: autocorrelation length τ in nm (> 0).
-        n_substrate: index ``n + iκ`` below the interface; n_medium: real index above it.
+        n_substrate: index ``n + iκ`` below the interface; n_incident: real index above it.
 
     Returns:
         ρ_dd in sr⁻¹ (≥ 0), 0 when σ₀ = 0.
@@ -318,20 +318,20 @@ def he_directional_diffuse(
         >>> round(float(rho), 5)
         0.20217
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_light, cos_view, cos_phi, sigma, tau, n_substrate, n_medium)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta_i, cos_theta_o, cos_phi, sigma, tau, n_substrate, n_incident)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    cl = _checks.as_real(cos_light, "cos_light", dtype, device)
-    cv = _checks.as_real(cos_view, "cos_view", dtype, device)
+    cl = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
+    cv = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
     cp = _checks.as_real(cos_phi, "cos_phi", dtype, device)
     s = _checks.as_real(sigma, "sigma", dtype, device)
     t = _checks.as_real(tau, "tau", dtype, device)
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    nm = _checks.as_real(n_medium, "n_medium", dtype, device)
+    nm = _checks.as_real(n_incident, "n_incident", dtype, device)
     _checks.check_positive(lam, "wavelength")
-    _checks.check_cosine(cl, "cos_light")
-    _checks.check_cosine(cv, "cos_view")
+    _checks.check_cosine(cl, "cos_theta_i")
+    _checks.check_cosine(cv, "cos_theta_o")
     _check_cos_phi(cp)
     _check_roughness(s, t)
     _checks.check_index(ns, "n_substrate")
-    _checks.check_positive(nm, "n_medium", unit="")
+    _checks.check_positive(nm, "n_incident", unit="")
     return _he_dd(lam, nm, ns, cl, cv, cp, s, t, shadowing)

@@ -22,7 +22,7 @@ import torch
 from torch import nn
 
 from .bragg import bragg_reflectance
-from .multilayer import multilayer
+from .transfer import multilayer
 from .thin_film import thin_film_reflectance
 
 __all__ = ["BraggMirror", "ThinFilm", "Multilayer"]
@@ -38,49 +38,49 @@ def _options(**kw):
 
 
 class BraggMirror(nn.Module):
-    """Learnable Bragg mirror ``n_host | (n2, d2), (n1, d1) × cells | n1`` (see :func:`bragg_reflectance`).
+    """Learnable Bragg mirror ``n_incident | (n2, d2), (n1, d1) × cells | n1`` (see :func:`bragg_reflectance`).
 
     Learnable: ``n1``, ``n2`` (real indices) and ``d1``, ``d2`` (nm). Fixed: ``cells``,
-    ``n_host`` (None: n1) and ``polarization``.
+    ``n_incident`` (None: n1) and ``polarization``.
     """
 
-    def __init__(self, n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, *, n_host=None, polarization=None,
+    def __init__(self, n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, *, n_incident=None, polarization=None,
                  dtype=torch.float64):
         super().__init__()
         self.n1, self.n2 = _param(n1, dtype), _param(n2, dtype)
         self.d1, self.d2 = _param(d1, dtype), _param(d2, dtype)
         self.cells = cells
-        self.n_host = n_host
+        self.n_incident = n_incident
         self.polarization = polarization
 
     def forward(self, wavelength, cos_theta):
         return bragg_reflectance(wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells,
-                                 **_options(n_host=self.n_host, polarization=self.polarization))
+                                 **_options(n_incident=self.n_incident, polarization=self.polarization))
 
     def extra_repr(self):
-        return f"cells={self.cells}, n_host={self.n_host}, polarization={self.polarization or 'default'}"
+        return f"cells={self.cells}, n_incident={self.n_incident}, polarization={self.polarization or 'default'}"
 
 
 class ThinFilm(nn.Module):
     """Learnable thin film on a substrate (see :func:`thin_film_reflectance`).
 
     Learnable: the real film index ``n_film`` and ``thickness`` (nm). Fixed (a buffer,
-    complex allowed): ``n_substrate``; fixed ``n_outer`` and ``polarization``.
+    complex allowed): ``n_substrate``; fixed ``n_incident`` and ``polarization``.
     """
 
-    def __init__(self, n_film=1.33, thickness=300.0, n_substrate=1.0, *, n_outer=None, polarization=None,
+    def __init__(self, n_film=1.33, thickness=300.0, n_substrate=1.0, *, n_incident=None, polarization=None,
                  dtype=torch.float64):
         super().__init__()
         self.n_film = _param(n_film, dtype)
         self.thickness = _param(thickness, dtype)
         sub = torch.as_tensor(n_substrate)
         self.register_buffer("n_substrate", sub.to(torch.complex128 if sub.is_complex() else dtype))
-        self.n_outer = n_outer
+        self.n_incident = n_incident
         self.polarization = polarization
 
     def forward(self, wavelength, cos_theta):
         return thin_film_reflectance(wavelength, cos_theta, self.n_film, self.thickness, self.n_substrate,
-                                     **_options(n_outer=self.n_outer, polarization=self.polarization))
+                                     **_options(n_incident=self.n_incident, polarization=self.polarization))
 
 
 class Multilayer(nn.Module):

@@ -308,8 +308,8 @@ def stack_transmittance_to_last_film(
 
 def rough_multilayer_diffuse(
     wavelength,
-    cos_light,
-    cos_view,
+    cos_theta_i,
+    cos_theta_o,
     cos_phi,
     indices,
     thicknesses,
@@ -334,7 +334,7 @@ def rough_multilayer_diffuse(
 
     Args:
         wavelength: vacuum wavelength λ in nm (> 0).
-        cos_light, cos_view: cosines of the light and view directions in the incident medium, [0, 1].
+        cos_theta_i, cos_theta_o: cosines of the light and view directions in the incident medium, [0, 1].
         cos_phi: cosine of the azimuth between light and view, [-1, 1] (−1: mirror plane).
         indices, thicknesses, sigma, tau, polarization, shadowing: as in
             :func:`rough_multilayer_reflectance`.
@@ -351,12 +351,12 @@ def rough_multilayer_diffuse(
         0.20217
     """
     dtype, device = _checks.resolve_dtype_device(
-        wavelength, cos_light, cos_view, cos_phi, indices, thicknesses, sigma, tau
+        wavelength, cos_theta_i, cos_theta_o, cos_phi, indices, thicknesses, sigma, tau
     )
     cp = _checks.as_real(cos_phi, "cos_phi", dtype, device)
     lam, cos, n, d, s, t = _prepare(
         wavelength,
-        {"cos_light": cos_light, "cos_view": cos_view},
+        {"cos_theta_i": cos_theta_i, "cos_theta_o": cos_theta_o},
         indices,
         thicknesses,
         sigma,
@@ -366,7 +366,7 @@ def rough_multilayer_diffuse(
         device,
     )
     _check_cos_phi(cp)
-    cl, cv = cos["cos_light"], cos["cos_view"]
+    cl, cv = cos["cos_theta_i"], cos["cos_theta_o"]
     ql, e1l, e2l, etal = _stack_state(lam, cl, n, d, polarization)
     qv, e1v, e2v, etav = _stack_state(lam, cv, n, d, polarization)
     clL, nL = _last_cos(ql, n)

@@ -22,7 +22,7 @@ import torch
 
 from .. import _checks
 from .fresnel import normal_wavenumber, nudge_critical
-from .multilayer import recursion, stack_admittances
+from .transfer import recursion, stack_admittances
 
 __all__ = ["thin_film_reflectance"]
 
@@ -34,7 +34,7 @@ def thin_film_reflectance(
     thickness,
     n_substrate,
     *,
-    n_outer=1.0,
+    n_incident=1.0,
     polarization: str = "unpolarized",
 ) -> torch.Tensor:
     r"""Reflectance R of a thin film on a substrate (Airy summation).
@@ -45,7 +45,7 @@ def thin_film_reflectance(
         n_film: film index ``n + iκ`` (κ ≥ 0).
         thickness: film thickness d in nm (≥ 0).
         n_substrate: substrate index ``n + iκ`` (κ ≥ 0, metals allowed).
-        n_outer: real index of the outer (incident) medium, default 1 (air).
+        n_incident: real index of the outer (incident) medium, default 1 (air).
         polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
 
     Returns:
@@ -58,19 +58,19 @@ def thin_film_reflectance(
         0.07543
     """
     _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, thickness, n_substrate, n_outer)
+    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, thickness, n_substrate, n_incident)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     nf = _checks.as_index(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    n0 = _checks.as_index(n_outer, "n_outer", dtype, device)
+    n0 = _checks.as_index(n_incident, "n_incident", dtype, device)
     _checks.check_positive(lam, "wavelength")
     _checks.check_cosine(c)
     _checks.check_nonnegative(d, "thickness")
     _checks.check_index(nf, "n_film")
     _checks.check_index(ns, "n_substrate")
-    _checks.check_real_index(n0, "n_outer")
+    _checks.check_real_index(n0, "n_incident")
     c = _checks.flush_grazing(c)
 
     cdt = _checks.complex_dtype(dtype)

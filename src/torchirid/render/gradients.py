@@ -225,7 +225,7 @@ def gradient_atlas(
         # thin film: a slab of index n2, thickness Λ, in n1 (air by default) — (L, A, 3)
         step("thin film")
         wl = torch.linspace(380.0, 780.0, THIN_FILM_SAMPLES, dtype=dtype)
-        R_film = thin_film_reflectance(wl, cos_t[:, None], n2, period, n1, n_outer=n1, **common)
+        R_film = thin_film_reflectance(wl, cos_t[:, None], n2, period, n1, n_incident=n1, **common)
         xyz["thin_film"] = spectrum_to_xyz(R_film, wl).numpy()
         done()
 
@@ -234,7 +234,7 @@ def gradient_atlas(
         wl_c = torch.as_tensor(CURVE_WAVELENGTHS_NM, dtype=dtype)
         cos_c = cosines(curve_theta_deg)[:, None]
         R_bragg = bragg_reflectance(wl_c, cos_c, n1, n2, d1[..., None], d2[..., None], cells, **common).numpy()
-        R_thin = thin_film_reflectance(wl_c, cos_c, n2, period, n1, n_outer=n1, **common).numpy()
+        R_thin = thin_film_reflectance(wl_c, cos_c, n2, period, n1, n_incident=n1, **common).numpy()
         done()
 
     def srgb(x):
@@ -254,7 +254,7 @@ def gradient_atlas(
         angle_min_deg=0.0,
         angle_max_deg=90.0,
         strips={key: dict(label=label, **kwargs) for key, label, kwargs in GRADIENT_METHODS},
-        thin_film=dict(n_film=n2, thickness="Λ", n_outer=n1, n_substrate=n1, method="spectrum_to_xyz",
+        thin_film=dict(n_film=n2, thickness="Λ", n_incident=n1, n_substrate=n1, method="spectrum_to_xyz",
                        wavelength_samples=THIN_FILM_SAMPLES, wavelength_range_nm=[380.0, 780.0]),
         curve_wavelengths_nm=list(CURVE_WAVELENGTHS_NM),
         curve_wavelengths_note="CMF peaks; the paper's caption prints 559 nm for red, a typo for 599 nm",

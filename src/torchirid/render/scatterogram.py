@@ -253,7 +253,7 @@ def _brdf(structure, wi, wo, lam, kw) -> torch.Tensor:
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
     step = max(1, _CHUNK_ELEMENTS // lam.numel())
-    out = [single_reflection_brdf(structure, wi[k:k + step], wo[k:k + step], lam, **kw)
+    out = [single_reflection_brdf(lam, wi[k:k + step], wo[k:k + step], structure, **kw)
            for k in range(0, wi.shape[0], step)]
     return torch.cat(out, 0).reshape(*shape, lam.numel())
 
@@ -279,16 +279,16 @@ def _unit_square(nodes, dtype, device, warp: int = 1):
     return u, w
 
 
-def _refract_out(w_host, n_host):
+def _refract_out(w_host, n_incident):
     """Host direction (z > 0) → outer direction through the smooth coating; (direction, exits)."""
-    t = w_host[..., :2] * n_host
+    t = w_host[..., :2] * n_incident
     s2 = (t * t).sum(-1)
     exits = s2 < 1.0
     z = torch.sqrt((1.0 - s2).clamp_min(0.0))  # guard: total internal reflection lanes are masked
     return torch.cat([t, z.unsqueeze(-1)], -1), exits
 
 
-def _lobe_density(o_h, i, i_h, alphas, n_host, coated):
+def _lobe_density(o_h, i, i_h, alphas, n_incident, coated):
     """Σ_l of the density (per outer solid angle of ω_i) of each layer's lobe rule at ``i``."""
     h = i_h + o_h
     h = h / torch.linalg.vector_norm(h, dim=-1, keepdim=True).clamp_min(torch.finfo(h.dtype).tiny)
@@ -297,7 +297,7 @@ def _lobe_density(o_h, i, i_h, alphas, n_host, coated):
     for a in alphas:
         total = total + ggx_vndf_pdf(o_h, h, a) / (4.0 * od)
     if coated:  # dω_i' → dω_i: n² cos θ_i' dω_i' = cos θ_i dω_i
-        total = total * i[..., 2] / (n_host * n_host * i_h[..., 2].clamp_min(torch.finfo(h.dtype).tiny))
+        total = total * i[..., 2] / (n_incident * n_incident * i_h[..., 2].clamp_min(torch.finfo(h.dtype).tiny))
     return total
 
 
@@ -312,7 +312,7 @@ def _white_profile(structure, theta_o, lam, kw, lobe_nodes, cosine_nodes) -> tor
     integrates ∫ g q_k / Σ_j q_j, and their sum is ∫ g.
     """
     dtype, device = lam.dtype, lam.device
-    n = structure.n_host
+    n = structure.n_coating
     coated = bool(structure.coated)
     alphas = [layer.alpha for layer in structure.layers]
     wo = torch.stack([torch.sin(theta_o), torch.zeros_like(theta_o), torch.cos(theta_o)], -1)  # (P, 3)
@@ -410,7 +410,7 @@ def scatterogram(
         ``ω_o`` (sr⁻¹) integrated against the CIE 1931 2° CMFs × D65, normalised so that a
         flat spectrum 1 has Y = 1. White environment: the directional albedo
         :math:`\int f_r\cos\theta_i\,d\omega_i` likewise (+ the coating's Fresnel
-        reflectance F(θ_o) when ``n_host ≠ 1``; the narrow beam omits that Dirac peak).
+        reflectance F(θ_o) when ``n_incident ≠ 1``; the narrow beam omits that Dirac peak).
 
     Raises:
         ValueError: a bad argument, named (before any work).

@@ -134,20 +134,20 @@ def bragg_reflectance_map(
     d2: float,
     cells: int,
     *,
-    n_host: float | None = None,
+    n_incident: float | None = None,
     wavelengths: tuple[float, float, int] = (380.0, 780.0, 401),
     angles: int = 90,
     polarization: str = "unpolarized",
     dtype: str = "float64",
 ) -> ReflectanceMap:
-    """R(θ, λ) of a Bragg mirror n_host | (n2, d2), (n1, d1) × cells | n1 (Fourneau et al. 2024).
+    """R(θ, λ) of a Bragg mirror n_incident | (n2, d2), (n1, d1) × cells | n1 (Fourneau et al. 2024).
 
     Args:
         n1, n2: refractive indices of the two layers, n + iκ with κ >= 0 (n1 is also the
             medium below the mirror).
         d1, d2: layer thicknesses in nm.
         cells: number N >= 1 of cells (layer pairs).
-        n_host: real index of the incident medium above the mirror; default n1.
+        n_incident: real index of the incident medium above the mirror; default n1.
         wavelengths: (MIN, MAX, COUNT): COUNT wavelengths in nm evenly spaced from MIN to
             MAX inclusive, 0 < MIN <= MAX.
         angles: number A >= 1 of incidence angles, evenly spaced from 0° to 90° inclusive.
@@ -168,7 +168,7 @@ def bragg_reflectance_map(
     """
     wavelength_nm, theta_deg, wavelength, cos_t, grid_params = _grid(wavelengths, angles, dtype)
     as_real, as_index = _constants(dtype)
-    n_host = n1 if n_host is None else n_host
+    n_incident = n1 if n_incident is None else n_incident
     params = dict(
         kind="bragg",
         n1=_json_index(n1),
@@ -176,12 +176,12 @@ def bragg_reflectance_map(
         d1_nm=d1,
         d2_nm=d2,
         cells=cells,
-        n_host=_json_index(n_host),
+        n_incident=_json_index(n_incident),
         **grid_params,
     )
     title = (
         f"Bragg mirror: n1={_fmt_index(n1)}, n2={_fmt_index(n2)}, "
-        f"d1={d1:g} nm, d2={d2:g} nm, N={cells}, host n={_fmt_index(n_host)}"
+        f"d1={d1:g} nm, d2={d2:g} nm, N={cells}, host n={_fmt_index(n_incident)}"
     )
     with torch.no_grad():
         R = bragg_reflectance(
@@ -192,7 +192,7 @@ def bragg_reflectance_map(
             as_real(d1),
             as_real(d2),
             cells,
-            n_host=as_index(n_host),
+            n_incident=as_index(n_incident),
             polarization=polarization,
         )
     return _finish(R, wavelength_nm, theta_deg, cos_t, polarization, title, params)
@@ -203,19 +203,19 @@ def thin_film_reflectance_map(
     thickness: float,
     n_substrate: float | complex,
     *,
-    n_outer: float = 1.0,
+    n_incident: float = 1.0,
     wavelengths: tuple[float, float, int] = (380.0, 780.0, 401),
     angles: int = 90,
     polarization: str = "unpolarized",
     dtype: str = "float64",
 ) -> ReflectanceMap:
-    """R(θ, λ) of a thin film n_outer | (n_film, thickness) | n_substrate (the Airy sum).
+    """R(θ, λ) of a thin film n_incident | (n_film, thickness) | n_substrate (the Airy sum).
 
     Args:
         n_film: refractive index of the film, n + iκ with κ >= 0.
         thickness: film thickness in nm.
         n_substrate: refractive index of the medium below the film, n + iκ with κ >= 0.
-        n_outer: real index of the incident medium above the film.
+        n_incident: real index of the incident medium above the film.
         wavelengths, angles, polarization, dtype: the grid and precision, as in
             :func:`bragg_reflectance_map`.
 
@@ -238,12 +238,12 @@ def thin_film_reflectance_map(
         n_film=_json_index(n_film),
         thickness_nm=thickness,
         n_substrate=_json_index(n_substrate),
-        n_outer=_json_index(n_outer),
+        n_incident=_json_index(n_incident),
         **grid_params,
     )
     title = (
         f"Thin film: n={_fmt_index(n_film)}, d={thickness:g} nm, "
-        f"substrate n={_fmt_index(n_substrate)}, outer n={_fmt_index(n_outer)}"
+        f"substrate n={_fmt_index(n_substrate)}, outer n={_fmt_index(n_incident)}"
     )
     with torch.no_grad():
         R = thin_film_reflectance(
@@ -252,7 +252,7 @@ def thin_film_reflectance_map(
             as_index(n_film),
             as_real(thickness),
             as_index(n_substrate),
-            n_outer=as_index(n_outer),
+            n_incident=as_index(n_incident),
             polarization=polarization,
         )
     return _finish(R, wavelength_nm, theta_deg, cos_t, polarization, title, params)

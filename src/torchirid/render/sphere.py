@@ -40,7 +40,7 @@ import numpy as np
 import torch
 
 from .._io import atomic_write
-from ..optics.film_reflectance import hirayama_stacks
+from ..optics.film_stack import hirayama_stacks
 from ..optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 
 __all__ = [
@@ -62,7 +62,7 @@ __all__ = [
 ]
 
 def _hirayama(key: str) -> tuple:
-    """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.optics.film_reflectance.hirayama_stacks` entry."""
+    """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.optics.film_stack.hirayama_stacks` entry."""
     stack = hirayama_stacks()[key]
     return stack.substrate, [(m, float(t)) for m, t in stack.layers]
 

@@ -181,7 +181,7 @@ def thin_film_ibl_comparison(panel: str = "roughness", *, resolution: int = 32, 
     de = {k: delta_e_2000(xyz_to_lab(xyz[k], illuminant=illuminant, observer=observer), lab_ref).numpy()
           for k, _ in THIN_FILM_IBL_METHODS}
     from .. import __version__
-    params = {"panel": panel, "resolution": resolution, "n_film": n_film, "n_outer": 1.0,
+    params = {"panel": panel, "resolution": resolution, "n_film": n_film, "n_incident": 1.0,
               "n_substrate": [float(complex(ns).real), float(complex(ns).imag)],
               "thickness_nm": None if panel == "thickness" else float(thickness),
               "alpha": None if panel == "roughness" else float(alpha), "max_thickness_nm": float(max_thickness),

@@ -9,7 +9,7 @@ from .correction import (
     angular_correction_reference,
     fitted_coefficients,
 )
-from .cumulative import box_integrals, build_cumulative_cmf, cumulative_cmf
+from .cumulative import box_integrals, cumulative_cmf_lut, shipped_cumulative_cmf_lut
 from .envelope import bragg_xyz_envelope, envelope_weights, fringe_averaged_reflectance
 from .landmarks import bragg_landmarks, dispersion_parts
 from .piecewise import bragg_xyz_piecewise
@@ -25,8 +25,8 @@ __all__ = [
     "bragg_xyz",
     "bragg_xyz_envelope",
     "bragg_xyz_piecewise",
-    "build_cumulative_cmf",
-    "cumulative_cmf",
+    "cumulative_cmf_lut",
+    "shipped_cumulative_cmf_lut",
     "dispersion_parts",
     "envelope_weights",
     "fitted_coefficients",

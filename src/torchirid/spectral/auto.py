@@ -57,7 +57,7 @@ def _grid_fringes(g):
     return out
 
 
-def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolerance: float = 1.0,
+def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, tolerance: float = 1.0,
                         wavelength_range=(380.0, 780.0)) -> dict:
     """The configuration ``method="auto"`` uses: ``{"config": {...}, "p95": float, "us_per_colour": float}``.
 
@@ -71,7 +71,7 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
     lo, hi = wavelength_range
     from .bragg_color import max_fringes, spectral_samples  # (bragg_color imports this module)
 
-    F_q = max_fringes(cells, n1, n2, d1, d2, lo, hi)
+    F_q = max_fringes(n1, n2, d1, d2, cells, lo, hi)
     entries = data["entries"]
     candidates = []
 
@@ -103,7 +103,7 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
     # 2. piecewise, in the setting it was measured in
     real = not any(torch.is_tensor(t) and t.is_complex() or isinstance(t, complex) for t in (n1, n2))
     with torch.no_grad():
-        in_n1 = n_host is None or bool((torch.as_tensor(n_host) == torch.as_tensor(n1)).all())
+        in_n1 = n_incident is None or bool((torch.as_tensor(n_incident) == torch.as_tensor(n1)).all())
         c = torch.as_tensor(cos_theta, dtype=torch.float64)
         tir = real and bool((torch.as_tensor(n2).real ** 2 < torch.as_tensor(n1).real ** 2 * (1 - c * c)).any())
         many = bool((torch.as_tensor(cells) >= 10).all())
@@ -121,7 +121,7 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_host=None, tolera
     g0 = data["grids"]["fig4"]
     k_ref = max(g0["spectral_samples"].values())
     us_ref = spec["grids"]["fig4"]["us_per_colour"]
-    k_q = spectral_samples(cells, n1, n2, d1, d2, wavelength_range=wavelength_range)
+    k_q = spectral_samples(n1, n2, d1, d2, cells, wavelength_range=wavelength_range)
     spectral = {"config": {"method": "spectral"}, "p95": max(spec["grids"][g]["p95"] for g in data["grids"]),
                 "us_per_colour": us_ref * k_q / k_ref}
     if spectral["p95"] <= tolerance or not candidates:

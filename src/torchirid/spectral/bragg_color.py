@@ -56,7 +56,7 @@ BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise", "envelope", "auto")
 _CHUNK = 1 << 22
 
 
-def max_fringes(cells, n1, n2, d1, d2, lo, hi) -> float:
+def max_fringes(n1, n2, d1, d2, cells, lo, hi) -> float:
     """Fringes in [λ_lo, λ_hi] of the batch's worst mirror: max N (|n1| d1 + |n2| d2) · Δω / π
     (Δω = 2π(1/λ_lo − 1/λ_hi)); mirrors with a NaN or infinite parameter (NaN colour at any
     sampling) do not count. Shared by the ``"spectral"`` sampling rule and ``method="auto"``."""
@@ -67,7 +67,7 @@ def max_fringes(cells, n1, n2, d1, d2, lo, hi) -> float:
         return (float(length.max()) if length.numel() else 0.0) * 2 * (1 / lo - 1 / hi)
 
 
-def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), samples_per_fringe=192.0,
+def spectral_samples(n1, n2, d1, d2, cells, *, wavelength_range=(380.0, 780.0), samples_per_fringe=192.0,
                      min_samples=401, max_samples=262144) -> int:
     """Number of ω samples the ``"spectral"`` method uses for the worst mirror of a batch.
 
@@ -75,7 +75,7 @@ def spectral_samples(cells, n1, n2, d1, d2, *, wavelength_range=(380.0, 780.0), 
     ``[min_samples, max_samples]`` (see the module docstring). Mirrors with a NaN or infinite
     parameter (whose colour is NaN at any sampling) do not count.
     """
-    wanted = samples_per_fringe * max_fringes(cells, n1, n2, d1, d2, *wavelength_range)
+    wanted = samples_per_fringe * max_fringes(n1, n2, d1, d2, cells, *wavelength_range)
     if not math.isfinite(wanted) or wanted >= max_samples:  # (also absurd or overflowing inputs)
         return max_samples
     return int(min(max(math.ceil(wanted) + 1, min_samples), max_samples))
@@ -98,7 +98,7 @@ def bragg_xyz(
     d2,
     cells,
     *,
-    n_host=None,
+    n_incident=None,
     polarization: str = "unpolarized",
     method: str = "spectral",
     observer: str = "CIE 1931 2",
@@ -115,7 +115,7 @@ def bragg_xyz(
     r"""CIE XYZ of a Bragg mirror (Fourneau et al. 2024, §3.1–3.2), Y = 1 for a perfect reflector.
 
     Args:
-        cos_theta, n1, n2, d1, d2, cells, n_host, polarization: as in
+        cos_theta, n1, n2, d1, d2, cells, n_incident, polarization: as in
             :func:`torchirid.bragg_reflectance` (nm, cosines; broadcast together).
         method: ``"spectral"`` (converged, default), ``"sampled"`` (``samples``
             wavelengths uniform in λ), ``"piecewise"``, ``"envelope"`` or ``"auto"``; see the
@@ -146,24 +146,24 @@ def bragg_xyz(
     _checks.check_polarization(polarization)
     if method not in BRAGG_XYZ_METHODS:
         raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")
-    _checks.check_numbers(cos_theta=cos_theta, n1=n1, n2=n2, d1=d1, d2=d2, n_host=n_host)
+    _checks.check_numbers(cos_theta=cos_theta, n1=n1, n2=n2, d1=d1, d2=d2, n_incident=n_incident)
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
     if method == "auto":
         from .auto import choose_bragg_method
 
-        choice = choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, n_host=n_host, tolerance=tolerance,
+        choice = choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, n_incident=n_incident, tolerance=tolerance,
                                      wavelength_range=(lo, hi))
         options = dict(observer=observer, illuminant=illuminant, wavelength_range=(lo, hi))
-        return bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_host=n_host, polarization=polarization,
+        return bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_incident=n_incident, polarization=polarization,
                          **options, **choice["config"])
     if method in ("piecewise", "envelope"):
-        if n_host is not None:
+        if n_incident is not None:
             with torch.no_grad():
-                same = bool((torch.as_tensor(n_host) == torch.as_tensor(n1)).all())
+                same = bool((torch.as_tensor(n_incident) == torch.as_tensor(n1)).all())
             if not same:
-                raise ValueError(f"method={method!r} models a mirror embedded in n1: n_host must be None or n1")
+                raise ValueError(f"method={method!r} models a mirror embedded in n1: n_incident must be None or n1")
         if isinstance(n1, complex) or isinstance(n2, complex) or any(
                 torch.is_tensor(t) and t.is_complex() for t in (n1, n2)):
             raise ValueError(f"method={method!r} needs real n1 and n2 (lossless layers)")
@@ -181,10 +181,10 @@ def bragg_xyz(
         raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
     if not samples_per_fringe > 0:
         raise ValueError(f"samples_per_fringe must be > 0; got {samples_per_fringe!r}")
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2, n_host)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2, n_incident)
     N = _checks.as_cells(cells, device)
     if samples is None:
-        samples = spectral_samples(N, n1, n2, d1, d2, wavelength_range=(lo, hi),
+        samples = spectral_samples(n1, n2, d1, d2, N, wavelength_range=(lo, hi),
                                    samples_per_fringe=samples_per_fringe, max_samples=max_samples)
         if samples == max_samples:
             warnings.warn(f"bragg_xyz: the spectrum needs more than max_samples={max_samples} samples to "
@@ -197,14 +197,14 @@ def bragg_xyz(
         return t.unsqueeze(-1) if t.ndim else t
 
     args = [trailing(x, name) for x, name in zip((cos_theta, n1, n2, d1, d2), ("cos_theta", "n1", "n2", "d1", "d2"))]
-    host = None if n_host is None else trailing(n_host, "n_host")
+    host = None if n_incident is None else trailing(n_incident, "n_incident")
     Nw = N.unsqueeze(-1) if N.ndim else N
     batch = _checks.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
                                      *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
     step = max(1, _CHUNK // max(1, math.prod(batch)))
     xyz = None
     for k in range(0, samples, step):  # chunks over wavelength bound the memory, not a loop over samples
-        R = bragg_reflectance(lam[k:k + step], *args, Nw, n_host=host, polarization=polarization)
+        R = bragg_reflectance(lam[k:k + step], *args, Nw, n_incident=host, polarization=polarization)
         part = R @ W[k:k + step]
         xyz = part if xyz is None else xyz + part
     return xyz

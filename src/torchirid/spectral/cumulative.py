@@ -49,7 +49,7 @@ Landmarks outside :math:`[\omega_{min}, \omega_{max}]` are clamped to it (the ta
 the landmarks overlapping the visible range.
 
 The package ships tables in ``torchirid/data/cmf_cumulative/`` (built by
-``luts/build_cmf_cumulative.py``); :func:`cumulative_cmf` loads them, checks their hash and
+``luts/build_cmf_cumulative.py``); :func:`shipped_cumulative_cmf_lut` loads them, checks their hash and
 metadata, and otherwise builds the table in memory (≈ 0.2 s once colour-science is
 imported; nothing is written).
 """
@@ -66,14 +66,14 @@ import numpy as np
 import torch
 
 from .. import _checks
-from ..color.cmfs import _product_numpy, check_illuminant, check_observer
+from ..color.colorimetry import _product_numpy, check_illuminant, check_observer
 from ..lut import LUT
 
-__all__ = ["build_cumulative_cmf", "cumulative_cmf", "box_integrals", "cumulative_cmf_path",
+__all__ = ["cumulative_cmf_lut", "shipped_cumulative_cmf_lut", "box_integrals", "cumulative_cmf_path",
            "CUMULATIVE_CMF_BUILDER", "CUMULATIVE_CMF_TOLERANCE"]
 
 #: ``builder`` string stored in the tables (checked when a shipped file is loaded).
-CUMULATIVE_CMF_BUILDER = "torchirid.spectral.cumulative:build_cumulative_cmf"
+CUMULATIVE_CMF_BUILDER = "torchirid.spectral.cumulative:cumulative_cmf_lut"
 #: Default bound on the measured linear-interpolation error of the automatic node count.
 CUMULATIVE_CMF_TOLERANCE = 5e-7
 #: The ω grid rule (stored in the parameters; a different rule means a different table).
@@ -225,7 +225,7 @@ def _table(exact: _Exact, observer: str, illuminant: str, nodes: int, tolerance)
                builder=CUMULATIVE_CMF_BUILDER, parameters=parameters, units=units)
 
 
-def build_cumulative_cmf(
+def cumulative_cmf_lut(
     observer: str = "CIE 1931 2",
     illuminant: str = "D65",
     wavelength_range=(380.0, 780.0),
@@ -270,7 +270,7 @@ def build_cumulative_cmf(
             ``wavelength_range``, ``nodes`` or ``tolerance``.
 
     Example:
-        >>> lut = build_cumulative_cmf("CIE 1931 2", "D65")
+        >>> lut = cumulative_cmf_lut("CIE 1931 2", "D65")
         >>> lut.parameters["nodes"], max(lut.parameters["max_interp_error"]) <= 5e-7
         (3643, True)
         >>> [round(v, 5) for v in lut.values[-1].tolist()]  # the perfect reflector, 380–780 nm
@@ -335,10 +335,10 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
                                 expect={"axes": ("omega",), "channels": (3,),
                                         "units": {"omega": "nm^-1"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead
-            warnings.warn(f"cumulative_cmf: ignoring the shipped table ({e}); building it in "
+            warnings.warn(f"shipped_cumulative_cmf_lut: ignoring the shipped table ({e}); building it in "
                           f"memory (rebuild the file with luts/build_cmf_cumulative.py)",
                           RuntimeWarning, stacklevel=3)
-    return build_cumulative_cmf(observer, illuminant, (lo, hi))
+    return cumulative_cmf_lut(observer, illuminant, (lo, hi))
 
 
 @functools.lru_cache(maxsize=None)
@@ -351,7 +351,7 @@ def _cached(observer: str, illuminant: str, lo: float, hi: float, dtype: torch.d
         dtype=dtype, device=device)
 
 
-def cumulative_cmf(
+def shipped_cumulative_cmf_lut(
     observer: str = "CIE 1931 2",
     illuminant: str = "D65",
     wavelength_range=(380.0, 780.0),
@@ -365,7 +365,7 @@ def cumulative_cmf(
     :func:`cumulative_cmf_path`) after checking its content hash, builder and parameters
     (observer, illuminant, wavelength range, grid rule, tolerance); if there is none, or it
     does not match (a ``RuntimeWarning`` says so), the table is built in memory with
-    :func:`build_cumulative_cmf` — nothing is written at run time. Cached per
+    :func:`cumulative_cmf_lut` — nothing is written at run time. Cached per
     ``(observer, illuminant, wavelength_range, dtype, device)``: repeated calls return the
     same object; treat its tensors as read-only.
 
@@ -390,7 +390,7 @@ def cumulative_cmf(
 
     Example:
         >>> import math, torch
-        >>> lut = cumulative_cmf()
+        >>> lut = shipped_cumulative_cmf_lut()
         >>> lut(omega=torch.tensor([2 * math.pi / 780, 2 * math.pi / 380], dtype=torch.float64))[:, 1]
         tensor([0., 1.], dtype=torch.float64)
     """
@@ -421,7 +421,7 @@ def box_integrals(omega_edges, lut: LUT) -> torch.Tensor:
         omega_edges: ``(*, J+1)`` box boundaries ω_j in nm⁻¹ (ω = 2π/λ), non-decreasing along
             the last axis (equal edges give empty boxes); values outside the table's range
             are clamped to it (those parts of a box contribute 0). NaN propagates.
-        lut: the table, from :func:`cumulative_cmf` or :func:`build_cumulative_cmf` (axis
+        lut: the table, from :func:`shipped_cumulative_cmf_lut` or :func:`cumulative_cmf_lut` (axis
             ``"omega"``, 3 channels), on the device of ``omega_edges``.
 
     Returns:
@@ -437,7 +437,7 @@ def box_integrals(omega_edges, lut: LUT) -> torch.Tensor:
 
     Example:
         >>> import math, torch
-        >>> lut = cumulative_cmf()
+        >>> lut = shipped_cumulative_cmf_lut()
         >>> edges = 2 * math.pi / torch.tensor([780.0, 600.0, 500.0, 380.0], dtype=torch.float64)
         >>> boxes = box_integrals(edges, lut)             # red, green, blue thirds
         >>> [round(v, 4) for v in boxes[:, 1].tolist()]
@@ -447,7 +447,7 @@ def box_integrals(omega_edges, lut: LUT) -> torch.Tensor:
     """
     if not isinstance(lut, LUT) or lut.axis_names != ("omega",) or lut.channel_shape != (3,):
         raise ValueError("lut must be a LUT with one axis 'omega' and 3 channels (X, Y, Z), "
-                         "e.g. cumulative_cmf(); got " + repr(lut))
+                         "e.g. shipped_cumulative_cmf_lut(); got " + repr(lut))
     dtype, device = _checks.resolve_dtype_device(omega_edges)
     omega = _checks.as_real(omega_edges, "omega_edges", dtype, device)
     if omega.ndim == 0 or omega.shape[-1] < 2:
@@ -455,7 +455,7 @@ def box_integrals(omega_edges, lut: LUT) -> torch.Tensor:
                          f"its last axis; got shape {tuple(omega.shape)}")
     if omega.device != lut.device:
         raise ValueError(f"omega_edges is on {omega.device} but lut is on {lut.device}; use "
-                         f"cumulative_cmf(..., device=omega_edges.device)")
+                         f"shipped_cumulative_cmf_lut(..., device=omega_edges.device)")
     with torch.no_grad():
         if bool((omega[..., 1:] < omega[..., :-1]).any()):  # NaN compares False: it propagates
             raise ValueError("omega_edges must be non-decreasing along the last axis "

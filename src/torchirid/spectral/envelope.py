@@ -16,7 +16,7 @@ It is smooth between the gap edges, where it behaves like √(ω − ω_edge), s
 landmarks at all to be integrated: this module samples it at ``samples`` nodes uniform in
 ω = 2π/λ and integrates its piecewise-linear interpolant exactly against the CMFs × illuminant
 (product integration with hat functions, weights from the cumulative tables of
-:func:`torchirid.spectral.cumulative.cumulative_cmf`, computed once per grid and cached).
+:func:`torchirid.spectral.cumulative.shipped_cumulative_cmf_lut`, computed once per grid and cached).
 The cost is that of ``samples`` evaluations of Yeh's closed form, with no search, sort or
 gather; the fringes that a ``"sampled"`` grid must resolve are averaged out analytically, so
 the same accuracy takes several times fewer samples (Fourneau's Fig. 4 grid, N = 20: 64 ω
@@ -26,7 +26,7 @@ the fringes next to the gap edges are wide for small N and are not averaged well
 Fig. 4 grid the converged model (``samples`` → ∞) is within median 0.05–0.12 / p95
 0.6–0.9 ΔE2000 of the exact colour.
 
-Scope as the piecewise method: a lossless mirror embedded in n1 (``n_host`` = None or n1),
+Scope as the piecewise method: a lossless mirror embedded in n1 (``n_incident`` = None or n1),
 light propagating in n2. Gradients flow to every parameter (the grid does not move).
 """
 
@@ -39,7 +39,7 @@ import torch
 
 from .. import _checks
 from ..optics.bragg import _yeh
-from .cumulative import cumulative_cmf
+from .cumulative import shipped_cumulative_cmf_lut
 from .piecewise import _embedded_mirror, _envelope, _fringe_mean, _parts
 
 __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectance"]
@@ -49,7 +49,7 @@ __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectanc
 @_checks.normal_tensors
 def _hat_weights(samples, observer, illuminant, lo, hi, dtype, device):
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
-    table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=torch.float64, device="cpu")
+    table = shipped_cumulative_cmf_lut(observer, illuminant, (lo, hi), dtype=torch.float64, device="cpu")
     grid, v = table.axes["omega"].to(torch.float64), table.values.to(torch.float64)
     omega0, step = float(grid[0]), float(grid[-1] - grid[0]) / (grid.numel() - 1)
     dv = v[1:] - v[:-1]

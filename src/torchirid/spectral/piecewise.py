@@ -10,13 +10,13 @@ of the range), :math:`\tilde R_\omega = \sum_j w_j B_j(\omega)` (eq. 14), with
   :func:`torchirid.spectral.correction.angular_correction`);
 
 and its colour is a sum of differences of the cumulative CMF tables in ω (eq. 15–16,
-:func:`torchirid.spectral.cumulative.cumulative_cmf`): one table lookup per landmark.
+:func:`torchirid.spectral.cumulative.shipped_cumulative_cmf_lut`): one table lookup per landmark.
 With ``subdivisions = s`` a box outside the gaps that belongs to mode m (the nearest mode
 below it) is cut into max(1, s − m) equal sub-boxes in ω, each with its own envelope
 value ("sub." in the paper; ``s = 1`` is the basic "app."). Each polarization has its own
 landmarks; ``"unpolarized"`` averages the two XYZ.
 
-Scope: the mirror embedded in n1 (``n_host`` = None or n1) with real indices and light
+Scope: the mirror embedded in n1 (``n_incident`` = None or n1) with real indices and light
 propagating in n2 (the paper's setting); other mirrors raise ``ValueError`` — use
 ``method="spectral"``. The approximation does not depend on the number of cells: it
 models large N (the paper assumes ≥ 95 % reflectance in the gaps). Gradients flow through
@@ -43,7 +43,7 @@ import torch
 
 from .. import _checks, _compile
 from .correction import angular_correction
-from .cumulative import cumulative_cmf
+from .cumulative import shipped_cumulative_cmf_lut
 from .landmarks import HALVINGS, _counts, clamped_landmarks, dispersion_parts
 
 __all__ = ["bragg_xyz_piecewise"]
@@ -92,7 +92,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="un
     lo, hi = mirror["range"]
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
     dtype, device = mirror["A"].dtype, mirror["A"].device
-    table = cumulative_cmf(observer, illuminant, (lo, hi), dtype=dtype, device=device)
+    table = shipped_cumulative_cmf_lut(observer, illuminant, (lo, hi), dtype=dtype, device=device)
     white = _packed(table)[3]  # XYZ of R ≡ 1: C̄(ω_max), the table's last node
     if weights == "paper":
         w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))

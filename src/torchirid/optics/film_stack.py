@@ -38,7 +38,7 @@ import torch
 
 from .. import _checks
 from ..materials import material_range, refractive_index
-from .multilayer import multilayer
+from .transfer import multilayer
 
 __all__ = [
     "FilmStack",
@@ -203,7 +203,7 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
     return multilayer(lam, cos_theta, n, d, polarization=polarization)
 
 
-def smooth_directions(normal, view, n_incident, n_exit):
+def smooth_directions(normal, view, n_incident, n_substrate):
     r"""Mirror and Snell (transmitted) directions of a viewing ray on a smooth coated surface.
 
     The boundaries of the stack are parallel, so the ray that leaves into the substrate
@@ -214,7 +214,7 @@ def smooth_directions(normal, view, n_incident, n_exit):
         normal: unit surface normal on the incident side, ``(*, 3)``.
         view: unit vector from the surface point towards the viewer, ``(*, 3)``.
         n_incident: real index n_0 of the incident medium: a number, or a spectrum ``(…, W)``.
-        n_exit: index of the substrate (its real part is used; with an absorbing substrate
+        n_substrate: index of the substrate (its real part is used; with an absorbing substrate
             ``k_t = 0`` and the direction is irrelevant): a number, or a spectrum ``(…, W)``.
             If either index is a tensor with dimensions, both are read as spectra broadcasting
             with ``(*, W)`` and the transmitted directions get a wavelength axis.
@@ -240,10 +240,10 @@ def smooth_directions(normal, view, n_incident, n_exit):
         if t.ndim == 0 or t.shape[-1] != 3:
             raise ValueError(f"{name} must have 3 components on its last axis; got shape {tuple(t.shape)}")
     n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    n1 = _checks.as_index(n_exit, "n_exit", dtype, device)
+    n1 = _checks.as_index(n_substrate, "n_substrate", dtype, device)
     n1 = n1.real if n1.is_complex() else n1
     _checks.check_positive(n0, "n_incident", unit="")
-    _checks.check_positive(n1, "n_exit", unit="")
+    _checks.check_positive(n1, "n_substrate", unit="")
     cos_i = (nrm * v).sum(-1).clamp(0.0, 1.0)
     reflected = 2 * cos_i[..., None] * nrm - v
     spectral = n0.ndim > 0 or n1.ndim > 0  # indices given per wavelength: (…, W) against (*, W)
