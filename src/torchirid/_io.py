@@ -45,7 +45,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) 
 _EXR_MAGIC = b"\x76\x2f\x31\x01"
 
 
-def _import_openexr():
+def import_openexr():
     try:
         import OpenEXR
     except ImportError as exc:
@@ -54,7 +54,7 @@ def _import_openexr():
     return OpenEXR
 
 
-def _read_exr(path, saturation=None) -> tuple[np.ndarray, np.ndarray]:
+def read_exr(path, saturation=None) -> tuple[np.ndarray, np.ndarray]:
     """An OpenEXR file's first part as (linear RGB (H, W, 3) float64, valid (H, W) bool).
 
     Channels R, G, B (or Y alone, as grey) in half or float, with an optional A; the values
@@ -65,7 +65,7 @@ def _read_exr(path, saturation=None) -> tuple[np.ndarray, np.ndarray]:
         magic = f.read(4)
     if magic != _EXR_MAGIC:
         raise ValueError(f"path {os.fspath(path)!r} is not an OpenEXR file")
-    OpenEXR = _import_openexr()
+    OpenEXR = import_openexr()
     try:
         exr = OpenEXR.File(os.fspath(path), separate_channels=True)
     except Exception as exc:  # the binding raises RuntimeError for a corrupt file

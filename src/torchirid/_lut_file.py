@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from ._version import __version__
+
 #: Version of the on-disk layout described in the module docstring.
 FORMAT_VERSION = 1
 #: Out-of-range policies of :meth:`LUT.interp`.
@@ -30,18 +32,8 @@ _META_KEYS = ("format", "format_version", "builder", "parameters", "units",
 
 # ----------------------------------------------------------------------------- helpers
 def _current_version() -> str:
-    """torchirid's version, imported lazily (lut.py may be imported by the package itself)."""
-    try:
-        from . import __version__  # noqa: PLC0415  (lazy on purpose: avoids an import cycle)
-
-        return str(__version__)
-    except ImportError:  # package __init__ still initialising
-        try:
-            from importlib.metadata import version
-
-            return version("torchirid")
-        except Exception:  # not installed (e.g. PYTHONPATH=src)
-            return "unknown"
+    """torchirid's version (recorded in every LUT written)."""
+    return __version__
 
 
 def _json_default(o):

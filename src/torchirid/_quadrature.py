@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 import torch
+from ._cache import cache_dict
 
-_GL_CACHE: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+_GL_CACHE: dict[int, tuple[np.ndarray, np.ndarray]] = cache_dict()
 
 
 def gauss_legendre01(n: int, dtype, device):

@@ -54,6 +54,7 @@ import torch
 
 from ._io import atomic_write
 from .lut import LUT
+from ._version import __version__
 
 __all__ = ["export_lut", "load_exported_lut", "thin_film_material", "write_thin_film_material",
            "EXPORT_FORMATS"]
@@ -67,10 +68,6 @@ _DTYPES = {"float16": torch.float16, "bfloat16": torch.bfloat16, "float32": torc
            "float64": torch.float64}
 
 
-def _version() -> str:
-    from . import __version__  # noqa: PLC0415  (lazy: export is not imported by __init__)
-
-    return str(__version__)
 
 
 def _stem(path) -> Path:
@@ -81,10 +78,10 @@ def _stem(path) -> Path:
 
 
 def _openexr():
-    from ._io import _import_openexr  # noqa: PLC0415  (optional dependency)
+    from ._io import import_openexr  # noqa: PLC0415  (optional dependency)
 
     try:
-        return _import_openexr()
+        return import_openexr()
     except ImportError as exc:
         raise ImportError("exporting LUTs as OpenEXR needs the optional 'openexr' package: "
                           "pip install openexr (or pip install 'torchirid[exr]')") from exc
@@ -183,7 +180,7 @@ def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tu
         "channels": {"count": n_ch, "names": list(channel_names) if channel_names else None,
                      "unit": units.get("values")},
         "builder": lut.builder, "parameters": lut.parameters, "units": units,
-        "torchirid_version": lut.torchirid_version, "exported_by": _version(),
+        "torchirid_version": lut.torchirid_version, "exported_by": __version__,
         "source_hash": lut.hash, "source_dtype": str(lut.dtype).removeprefix("torch."),
         "source_format_version": lut.meta["format_version"],
         "data_sha256": hashlib.sha256(values.tobytes()).hexdigest(),
@@ -417,7 +414,7 @@ def thin_film_material(n_film, thickness_nm, *, n_base=None, roughness: float = 
             "source": {"n_film": n_film, "thickness_nm": [d_min, d_max] if ranged else d_max,
                        "n_base": None if n_base is None else
                        [[c.real, c.imag] for c in nb], "roughness": roughness,
-                       "torchirid_version": _version()}}
+                       "torchirid_version": __version__}}
 
 
 def write_thin_film_material(path, n_film, thickness_nm, *, n_base=None, format: str | None = None,
@@ -452,7 +449,7 @@ def write_thin_film_material(path, n_film, thickness_nm, *, n_base=None, format:
         mat = dict(m["gltf_material"], extras={"torchirid": {
             "approximations": m["approximations"]["gltf"], "source": m["source"]}})
         dump(stem.with_name(stem.name + ".gltf"), {
-            "asset": {"version": "2.0", "generator": f"torchirid {_version()}"},
+            "asset": {"version": "2.0", "generator": f"torchirid {__version__}"},
             "extensionsUsed": m["gltf_extensions_used"], "materials": [mat]})
     if format in ("openpbr", "both"):
         dump(stem.with_name(stem.name + ".openpbr.json"), {

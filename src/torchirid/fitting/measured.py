@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 from .. import _checks
-from .._io import _import_openexr, _read_exr, atomic_write  # noqa: F401  (shared OpenEXR reader)
+from .._io import import_openexr, read_exr, atomic_write  # noqa: F401  (shared OpenEXR reader)
 from ..color import linear_srgb_to_srgb, xyz_to_linear_srgb
 from ..render.scatterogram import PROJECTIONS, projection_radius, scatterogram_directions
 
@@ -229,7 +229,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
 
     f64 = torch.float64
     if is_exr:
-        rgb, valid = _read_exr(path, saturation)
+        rgb, valid = read_exr(path, saturation)
         linear, file_params = torch.as_tensor(rgb, dtype=f64), {"format": "exr"}
         if saturation is not None:
             file_params["saturation"] = float(saturation)
@@ -346,7 +346,7 @@ def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, m
     """
     rgb = _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)
     pixels = rgb.numpy().astype(np.float32)
-    OpenEXR = _import_openexr()
+    OpenEXR = import_openexr()
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     exr = OpenEXR.File(header, {c: np.ascontiguousarray(pixels[..., i]) for i, c in enumerate("RGB")})
 

@@ -283,12 +283,6 @@ def _check_range(name, value, lo=0.0):
     return float(value[0]), float(value[1])
 
 
-def _positive_int(name, value, minimum=1):
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}")
-    return value
-
-
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def match_scatterogram(
     target_xyz,
@@ -397,9 +391,9 @@ def match_scatterogram(
         period_range = _check_range("period_range", period_range)
     if isinstance(period_step, bool) or not isinstance(period_step, numbers.Real) or not period_step > 0:
         raise ValueError(f"period_step must be a number > 0 (nm); got {period_step!r}")
-    starts = _positive_int("starts", starts)
-    short_iter = _positive_int("short_iter", short_iter)
-    max_iter = _positive_int("max_iter", max_iter, 0)
+    starts = _checks.check_int(starts, "starts")
+    short_iter = _checks.check_int(short_iter, "short_iter")
+    max_iter = _checks.check_int(max_iter, "max_iter", 0)
     dtype = target.dtype
     res = target.shape[1]
     _, disc = scatterogram_directions(res, projection=projection, dtype=dtype)

@@ -1,6 +1,6 @@
 """Image-based lighting of thin films: Belcour–Barla Fourier colour (Kneiphof et al. 2019)."""
 
-from .fourier import (  # noqa: F401
+from .fourier import (
     FOURIER_SENSITIVITY_BUILDER,
     SENSITIVITY_MODES,
     fourier_sensitivity_lut,
@@ -10,12 +10,15 @@ from .fourier import (  # noqa: F401
     shipped_fourier_sensitivity_lut,
     fourier_sensitivity_path,
     prefiltered_fourier_sensitivity,
+    lookup_prefiltered_sensitivity,
+    shipped_prefiltered_sensitivity_lut,
+    PREFILTERED_SENSITIVITY_BUILDER,
     thin_film_fourier_terms,
     thin_film_xyz_fourier,
 )
-from .dfg import DFG_BUILDER, DFG_SHIPPED, dfg_lut, shipped_dfg_lut  # noqa: F401
-from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz  # noqa: F401
-from .fitted import (  # noqa: F401
+from .dfg import DFG_BUILDER, DFG_SHIPPED, dfg_lut, shipped_dfg_lut
+from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
+from .fitted import (
     DEFAULT_QUANTILES,
     LIGHT_MIXTURE_BUILDER,
     light_mixture_lut,
@@ -24,14 +27,14 @@ from .fitted import (  # noqa: F401
     light_mixture_path,
     shipped_light_mixture_lut,
 )
-from .uniform import (  # noqa: F401
+from .uniform import (
     cos_theta1_distribution,
     path_difference_moments,
     uniform_light_moments,
     uniform_lobe_quadrature,
     uniform_thin_film_xyz,
 )
-from .prefilter import (  # noqa: F401
+from .prefilter import (
     MOMENT_CHANNELS,
     PREFILTERED_ENVIRONMENT_BUILDER,
     PrefilteredEnvironment,
@@ -41,6 +44,50 @@ from .prefilter import (  # noqa: F401
     prefilter_environment,
     synthetic_environment,
 )
-from .shading import SHADING_METHODS, SHADING_OUTPUTS, shade_thin_film_environment  # noqa: F401
+from .shading import SHADING_METHODS, SHADING_OUTPUTS, shade_thin_film_environment
 
-__all__ = [name for name in dir() if not name.startswith("_")]
+__all__ = [
+    "DEFAULT_QUANTILES",
+    "DFG_BUILDER",
+    "DFG_SHIPPED",
+    "FOURIER_SENSITIVITY_BUILDER",
+    "LIGHT_MIXTURE_BUILDER",
+    "MOMENT_CHANNELS",
+    "PREFILTERED_ENVIRONMENT_BUILDER",
+    "PREFILTERED_SENSITIVITY_BUILDER",
+    "SENSITIVITY_MODES",
+    "SHADING_METHODS",
+    "SHADING_OUTPUTS",
+    "cos_theta1_distribution",
+    "dfg_lut",
+    "equirect_directions",
+    "filtered_thin_film_xyz",
+    "fitted_thin_film_xyz",
+    "fourier_sensitivity",
+    "fourier_sensitivity_exact",
+    "fourier_sensitivity_lut",
+    "fourier_sensitivity_path",
+    "gaussian_path_thin_film_xyz",
+    "light_mixture",
+    "light_mixture_lut",
+    "light_mixture_path",
+    "light_moments_to_mean_cov",
+    "load_environment",
+    "lookup_prefiltered_sensitivity",
+    "path_difference_moments",
+    "prefilter_environment",
+    "prefiltered_fourier_sensitivity",
+    "prefiltered_sensitivity_lut",
+    "PrefilteredEnvironment",
+    "shade_thin_film_environment",
+    "shipped_dfg_lut",
+    "shipped_fourier_sensitivity_lut",
+    "shipped_light_mixture_lut",
+    "shipped_prefiltered_sensitivity_lut",
+    "synthetic_environment",
+    "thin_film_fourier_terms",
+    "thin_film_xyz_fourier",
+    "uniform_light_moments",
+    "uniform_lobe_quadrature",
+    "uniform_thin_film_xyz",
+]

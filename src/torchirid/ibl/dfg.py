@@ -18,7 +18,6 @@ surface. Samples: a 2-D Hammersley set (deterministic, so the table is reproduci
 
 from __future__ import annotations
 
-import functools
 import importlib.resources
 
 import torch
@@ -26,6 +25,7 @@ import torch
 from .. import _checks
 from ..lut import LUT
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
+from .._cache import cached
 
 __all__ = ["dfg_lut", "shipped_dfg_lut", "DFG_BUILDER", "DFG_SHIPPED"]
 
@@ -68,8 +68,7 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
         [1.0, 0.0]
     """
     for name, v, lo in (("resolution", resolution, 2), ("samples", samples, 1)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-            raise ValueError(f"{name} must be an integer >= {lo}; got {v!r}")
+        _checks.check_int(v, name, lo)
     if dtype not in (torch.float64, torch.float32):
         raise ValueError(f"dtype must be torch.float64 or torch.float32; got {dtype!r}")
     grid = torch.linspace(0.0, 1.0, resolution, dtype=dtype)
@@ -90,7 +89,7 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
                units={"cos_theta_o": "1", "alpha": "1", "values": "1 (scale, bias of F0)"})
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(dtype, device) -> LUT:
     path = importlib.resources.files("torchirid").joinpath(*_DFG_FILE)

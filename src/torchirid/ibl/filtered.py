@@ -103,8 +103,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0562, 0.0533, 0.1243]
     """
-    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
-        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _checks.check_int(terms, "terms", 0)
     _check_names(observer, illuminant)
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
@@ -200,8 +199,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0483, 0.0839, 0.0644]
     """
-    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
-        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _checks.check_int(terms, "terms", 0)
     _check_names(observer, illuminant)
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)

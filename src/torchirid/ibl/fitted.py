@@ -30,7 +30,6 @@ structured environment Kneiphof's moment channels remain the way to see the ligh
 
 from __future__ import annotations
 
-import functools
 import importlib.resources
 import math
 
@@ -41,6 +40,7 @@ from ..lut import LUT
 from .filtered import _check_sensitivity, _series_xyz
 from .fourier import _check_names, thin_film_fourier_terms
 from .uniform import cos_theta1_distribution
+from .._cache import cached
 
 __all__ = [
     "LIGHT_MIXTURE_BUILDER",
@@ -118,8 +118,7 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
         :class:`~torchirid.lut.LUT` with axes ``cos_theta_o``, ``sqrt_alpha`` and channels ``(K, 3)``.
     """
     for name, v in (("theta_nodes", theta_nodes), ("alpha_nodes", alpha_nodes)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < 2:
-            raise ValueError(f"{name} must be an integer >= 2; got {v!r}")
+        _checks.check_int(v, name, 2)
     f64 = torch.float64
     theta = torch.linspace(90.0, 0.0, theta_nodes, dtype=f64)  # decreasing θ = increasing cos
     cos_axis = torch.cos(torch.deg2rad(theta))
@@ -140,7 +139,7 @@ def light_mixture_path():
     return importlib.resources.files("torchirid").joinpath(*_DATA)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(dtype, device) -> LUT:
     path = light_mixture_path()
@@ -182,8 +181,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         >>> [round(v, 4) for v in xyz.tolist()]  # reference (uniform_thin_film_xyz): [0.0647, 0.067, 0.1077]
         [0.0645, 0.0668, 0.1076]
     """
-    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
-        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _checks.check_int(terms, "terms", 0)
     _check_names(observer, illuminant)
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)

@@ -60,7 +60,6 @@ for wavelength-independent indices (Belcour & Barla's assumption: a non-dispersi
 
 from __future__ import annotations
 
-import functools
 import importlib.resources
 import math
 import re
@@ -70,9 +69,10 @@ import numpy as np
 import torch
 
 from .. import _checks
-from ..color.colorimetry import _product_numpy, check_illuminant, check_observer
+from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
 from ..optics.fresnel import admittance, interface, normal_wavenumber
+from .._cache import cached
 
 __all__ = [
     "fourier_sensitivity",
@@ -109,14 +109,14 @@ _TWO_PI = 2.0 * math.pi
 # ---------------------------------------------------------------------------------------
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _quadrature_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.ndarray]:
     """Nodes λ (N,) and weights (N, 3) with Σ_k w_k f(λ_k) = ∫ f S x̄ dλ / ∫ S ȳ dλ.
 
     Gauss–Legendre (8 nodes) on every ≤ 1 nm sub-cell of the observer's grid, on which the
     integrand's S x̄ factor is linear; the Y weights sum to 1.
     """
-    wl, prod = _product_numpy(observer, illuminant)
+    wl, prod = weighted_cmfs_numpy(observer, illuminant)
     x, w = np.polynomial.legendre.leggauss(_GL_NODES)
     lams, ws = [], []
     for i in range(wl.size - 1):
@@ -133,7 +133,7 @@ def _quadrature_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.nd
     return lam, weights / weights[:, 1].sum()
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _quadrature(observer, illuminant, dtype, device):
     lam, w = _quadrature_numpy(observer, illuminant)
@@ -279,7 +279,7 @@ def fourier_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D6
     return importlib.resources.files("torchirid").joinpath(_DATA_DIR, _slug(observer, illuminant) + ".npz")
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
@@ -378,8 +378,7 @@ def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = 
         (torch.Size([51, 3, 3, 2]), ('mu', 'w'))
     """
     _check_names(observer, illuminant)
-    if isinstance(sigma_nodes, bool) or not isinstance(sigma_nodes, int) or sigma_nodes < 3:
-        raise ValueError(f"sigma_nodes must be an integer >= 3; got {sigma_nodes!r}")
+    _checks.check_int(sigma_nodes, "sigma_nodes", 3)
     for name, v in (("d_max", d_max), ("step", step), ("sigma_max", sigma_max)):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
             raise ValueError(f"{name} must be a finite number > 0 nm; got {v!r}")
@@ -430,7 +429,7 @@ def _from_prefiltered_lut(lut: LUT, m: torch.Tensor, s2: torch.Tensor) -> torch.
     return torch.where((m < 0)[..., None], s.conj(), s)
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
@@ -514,7 +513,7 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_inci
     qf_real = torch.sqrt((nf * nf - s2).clamp_min(0.0))  # n_f >= n_0: real, > 0 unless n_f = n_0 at grazing
     q0, qf = (n0 * c).to(cdt), qf_real.to(cdt)
     qs = normal_wavenumber(ns.to(cdt), s2, n0.to(cdt), q0)
-    pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
+    pols = _checks.polarization_terms(polarization)
     C0s, As, Ks = [], [], []
     for pol in pols:
         e0, ef, es = (admittance(q, n.to(cdt), pol) for q, n in ((q0, n0), (qf, nf), (qs, ns)))
@@ -572,8 +571,7 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0516, 0.0675, 0.0417]
     """
-    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
-        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _checks.check_int(terms, "terms", 0)
     if sensitivity not in SENSITIVITY_MODES:
         raise ValueError(f"sensitivity must be one of {_checks.names(SENSITIVITY_MODES)}; got {sensitivity!r}")
     _check_names(observer, illuminant)

@@ -36,7 +36,7 @@ import torch
 
 from .. import _checks
 from ..lut import LUT
-from ..microfacet.ggx import _d_unchecked
+from ..microfacet.ggx import ggx_d_kernel
 
 __all__ = [
     "PrefilteredEnvironment",
@@ -54,11 +54,6 @@ MOMENT_CHANNELS = ("x", "y", "z", "xx", "yy", "zz", "xy", "yz", "zx")
 _LUMA = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, linear luminance Y
 _CHUNK_ELEMENTS = 1 << 22  # outputs × texels per batch: bounds memory at ~32 MiB per float64 temporary
 _ENV_SUFFIXES = (".exr", ".hdr")
-
-
-def _check_int(name, v, lo):
-    if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-        raise ValueError(f"{name} must be an integer >= {lo}; got {v!r}")
 
 
 def _check_float_dtype(dtype):
@@ -82,8 +77,8 @@ def equirect_directions(height: int, width: int, *, dtype: torch.dtype = torch.f
         >>> round(float(w.sum()), 6), [round(v, 4) for v in d[0, 0].tolist()]
         (12.566371, [0.3536, 0.1464, 0.9239])
     """
-    _check_int("height", height, 1)
-    _check_int("width", width, 1)
+    _checks.check_int(height, "height", 1)
+    _checks.check_int(width, "width", 1)
     _check_float_dtype(dtype)
     i = torch.arange(height, dtype=torch.float64, device=device)
     j = torch.arange(width, dtype=torch.float64, device=device)
@@ -289,7 +284,7 @@ def prefilter_environment(env, alphas, *, resolution=(32, 64)) -> PrefilteredEnv
             c = (R[s:s + chunk] @ l.T).clamp(-1.0, 1.0)  # ⟨R, l⟩, (C, T)
             front = c > 0
             cos_h = torch.sqrt((1.0 + c.clamp_min(0.0)) * 0.5)  # ⟨R, h⟩ (the back half is weighted 0)
-            wgt = torch.where(front, _d_unchecked(cos_h, ak) * c * 0.25, torch.zeros_like(c)) * omega
+            wgt = torch.where(front, ggx_d_kernel(cos_h, ak) * c * 0.25, torch.zeros_like(c)) * omega
             total = wgt.sum(-1, keepdim=True)  # > 0: every R has texels in its front hemisphere
             rads.append((wgt @ L) / total)
             wy = wgt * luma
@@ -389,9 +384,9 @@ def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tenso
     _check_float_dtype(dtype)
     suffix = os.path.splitext(os.fspath(path))[1].lower()
     if suffix == ".exr":
-        from .._io import _read_exr  # lazy: reuse the package's one OpenEXR reader
+        from .._io import read_exr  # lazy: reuse the package's one OpenEXR reader
 
-        rgb, _ = _read_exr(path)
+        rgb, _ = read_exr(path)
     elif suffix == ".hdr":
         rgb = _read_hdr(path)
     else:

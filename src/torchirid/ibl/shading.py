@@ -44,7 +44,6 @@ from the shipped 64² DFG table agrees with the converged lobe quadrature to 6e-
 
 from __future__ import annotations
 
-import functools
 import math
 
 import torch
@@ -55,6 +54,7 @@ from .dfg import shipped_dfg_lut
 from .filtered import _check_sensitivity, _vectors, filtered_thin_film_xyz
 from .fourier import _check_names, thin_film_xyz_fourier
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
+from .._cache import cached
 
 __all__ = ["shade_thin_film_environment", "SHADING_METHODS", "SHADING_OUTPUTS"]
 
@@ -65,7 +65,7 @@ SHADING_METHODS = ("kneiphof", "belcour_barla")
 SHADING_OUTPUTS = ("rgb", "xyz")
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _rgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
     eye = torch.eye(3, dtype=torch.float64)
@@ -172,8 +172,7 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         raise ValueError(f"method must be one of {_checks.names(SHADING_METHODS)}; got {method!r}")
     if output not in SHADING_OUTPUTS:
         raise ValueError(f"output must be one of {_checks.names(SHADING_OUTPUTS)}; got {output!r}")
-    if isinstance(terms, bool) or not isinstance(terms, int) or terms < 0:
-        raise ValueError(f"terms must be an integer >= 0; got {terms!r}")
+    _checks.check_int(terms, "terms", 0)
     _check_names(observer, "D65")
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)

@@ -44,7 +44,7 @@ import torch
 from .. import _checks
 from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
-from ..microfacet.ggx import _g1_unchecked, reflect
+from ..microfacet.ggx import smith_g1_kernel, reflect
 from ..optics.thin_film import thin_film_reflectance
 
 __all__ = [
@@ -56,11 +56,6 @@ __all__ = [
 ]
 
 _CHUNK_POINTS = 1 << 21  # geometry nodes × quadrature points per batch (~50 MiB per float64 (…, 3))
-
-
-def _check_int(name, v, lo):
-    if isinstance(v, bool) or not isinstance(v, int) or v < lo:
-        raise ValueError(f"{name} must be an integer >= {lo}; got {v!r}")
 
 
 def _geometry(cos_theta_o, alpha):
@@ -129,7 +124,7 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
         >>> round(float(w.sum()), 6), round(float((w * wi[..., 2]).sum()), 4)  # a near-mirror: A = 1, ω_i ≈ n
         (1.0, 1.0)
     """
-    _check_int("nodes", nodes, 2)
+    _checks.check_int(nodes, "nodes", 2)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     u, phi, wq = _lobe_rule(nodes, dtype, device)
     a_ = a[..., None]
@@ -145,7 +140,7 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
     ok = (z > 0) & (vh > 0) & (cos_h > 0)
     zs = torch.where(ok, z, torch.ones_like(z))
     # ρ̃⟨n,ωi⟩ / p(ωi) = G(ωi, ωo)⟨ωo,h⟩ / (cos θo cos θh), p(ωi) = D cos θh / (4⟨ωo,h⟩)
-    g = _g1_unchecked(zs, a_) * _g1_unchecked(c, a)[..., None]
+    g = smith_g1_kernel(zs, a_) * smith_g1_kernel(c, a)[..., None]
     wgt = g * vh / (c[..., None] * torch.where(ok, cos_h, torch.ones_like(cos_h)))
     wgt = torch.where(ok, wgt, torch.zeros_like(wgt))
     return wi, h, torch.where(torch.isnan(z + vh), torch.nan, wgt) * wq  # (NaN geometry: NaN weights)
@@ -175,7 +170,7 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64):
         >>> round(float(A), 4), [round(v, 4) for v in mu.tolist()]
         (0.856, [-0.399, 0.0, 0.7063])
     """
-    _check_int("nodes", nodes, 2)
+    _checks.check_int(nodes, "nodes", 2)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     n, per = _chunks(shape, nodes)
@@ -212,8 +207,8 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         >>> [round(v, 4) for v in w.tolist()]  # a near-mirror at 60°: cos θ1 ≈ 0.5 (GGX tails: 2e-6)
         [0.0, 0.0, 1.0, 0.0, 0.0]
     """
-    _check_int("bins", bins, 1)
-    _check_int("nodes", nodes, 2)
+    _checks.check_int(bins, "bins", 1)
+    _checks.check_int(nodes, "nodes", 2)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     n, per = _chunks(shape, nodes)

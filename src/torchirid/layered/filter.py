@@ -463,8 +463,7 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
     a = _checks.as_real(alpha, "alpha", dtype, device)
     _checks.check_cosine(c, "cos_theta_i")
     _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
-        raise ValueError(f"nodes must be an integer >= 2; got {nodes!r}")
+    _checks.check_int(nodes, "nodes", 2)
     c, a = torch.broadcast_tensors(c, a)
     theta, weight = _quadrature_cos(c, a, nodes, normalize)
     return torch.cos(theta), weight

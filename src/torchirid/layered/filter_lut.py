@@ -14,6 +14,7 @@ from pathlib import Path
 
 import torch
 
+from .. import _checks
 from ..lut import LUT
 from .filter import _HALF_PI, _check_range, _cut_term, _filter, _half_pi_parts, _table_warp  # noqa: F401
 
@@ -202,8 +203,7 @@ def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes
         raise ValueError(f"theta_i_step must lie in (0, 90] degrees; got {theta_i_step!r}")
     for name, val, least in (("u_nodes", u_nodes, 2), ("max_theta_i_nodes", max_theta_i_nodes, 2),
                              ("max_u_nodes", max_u_nodes, 2)):
-        if isinstance(val, bool) or not isinstance(val, int) or val < least:
-            raise ValueError(f"{name} must be an integer >= {least}; got {val!r}")
+        _checks.check_int(val, name, least)
     if isinstance(rtol, bool) or not isinstance(rtol, (int, float)) or not rtol > 0:
         raise ValueError(f"rtol must be a real number > 0; got {rtol!r}")
     if dtype not in (torch.float16, torch.float32, torch.float64):

@@ -39,7 +39,7 @@ from .. import _checks
 from .._quadrature import gauss_legendre01
 from . import _geometry
 from ..lut import LUT
-from ..microfacet.ggx import _d_unchecked, _g1_unchecked, reflect, sample_ggx_vndf, smith_g1
+from ..microfacet.ggx import ggx_d_kernel, smith_g1_kernel, reflect, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
 from .structure import LayeredBragg, RoughBraggLayer
 from .transmission import transmission_probability, transmissivity_lut
@@ -120,8 +120,7 @@ def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECT
     """
     if not isinstance(layer, RoughBraggLayer):
         raise ValueError(f"layer must be a RoughBraggLayer; got {type(layer).__name__}")
-    if isinstance(angles, bool) or not isinstance(angles, int) or angles < 2:
-        raise ValueError(f"angles must be an integer >= 2; got {angles!r}")
+    _checks.check_int(angles, "angles", 2)
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _geometry.wavelengths(wavelength, dtype, device)
     theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device)
@@ -259,7 +258,7 @@ def _evaluate(structure: LayeredBragg, tables, wi, wo, base_return=None) -> torc
     for l, tab in enumerate(tables):
         a = tab.layer.alpha
         # α was validated by RoughBraggLayer: the unchecked kernels skip per-call checks (host syncs)
-        shading = _d_unchecked(cos_h, a) * _g1_unchecked(zi_s, a) * _g1_unchecked(zo_s, a) / (4.0 * zi_s * zo_s)
+        shading = ggx_d_kernel(cos_h, a) * smith_g1_kernel(zi_s, a) * smith_g1_kernel(zo_s, a) / (4.0 * zi_s * zo_s)
         f_l = shading.unsqueeze(-1) * tab.reflectance(cos_d)
         if through is not None:
             f_l = f_l * through
@@ -385,8 +384,7 @@ def base_return_fraction(
     for name, v, low in (("transmissivity_angles", transmissivity_angles, 2), ("mu_nodes", mu_nodes, 1),
                          ("radius_nodes", radius_nodes, 1), ("azimuth_nodes", azimuth_nodes, 1),
                          ("reflectance_angles", reflectance_angles, 2)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < low:
-            raise ValueError(f"{name} must be an integer >= {low}; got {v!r}")
+        _checks.check_int(v, name, low)
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _geometry.wavelengths(wavelength, dtype, device)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
@@ -558,7 +556,7 @@ def _pdf(structure, tables, wi, wo, probs):
     pdf = probs[..., -1] * zo / math.pi  # base: cosine lobe in the host
     for l, tab in enumerate(tables):
         a = tab.layer.alpha
-        vndf = _g1_unchecked(zi_s, a) * cos_d * _d_unchecked(h[..., 2].clamp(-1.0, 1.0), a) / zi_s
+        vndf = smith_g1_kernel(zi_s, a) * cos_d * ggx_d_kernel(h[..., 2].clamp(-1.0, 1.0), a) / zi_s
         pdf = pdf + probs[..., l] * vndf / (4.0 * cos_d)
     # host solid angle → outer solid angle: dω' = cos θo / (n² cos θo') dω
     if n != 1.0:

@@ -16,6 +16,7 @@ from typing import Sequence
 import torch
 
 
+from .. import _checks
 from ..optics.bragg import bragg_reflectance
 
 __all__ = ["RoughBraggLayer", "LayeredBragg"]
@@ -72,8 +73,7 @@ class RoughBraggLayer:
         nh = self.n_incident
         if nh is not None and (isinstance(nh, bool) or not isinstance(nh, (int, float)) or not nh > 0):
             raise ValueError(f"n_incident must be None or a real number > 0; got {nh!r}")
-        if isinstance(self.cells, bool) or not isinstance(self.cells, int) or self.cells < 1:
-            raise ValueError(f"cells must be an integer >= 1; got {self.cells!r}")
+        _checks.check_int(self.cells, "cells", 1)
         if nh is None:  # resolved once: the mirrors are lit from their own low index
             object.__setattr__(self, "n_incident", self.n1)
 

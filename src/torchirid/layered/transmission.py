@@ -21,7 +21,6 @@ they broadcast with ``tau.shape[:-1]``.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import torch
@@ -31,6 +30,7 @@ from . import _geometry
 from ..lut import LUT
 from .filter import _hat_weights, _normal_cap, _quadrature, _quadrature_cos
 from .structure import RoughBraggLayer
+from .._cache import cached
 
 __all__ = [
     "absorption",
@@ -63,8 +63,7 @@ def _check_layer(layer) -> RoughBraggLayer:
 
 
 def _check_nodes(nodes) -> int:
-    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 2:
-        raise ValueError(f"nodes must be an integer >= 2; got {nodes!r}")
+    _checks.check_int(nodes, "nodes", 2)
     return nodes
 
 
@@ -167,7 +166,7 @@ def _lut_cosines(alpha: float, angles: int, dtype, device) -> torch.Tensor:
     return cos.to(dtype=dtype, device=device)
 
 
-@functools.lru_cache(maxsize=8)
+@cached(maxsize=8)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, device: str):
     """(cos nodes increasing, θd grid, product weights (nodes, cells + 1)); layer-independent, cached."""
@@ -227,8 +226,7 @@ def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
     """
     layer = _check_layer(layer)
     for name, val in (("angles", angles), ("theta_d_cells", theta_d_cells)):
-        if isinstance(val, bool) or not isinstance(val, int) or val < 2:
-            raise ValueError(f"{name} must be an integer >= 2; got {val!r}")
+        _checks.check_int(val, name, 2)
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _geometry.wavelengths(wavelength, dtype, device)  # (W,), finite (the table's metadata stores it)
     plain = layer.numbers()  # tensor parameters (fitting) → numbers for the weights' cache and the metadata

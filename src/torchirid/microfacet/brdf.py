@@ -20,7 +20,7 @@ import torch
 from torch import nn
 
 from .. import _checks
-from .ggx import _as_vectors, _d_unchecked
+from .ggx import _as_vectors, ggx_d_kernel
 
 __all__ = ["microfacet_brdf", "MicrofacetBRDF"]
 
@@ -90,7 +90,7 @@ def microfacet_brdf(wi, wo, alpha, reflectance=1.0) -> torch.Tensor:
     s = i_s + o_s
     h = s / torch.linalg.vector_norm(s, dim=-1, keepdim=True)  # |i+o| ≥ (i+o)·n > 0 here
     cos_d = (i_s * h).sum(-1).clamp(0.0, 1.0)  # i·h > 0; clamp rounding to the cosine range
-    dg = 0.25 * _d_unchecked(h[..., 2], a) * _g1_over_cos(i_s[..., 2], a) * _g1_over_cos(o_s[..., 2], a)
+    dg = 0.25 * ggx_d_kernel(h[..., 2], a) * _g1_over_cos(i_s[..., 2], a) * _g1_over_cos(o_s[..., 2], a)
     shape = dg.shape
     below = below.expand(shape)
 

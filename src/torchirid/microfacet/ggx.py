@@ -31,7 +31,8 @@ import torch
 
 from .. import _checks
 
-__all__ = ["ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1", "smith_lambda"]
+__all__ = ["ggx_d", "ggx_d_kernel", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1",
+           "smith_g1_kernel", "smith_lambda"]
 
 
 def _prepare(cos, alpha, cos_name):
@@ -61,7 +62,7 @@ def ggx_d(cos_theta_m, alpha) -> torch.Tensor:
     with torch.no_grad():
         if bool((c.abs() > 1).any()):
             raise ValueError("cos_theta_m must lie in [-1, 1]")
-    return _d_unchecked(c, a)
+    return ggx_d_kernel(c, a)
 
 
 def smith_lambda(cos_theta, alpha) -> torch.Tensor:
@@ -93,7 +94,7 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
     0.861002
     """
     c, a = _prepare(cos_theta, alpha, "cos_theta")
-    return _g1_unchecked(c.abs(), a)
+    return smith_g1_kernel(c.abs(), a)
 
 
 # ---------------------------------------------------------------------------------------
@@ -101,8 +102,10 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
 # ---------------------------------------------------------------------------------------
 
 
-def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
-    """Eq. 18 on already-validated tensors (``c`` may exceed 1 by rounding)."""
+def ggx_d_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """GGX normal distribution D(m) (eq. 18) without validation: the kernel of :func:`ggx_d`
+    for callers that validated ``cos θm`` (``c``, may exceed 1 by rounding) and ``α > 0``
+    (``a``) themselves, on tensors of one dtype/device. 0 for ``c ≤ 0``; NaN propagates."""
     a2 = a * a
     # cos²θ (α² + tan²θ) = 1 + (α² − 1)cos²θ, summed as sin²θ + α² cos²θ: two terms ≥ 0, so no
     # cancellation at the peak (1 + (α² − 1) loses ~log10(1/α²) digits there)
@@ -111,8 +114,9 @@ def _d_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     return torch.where(c <= 0, torch.zeros_like(d), d)  # χ⁺; NaN propagates
 
 
-def _g1_unchecked(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
-    """Eq. 19 (without χ⁺) on validated tensors; ``c`` ≥ 0."""
+def smith_g1_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
+    """Smith G1 (eq. 19, without χ⁺) without validation: the kernel of :func:`smith_g1` for
+    callers that validated ``c = cos θ ≥ 0`` and ``a = α > 0`` themselves."""
     c2 = (c * c).clamp(max=1.0)  # rounding: |v| may be 1 + ulp
     root = torch.sqrt(c2 + a * a * (1.0 - c2))  # > 0 for α > 0 (safe sqrt at c = 0 and 1)
     return 2.0 * c / (c + root)
@@ -254,8 +258,8 @@ def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
     _check_above(i[..., 2], "wi")
     ci = i[..., 2]
     dot = (i * mm).sum(-1)
-    g1_over_c = _g1_unchecked(ci, a) / ci  # ci > 0 (validated)
-    return g1_over_c * dot.clamp(min=0.0) * _d_unchecked(mm[..., 2], a)
+    g1_over_c = smith_g1_kernel(ci, a) / ci  # ci > 0 (validated)
+    return g1_over_c * dot.clamp(min=0.0) * ggx_d_kernel(mm[..., 2], a)
 
 
 def smith_g(wi, wo, m, alpha) -> torch.Tensor:
@@ -293,6 +297,6 @@ def smith_g(wi, wo, m, alpha) -> torch.Tensor:
     # χ⁺((v·m)/(v·n)) tested as (v·m)(v·n) > 0, without dividing by v·n; NaN propagates
     im, om = (i * mm).sum(-1), (o * mm).sum(-1)
     masked = (im * ci <= 0) | (om * co <= 0)
-    g = _g1_unchecked(ci.abs(), a) * _g1_unchecked(co.abs(), a)
+    g = smith_g1_kernel(ci.abs(), a) * smith_g1_kernel(co.abs(), a)
     g = torch.where(masked, torch.zeros_like(g), g)
     return torch.where(torch.isnan(im + om), torch.nan, g)  # (G₁ does not see m: its NaN goes by the mask)

@@ -47,7 +47,7 @@ import torch
 from .. import _checks, _compile
 from .fresnel import interface, normal_wavenumber, same_medium
 
-__all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
+__all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope", "yeh_reflectance_kernel"]
 
 # N²|ε| below which U_{N-1}, T_N are taken from their Taylor series at the band edge:
 # the neglected term is ~(2N²ε)³/5040 < 1e-17 relative.
@@ -87,10 +87,6 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells=_NO_CELLS)
     elif n1.is_complex() and bool((n1.imag != 0).any()):
         raise ValueError("n1 must be real when n_incident is None (n1 is then the incident medium)")
     return dtype, lam, c, n1, n2, d1, d2, nh, N
-
-
-def _pols(polarization: str) -> tuple[str, ...]:
-    return ("s", "p") if polarization == "unpolarized" else (polarization,)
 
 
 # ----------------------------------------------------------------------------------------
@@ -224,8 +220,14 @@ def _one_minus_x(cell, eta1, eta2, m1, m2, inplace=False):
     return omx, opx
 
 
-def _yeh(P2, Q2, eps, N, safe, static=False):
-    r"""Yeh's R = P²U²/(P²U² + Q²), U = U_{N-1}(1 − ε), for pass bands and gaps alike.
+def yeh_reflectance_kernel(P2, Q2, eps, N, safe, static=False):
+    r"""Yeh's R = P²U²/(P²U² + Q²), U = U_{N-1}(1 − ε), for pass bands and gaps alike
+    (Fourneau et al. 2024 eq. 5–10): the unvalidated kernel of :func:`bragg_reflectance`.
+
+    Inputs are real tensors of one dtype/device: ``P2``, ``Q2`` the squared coefficients of
+    eq. 9–10, ``eps`` = 1 − |cos KΛ| (signed: < 0 in a band gap), ``N`` the cell count;
+    ``safe`` keeps gradients finite (no in-place temporaries), ``static`` makes the control
+    flow data-independent (for ``torch.compile``).
 
     With W = ε(2 − ε) (= sin²θ in a pass band, −sinh²t in a gap) and r = √|W|:
 
@@ -295,17 +297,17 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
     if nh is None:
         out = []
-        for pol in _pols(polarization):
+        for pol in _checks.polarization_terms(polarization):
             eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
             inplace = not (safe or static)
             omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2, inplace)
             eps = torch.minimum(omx, opx, out=omx) if inplace else torch.minimum(omx, opx)  # 1 - |cos KΛ|
             # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
             P = ((eta1 * eta1 - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
-            out.append(_yeh(P.square_() if inplace else P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
+            out.append(yeh_reflectance_kernel(P.square_() if inplace else P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
         return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
     out = []
-    for pol in _pols(polarization):
+    for pol in _checks.polarization_terms(polarization):
         eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
         omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
         eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
@@ -386,7 +388,7 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
         bits.append((n & 1).bool())
         n = n >> 1
     out = []
-    for pol in _pols(polarization):
+    for pol in _checks.polarization_terms(polarization):
         if pol == "s":
             eta1, eta2 = q1, q2
         else:
@@ -567,7 +569,7 @@ def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, po
     q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0))
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=False)
     out = []
-    for pol in _pols(polarization):
+    for pol in _checks.polarization_terms(polarization):
         eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
         omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
         sin2 = omx * opx  # sin² KΛ = (1 - x)(1 + x), negative in a band gap

@@ -83,12 +83,6 @@ def stack_parameters(stack: FilmStack) -> dict:
     }
 
 
-def _check_int(x, name, lo):
-    if isinstance(x, bool) or not isinstance(x, numbers.Integral) or x < lo:
-        raise ValueError(f"{name} must be an integer >= {lo}; got {x!r}")
-    return int(x)
-
-
 def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int = 81,
                       wavelength_range: tuple[float, float] = (380.0, 780.0),
                       angle_axis: str = "cos_theta", polarization: str = "unpolarized",
@@ -122,8 +116,8 @@ def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int
     """
     if not isinstance(stack, FilmStack):
         raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
-    A = _check_int(angles, "angles", 2)
-    W = _check_int(wavelengths, "wavelengths", 2)
+    A = _checks.check_int(angles, "angles", 2)
+    W = _checks.check_int(wavelengths, "wavelengths", 2)
     if angle_axis not in ANGLE_AXES:
         raise ValueError(f"angle_axis must be one of {ANGLE_AXES}; got {angle_axis!r}")
     _checks.check_polarization(polarization)
@@ -263,7 +257,7 @@ def interpolation_error(stack: FilmStack, sizes, *, points: int = 20000,
         sizes = [(int(a), int(w)) for a, w in sizes]
     except (TypeError, ValueError):
         raise ValueError(f"sizes must be a sequence of (angles, wavelengths) pairs; got {sizes!r}") from None
-    points = _check_int(points, "points", 1)
+    points = _checks.check_int(points, "points", 1)
     lo, hi = (float(v) for v in wavelength_range)
     c_lo, c_hi = (float(v) for v in cos_range)
     if not (0.0 <= c_lo <= c_hi <= 1.0):

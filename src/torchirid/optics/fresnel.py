@@ -137,7 +137,7 @@ def fresnel_reflectance(cos_theta, n_incident, n_substrate, *, polarization: str
     q0 = (n0 * c).to(cdt)
     q1 = normal_wavenumber(n1, s2, n0, n0 * c)
     out = []
-    for pol in ("s", "p") if polarization == "unpolarized" else (polarization,):
+    for pol in _checks.polarization_terms(polarization):
         r = interface(admittance(q0, n0.to(cdt), pol), admittance(q1, n1.to(cdt), pol))
         out.append(r.real * r.real + r.imag * r.imag)
     R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])

@@ -138,7 +138,7 @@ def _stack_state(lam, c, n, d, polarization):
     e1 = torch.exp(1j * phi)
     e2 = e1 * e1
     nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
-    pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
+    pols = _checks.polarization_terms(polarization)
     batch = _checks.broadcast_shapes(q.shape[:-1], e2.shape[:-1])
 
     def lead(x):  # (*b, K) → (P, *batch, K): the polarization axis never meets a batch axis

@@ -30,13 +30,9 @@ from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
 __all__ = ["multilayer"]
 
 
-def _polarizations(polarization: str) -> tuple[str, ...]:
-    return ("s", "p") if polarization == "unpolarized" else (polarization,)
-
-
 def stack_admittances(q: torch.Tensor, n: torch.Tensor, polarization: str) -> torch.Tensor:
     """Admittances η of every medium, stacked on a new leading polarization axis."""
-    return torch.stack([admittance(q, n, pol) for pol in _polarizations(polarization)])
+    return torch.stack([admittance(q, n, pol) for pol in _checks.polarization_terms(polarization)])
 
 
 def align_polarization_axis(eta: torch.Tensor, other_batch) -> torch.Tensor:

@@ -1,7 +1,8 @@
 """Spectral integration of structural colour: Bragg mirror XYZ from exact spectra (sampled,
 converged) or from piecewise-constant spectra on spectral landmarks (Fourneau et al. 2024 §3.2)."""
 
-from .bragg_color import BRAGG_XYZ_METHODS, bragg_xyz, spectral_samples
+from .bragg_color import BRAGG_XYZ_METHODS, bragg_xyz
+from .sampling import max_fringes, spectral_samples
 from .correction import (
     PAPER_COEFFICIENTS,
     angular_correction,
@@ -31,5 +32,6 @@ __all__ = [
     "envelope_weights",
     "fitted_coefficients",
     "fringe_averaged_reflectance",
+    "max_fringes",
     "spectral_samples",
 ]

@@ -28,19 +28,21 @@ returns the choice with its estimated p95 and cost, for inspection.
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 from pathlib import Path
 
 import torch
 
+from .sampling import max_fringes, spectral_samples
+from .._cache import cached
+
 __all__ = ["choose_bragg_method"]
 
 _TABLE = Path(__file__).resolve().parent.parent / "data" / "bragg_color_errors.json"
 
 
-@functools.lru_cache(maxsize=1)
+@cached(maxsize=1)
 def _table():
     data = json.loads(_TABLE.read_text())
     if data.get("format") != "torchirid.bragg_color_errors" or data.get("format_version") != 1:
@@ -69,7 +71,6 @@ def choose_bragg_method(cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, to
         raise ValueError(f"tolerance must be a ΔE2000 > 0; got {tolerance!r}")
     data = _table()
     lo, hi = wavelength_range
-    from .bragg_color import max_fringes, spectral_samples  # (bragg_color imports this module)
 
     F_q = max_fringes(n1, n2, d1, d2, cells, lo, hi)
     entries = data["entries"]

@@ -53,7 +53,6 @@ with R₁₂(0) = |n₁ − n₂|²/|n₁ + n₂|² the reflectance at normal in
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import numbers
@@ -63,6 +62,7 @@ import torch
 
 from .. import _checks
 from ..optics.fresnel import fresnel_reflectance
+from .._cache import cached
 
 __all__ = [
     "ANGULAR_CORRECTION_COEFFICIENTS",
@@ -93,7 +93,7 @@ _CHUNK = 1 << 21
 # coefficients
 
 
-@functools.lru_cache(maxsize=8)
+@cached(maxsize=8)
 def _load(path: str) -> dict:
     try:
         with open(path, encoding="utf-8") as fh:

@@ -56,7 +56,6 @@ imported; nothing is written).
 
 from __future__ import annotations
 
-import functools
 import importlib.resources
 import math
 import re
@@ -66,8 +65,9 @@ import numpy as np
 import torch
 
 from .. import _checks
-from ..color.colorimetry import _product_numpy, check_illuminant, check_observer
+from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
+from .._cache import cached
 
 __all__ = ["cumulative_cmf_lut", "shipped_cumulative_cmf_lut", "box_integrals", "cumulative_cmf_path",
            "CUMULATIVE_CMF_BUILDER", "CUMULATIVE_CMF_TOLERANCE"]
@@ -124,7 +124,7 @@ class _Exact:
     """Exact :math:`\\bar{\\mathbf C}(\\omega)` of the piecewise-linear integrand, and its slope."""
 
     def __init__(self, observer: str, illuminant: str, lo: float, hi: float):
-        wl, prod = _product_numpy(observer, illuminant)  # (K,), (K, 3): S·x̄ on the observer grid
+        wl, prod = weighted_cmfs_numpy(observer, illuminant)  # (K,), (K, 3): S·x̄ on the observer grid
         a, b = max(lo, wl[0]), min(hi, wl[-1])  # the integrand is 0 outside the observer's range
         if not a < b:
             raise ValueError(
@@ -176,7 +176,7 @@ class _Exact:
         return float(np.abs(c2).max())
 
 
-@functools.lru_cache(maxsize=32)
+@cached(maxsize=32)
 def _exact(observer: str, illuminant: str, lo: float, hi: float) -> _Exact:
     return _Exact(observer, illuminant, lo, hi)
 
@@ -341,7 +341,7 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
     return cumulative_cmf_lut(observer, illuminant, (lo, hi))
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 @_checks.normal_tensors
 def _cached(observer: str, illuminant: str, lo: float, hi: float, dtype: torch.dtype,
             device: torch.device) -> LUT:

@@ -32,20 +32,20 @@ light propagating in n2. Gradients flow to every parameter (the grid does not mo
 
 from __future__ import annotations
 
-import functools
 import math
 
 import torch
 
 from .. import _checks
-from ..optics.bragg import _yeh
+from ..optics.bragg import yeh_reflectance_kernel
 from .cumulative import shipped_cumulative_cmf_lut
 from .piecewise import _embedded_mirror, _envelope, _fringe_mean, _parts
+from .._cache import cached
 
 __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectance"]
 
 
-@functools.lru_cache(maxsize=64)
+@cached(maxsize=64)
 @_checks.normal_tensors
 def _hat_weights(samples, observer, illuminant, lo, hi, dtype, device):
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
@@ -84,7 +84,7 @@ def _fringe_averaged(omega, A, B, delta, C_coef, N, trailing=True):
     sin2 = torch.clamp(omx * opx, min=0)  # sin² KΛ outside the gaps (0 inside)
     fringe_mean = _fringe_mean(_envelope(C2, sin2))
     eps = torch.minimum(omx, opx)  # 1 − |cos KΛ|: < 0 inside a gap
-    gap_R = _yeh(C2, torch.ones_like(C2), eps, Nx, safe=torch.is_grad_enabled())
+    gap_R = yeh_reflectance_kernel(C2, torch.ones_like(C2), eps, Nx, safe=torch.is_grad_enabled())
     return torch.where(eps < 0, gap_R, fringe_mean)
 
 

@@ -45,6 +45,7 @@ from .. import _checks, _compile
 from .correction import angular_correction
 from .cumulative import shipped_cumulative_cmf_lut
 from .landmarks import HALVINGS, _counts, clamped_landmarks, dispersion_parts
+from .._cache import cache_dict
 
 __all__ = ["bragg_xyz_piecewise"]
 
@@ -54,10 +55,6 @@ __all__ = ["bragg_xyz_piecewise"]
 #: s = 8: 6e-7 on Fourneau's Fig. 4 grid, 3.5e-9 on grazing high-contrast mirrors with n2 up to
 #: 10 and N = 50; 3 steps: 2.9e-3), ~5 % of the cost of a call (tests/spectral/test_bragg_color.py)
 NEWTON_STEPS = 4
-
-
-def _pols(polarization):
-    return ("s", "p") if polarization == "unpolarized" else (polarization,)
 
 
 @_checks.inference_when_no_grad  # (no gradient wanted: the ~370 small ops ~10 % faster)
@@ -158,7 +155,7 @@ def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_
     q2 = torch.sqrt(torch.clamp(n2 * n2 - n1 * n1 * (1 - cs * cs), min=0))
     A, B = q1 * d1, q2 * d2
     # the polarizations are one leading batch dimension P: one pass for both
-    etas = [(q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2)) for pol in _pols(polarization)]
+    etas = [(q1, q2) if pol == "s" else (q1 / (n1 * n1), q2 / (n2 * n2)) for pol in _checks.polarization_terms(polarization)]
     batch = _checks.broadcast_shapes(A.shape, B.shape, N.shape, *(e.shape for pair in etas for e in pair))
     eta1 = torch.stack([e[0].expand(batch) for e in etas])
     eta2 = torch.stack([e[1].expand(batch) for e in etas])
@@ -217,7 +214,7 @@ def _attach(landmarks, m, A, B, delta, omega_min, omega_max):
     return airy, e_lo, e_hi, zeros
 
 
-_PACKED: dict = {}
+_PACKED: dict = cache_dict()
 
 
 @_checks.normal_tensors
@@ -316,7 +313,7 @@ def _fringe_mean(envelope):
 
 def _gap_reflectance(C2, eps, N):
     r"""Yeh's finite-N R inside a band gap (ε = 1 − |cos KΛ| ≤ 0, the gap branch of
-    :func:`torchirid.optics.bragg._yeh` with Q = 1): with e = −ε, |W| = e(2 + e),
+    :func:`torchirid.optics.bragg.yeh_reflectance_kernel` with Q = 1): with e = −ε, |W| = e(2 + e),
     t = log1p(√|W| + e) (|cos KΛ| = cosh t) and m = expm1(−2Nt),
     R = |C|² m² / (|C|² m² + 4|W|(1 + m)) — no overflow for any N; both terms are O(e) as
     e → 0, where R → |C|²N²/(|C|²N² + 1) (e ≥ 1e-30 keeps 0/0 away: a closed gap's box is empty)."""
