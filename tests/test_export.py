@@ -121,7 +121,7 @@ def test_exr_atlas_layout(tmp_path):
 
 
 def test_thin_film_material_values():
-    m = thin_film_material(1.33, (250.0, 400.0), n_base=1.5, roughness=0.2)
+    m = thin_film_material(1.33, (250.0, 400.0), n_substrate=1.5, roughness=0.2)
     ir = m["gltf_material"]["extensions"]["KHR_materials_iridescence"]
     assert ir == {"iridescenceFactor": 1.0, "iridescenceIor": 1.33,
                   "iridescenceThicknessMinimum": 250.0, "iridescenceThicknessMaximum": 400.0}
@@ -132,7 +132,7 @@ def test_thin_film_material_values():
     assert any("non-absorbing" in s for s in m["approximations"]["gltf"])
     assert any("texture" in s.lower() for s in m["approximations"]["gltf"])
     assert any("single film" in s for s in m["approximations"]["openpbr"])
-    metal = thin_film_material(1.5, 300, n_base=complex(0.2, 3.0))
+    metal = thin_film_material(1.5, 300, n_substrate=complex(0.2, 3.0))
     pbr = metal["gltf_material"]["pbrMetallicRoughness"]
     f0 = abs((complex(0.2, 3.0) - 1) / (complex(0.2, 3.0) + 1)) ** 2
     assert pbr["metallicFactor"] == 1.0 and pbr["baseColorFactor"][:3] == pytest.approx([f0] * 3)
@@ -144,8 +144,8 @@ def test_thin_film_material_values():
     ((0.9, 300.0), {}, "n_film"), ((complex(1.5, 0.1), 300.0), {}, "real"),
     ((1.4, -1.0), {}, "thickness"), ((1.4, (400.0, 100.0)), {}, "min <= max"),
     ((1.4, (1.0, 2.0, 3.0)), {}, "min, max"), ((1.4, float("nan")), {}, "thickness"),
-    ((1.4, 300.0), {"n_base": [1.5, 1.6]}, "3 numbers"), ((1.4, 300.0), {"roughness": 2.0}, "roughness"),
-    ((1.4, 300.0), {"n_base": -1.0}, "positive"),
+    ((1.4, 300.0), {"n_substrate": [1.5, 1.6]}, "3 numbers"), ((1.4, 300.0), {"roughness": 2.0}, "roughness"),
+    ((1.4, 300.0), {"n_substrate": -1.0}, "positive"),
 ])
 def test_thin_film_material_errors(args, kw, match):
     with pytest.raises(ValueError, match=match):

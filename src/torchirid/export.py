@@ -292,40 +292,40 @@ def _real_number(x, name: str, lo: float) -> float:
     return x
 
 
-def _base(n_base):
-    """(kind, glTF/OpenPBR base fields, F0 triple) for n_base None / real / complex, scalar or RGB."""
-    vals = [1.5] if n_base is None else (list(n_base) if isinstance(n_base, (list, tuple, np.ndarray,
-                                                                             torch.Tensor)) else [n_base])
-    if isinstance(n_base, torch.Tensor):
-        vals = n_base.detach().cpu().reshape(-1).tolist()
+def _base(n_substrate):
+    """(kind, glTF/OpenPBR base fields, F0 triple) for n_substrate None / real / complex, scalar or RGB."""
+    vals = [1.5] if n_substrate is None else (list(n_substrate) if isinstance(n_substrate, (list, tuple, np.ndarray,
+                                                                             torch.Tensor)) else [n_substrate])
+    if isinstance(n_substrate, torch.Tensor):
+        vals = n_substrate.detach().cpu().reshape(-1).tolist()
     if len(vals) not in (1, 3):
-        raise ValueError(f"n_base must be a number or 3 numbers (R, G, B), got {len(vals)}")
+        raise ValueError(f"n_substrate must be a number or 3 numbers (R, G, B), got {len(vals)}")
     out = []
     for v in vals:
         if isinstance(v, bool) or not isinstance(v, numbers.Complex):
-            raise ValueError(f"n_base entries must be numbers, got {v!r}")
+            raise ValueError(f"n_substrate entries must be numbers, got {v!r}")
         c = complex(v)
         if not (math.isfinite(c.real) and math.isfinite(c.imag)) or c.real <= 0 or c.imag < 0:
-            raise ValueError(f"n_base must have a positive real part and k >= 0, got {v!r}")
+            raise ValueError(f"n_substrate must have a positive real part and k >= 0, got {v!r}")
         out.append(c)
     out = out * 3 if len(out) == 1 else out
     f0 = [abs((c - 1) / (c + 1)) ** 2 for c in out]
     metal = any(c.imag > 0 for c in out)
     if not metal and len({c.real for c in out}) > 1:
-        raise ValueError("a dielectric n_base must be one real index (glTF/OpenPBR carry one ior)")
+        raise ValueError("a dielectric n_substrate must be one real index (glTF/OpenPBR carry one ior)")
     return metal, out, f0
 
 
-def thin_film_material(n_film, thickness_nm, *, n_base=None, roughness: float = 0.0,
+def thin_film_material(n_film, thickness, *, n_substrate=None, roughness: float = 0.0,
                        name: str = "torchirid_thin_film") -> dict:
     r"""glTF ``KHR_materials_iridescence`` and OpenPBR parameters of a thin film on a base.
 
     Args:
         n_film: the film's real refractive index, ``>= 1`` (glTF requires
             ``iridescenceIor >= 1``; a complex index is refused: both formats are non-absorbing).
-        thickness_nm: film thickness in nm (``>= 0``), or ``(min, max)`` for a thickness range
+        thickness: film thickness in nm (``>= 0``), or ``(min, max)`` for a thickness range
             (glTF maps it through ``iridescenceThicknessTexture``; untextured, glTF uses max).
-        n_base: the base's index: ``None`` (glTF's default dielectric, 1.5), a real number
+        n_substrate: the base's index: ``None`` (glTF's default dielectric, 1.5), a real number
             (dielectric, via ``KHR_materials_ior`` / ``specular_ior``), or a complex
             ``n + ik`` (conductor, scalar or R, G, B), exported as a metal whose base colour is
             the normal-incidence reflectance ``F0 = |(n-1)/(n+1)|²``.
@@ -345,23 +345,23 @@ def thin_film_material(n_film, thickness_nm, *, n_base=None, roughness: float = 
         0.4
     """
     n_film = _real_number(n_film, "n_film", 1.0)
-    if isinstance(thickness_nm, (tuple, list)):
-        if len(thickness_nm) != 2:
-            raise ValueError(f"thickness_nm must be a number or (min, max), got {thickness_nm!r}")
-        d_min = _real_number(thickness_nm[0], "thickness_nm[0] (min)", 0.0)
-        d_max = _real_number(thickness_nm[1], "thickness_nm[1] (max)", 0.0)
+    if isinstance(thickness, (tuple, list)):
+        if len(thickness) != 2:
+            raise ValueError(f"thickness must be a number or (min, max), got {thickness!r}")
+        d_min = _real_number(thickness[0], "thickness[0] (min)", 0.0)
+        d_max = _real_number(thickness[1], "thickness[1] (max)", 0.0)
         if d_min > d_max:
-            raise ValueError(f"thickness range must have min <= max, got {thickness_nm!r}")
+            raise ValueError(f"thickness range must have min <= max, got {thickness!r}")
         ranged = True
     else:
-        d_min = d_max = _real_number(thickness_nm, "thickness_nm", 0.0)
+        d_min = d_max = _real_number(thickness, "thickness", 0.0)
         ranged = False
     roughness = _real_number(roughness, "roughness", 0.0)
     if roughness > 1:
         raise ValueError(f"roughness must be in [0, 1], got {roughness}")
     if not isinstance(name, str) or not name:
         raise ValueError(f"name must be a non-empty string, got {name!r}")
-    metal, nb, f0 = _base(n_base)
+    metal, nb, f0 = _base(n_substrate)
 
     irid = {"iridescenceFactor": 1.0, "iridescenceIor": n_film,
             "iridescenceThicknessMinimum": d_min, "iridescenceThicknessMaximum": d_max}
@@ -403,21 +403,21 @@ def thin_film_material(n_film, thickness_nm, *, n_base=None, roughness: float = 
                           "(specular_color white); the complex index is not carried")
     else:
         approx_gltf.append("dielectric base: F0 from KHR_materials_ior "
-                           + ("(n_base not given: glTF default 1.5)" if n_base is None else "")
+                           + ("(n_substrate not given: glTF default 1.5)" if n_substrate is None else "")
                            + "; black diffuse base colour (specular reflection only)")
-        approx_pbr.append("dielectric base: specular_ior = n_base"
-                          + (" (not given: 1.5)" if n_base is None else "")
+        approx_pbr.append("dielectric base: specular_ior = n_substrate"
+                          + (" (not given: 1.5)" if n_substrate is None else "")
                           + "; black base colour (specular reflection only)")
     return {"gltf_material": gltf, "gltf_extensions_used": sorted(ext),
             "openpbr": openpbr,
             "approximations": {"gltf": approx_gltf, "openpbr": approx_pbr},
             "source": {"n_film": n_film, "thickness_nm": [d_min, d_max] if ranged else d_max,
-                       "n_base": None if n_base is None else
+                       "n_substrate": None if n_substrate is None else
                        [[c.real, c.imag] for c in nb], "roughness": roughness,
                        "torchirid_version": __version__}}
 
 
-def write_thin_film_material(path, n_film, thickness_nm, *, n_base=None, format: str | None = None,
+def write_thin_film_material(path, n_film, thickness, *, n_substrate=None, format: str | None = None,
                              roughness: float = 0.0, name: str = "torchirid_thin_film") -> list[Path]:
     """Write :func:`thin_film_material` as a minimal glTF 2.0 file and/or an OpenPBR JSON.
 
@@ -435,7 +435,7 @@ def write_thin_film_material(path, n_film, thickness_nm, *, n_base=None, format:
                              f"suffix, or format='gltf'|'openpbr'|'both'")
     if format not in ("gltf", "openpbr", "both"):
         raise ValueError(f"format must be 'gltf', 'openpbr' or 'both', got {format!r}")
-    m = thin_film_material(n_film, thickness_nm, n_base=n_base, roughness=roughness, name=name)
+    m = thin_film_material(n_film, thickness, n_substrate=n_substrate, roughness=roughness, name=name)
     stem = p.with_suffix("") if p.suffix.lower() in (".gltf", ".json") else p
     if stem.suffix.lower() == ".openpbr":
         stem = stem.with_suffix("")

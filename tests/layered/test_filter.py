@@ -355,7 +355,7 @@ def test_other_functions_reject_bad_input():
         with pytest.raises(ValueError, match="nodes"):
             filter_quadrature(0.5, 0.1, nodes=bad)
     for kwargs, name in (({"alpha": 0.0}, "alpha"), ({"alpha": float("nan")}, "alpha"),
-                         ({"alpha": 0.1, "theta_i_step": 0}, "theta_i_step"),
+                         ({"alpha": 0.1, "theta_i_step_deg": 0}, "theta_i_step_deg"),
                          ({"alpha": 0.1, "u_nodes": 1}, "u_nodes"), ({"alpha": 0.1, "rtol": 0}, "rtol"),
                          ({"alpha": 0.1, "dtype": torch.int32}, "dtype")):
         with pytest.raises(ValueError, match=name):

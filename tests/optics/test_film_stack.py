@@ -52,7 +52,7 @@ def test_presets_describe_the_paper():
     s = hirayama_stacks()
     assert s["teapot"].describe() == "air | dielectric A 1000 nm | Ag 5 nm | dielectric A 1000 nm | Al"
     assert s["cylinder"].materials == ("air", "dielectric B", "dielectric A", "dielectric B", "dielectric A", "Si")
-    assert s["sphere"].thicknesses == (1000.0, 5.0, 1000.0) and s["sphere"].substrate == "Cu"
+    assert s["sphere"].thicknesses == (1000.0, 5.0, 1000.0) and s["sphere"].n_substrate == "Cu"
     assert s["cylinder"].wavelength_range() == (250.0, 1450.0)  # Green 2008 silicon
 
 
@@ -181,7 +181,7 @@ def test_bad_inputs():
     with pytest.raises(ValueError, match=r"layers\[0\] must be a \(material, thickness_nm\) pair"):
         FilmStack(["Ag"], "Si")
     with pytest.raises(ValueError, match="incident must be a lossless"):
-        FilmStack([], "Si", incident=1.5 + 0.1j)
+        FilmStack([], "Si", n_incident=1.5 + 0.1j)
     with pytest.raises(ValueError, match=r"len\(thicknesses\) \+ 2"):
         FilmStack.from_lists(["air", "Ag", "Si"], [])
     with pytest.raises(ValueError, match="stack must be a FilmStack"):
@@ -193,7 +193,7 @@ def test_bad_inputs():
     with pytest.raises(ValueError, match="thicknesses must have 3 entries"):
         film_reflectance(t64(500.0), 1.0, hirayama_stacks()["sphere"], thicknesses=t64([1.0, 2.0]))
     s = FilmStack.from_lists(["air", "Ag", "Si"], [10.0])
-    assert s.layers == (("Ag", 10.0),) and s.incident == "air"
+    assert s.layers == (("Ag", 10.0),) and s.n_incident == "air"
 
 
 def test_nan_propagates():

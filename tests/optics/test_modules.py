@@ -45,3 +45,19 @@ def test_multilayer_module_complex_buffer():
     assert torch.allclose(R, Rf, atol=1e-15) and T.item() == 0.0
     R.backward()
     assert m.thicknesses.grad is not None and torch.isfinite(m.thicknesses.grad).all()
+
+
+def test_float32_modules_with_complex_media_stay_float32():
+    """A float32 module keeps its dtype with a complex (absorbing) medium: the complex buffer is
+    complex64, so the reflectance comes back float32 (it used to be promoted to float64)."""
+    lam = torch.linspace(400, 700, 4, dtype=torch.float32)
+    c = torch.tensor(0.8, dtype=torch.float32)
+    film = ti.ThinFilm(n_film=1.4, thickness=300.0, n_substrate=0.2 + 3.0j, dtype=torch.float32)
+    assert film.n_substrate.dtype == torch.complex64
+    R = film(lam, c)
+    assert R.dtype == torch.float32
+    ref = ti.thin_film_reflectance(lam.double(), c.double(), 1.4, 300.0, 0.2 + 3.0j)
+    assert torch.allclose(R.double(), ref, atol=1e-5)
+    stack = ti.Multilayer(torch.tensor([1.0, 1.5, 0.2 + 3.0j]), [80.0], dtype=torch.float32)
+    R, T = stack(lam, c)
+    assert R.dtype == torch.float32 and T.dtype == torch.float32

@@ -538,7 +538,7 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_inci
     return st(C0s), st(As), st(Ks), D
 
 
-def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0, terms: int = 4,
+def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0, terms: int = 2,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", sensitivity: str = "lut") -> torch.Tensor:
     r"""XYZ of a thin film by Belcour & Barla's Fourier series (Kneiphof et al. 2019, eq. 4–5).
@@ -556,7 +556,8 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
         thickness: film thickness d in nm (≥ 0).
         n_substrate: base index η₃ + iκ₃ (κ ≥ 0; dielectric or conductor; non-dispersive).
         n_incident: real outer index η₁ (default 1).
-        terms: M ≥ 0, the number of m terms kept (Belcour & Barla suggest 2–4).
+        terms: M ≥ 0, the number of m terms kept (default 2, as Kneiphof et al. and every
+            other thin-film colour function of :mod:`torchirid.ibl`; Belcour & Barla suggest 2–4).
         observer, illuminant: the sensitivity (see :func:`fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         sensitivity: ``"lut"`` (the shipped table, 0 beyond |D| = 20 µm) or ``"exact"``
@@ -567,7 +568,7 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
 
     Example:
         >>> import torch
-        >>> xyz = thin_film_xyz_fourier(torch.tensor(1.0, dtype=torch.float64), 1.33, 300.0, 1.0)
+        >>> xyz = thin_film_xyz_fourier(torch.tensor(1.0, dtype=torch.float64), 1.33, 300.0, 1.0, terms=4)
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0516, 0.0675, 0.0417]
     """

@@ -132,14 +132,14 @@ class FilterLUT:
     def device(self) -> torch.device:
         return self.lut.device
 
-    def __call__(self, theta_i, theta_d) -> torch.Tensor:
+    def __call__(self, theta_i_rad, theta_d_rad) -> torch.Tensor:
         """Interpolated ``F_α(θi, θd)`` (radians; broadcast; differentiable; the table's dtype
         and device). ValueError naming the argument outside ``[0, π/2]``."""
-        ti = self.lut._as_coord(theta_i, "theta_i")
-        td = self.lut._as_coord(theta_d, "theta_d")
+        ti = self.lut._as_coord(theta_i_rad, "theta_i_rad")
+        td = self.lut._as_coord(theta_d_rad, "theta_d_rad")
         hi, _ = _half_pi_parts(self.dtype)
-        _check_range(ti, "theta_i", 0.0, hi, "radians, incidence angle")
-        _check_range(td, "theta_d", 0.0, hi, "radians, difference angle")
+        _check_range(ti, "theta_i_rad", 0.0, hi, "radians, incidence angle")
+        _check_range(td, "theta_d_rad", 0.0, hi, "radians, difference angle")
         ti, td = torch.broadcast_tensors(ti, td)
         a = self._alpha_t
         u = _table_warp(ti, a).s_of(td)
@@ -164,12 +164,12 @@ class FilterLUT:
         return cls(lut)
 
 
-def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes: int = 129,
+def transmission_filter_lut(alpha: float, *, theta_i_step_deg: float = 0.25, u_nodes: int = 129,
                             rtol: float = 3e-4, max_theta_i_nodes: int = 8193, max_u_nodes: int = 2049,
                             dtype: torch.dtype = torch.float64) -> FilterLUT:
     r"""Tabulate :math:`F_\alpha` (eq. 29) for one roughness: the paper's 2-D LUT (§4.2.2).
 
-    Built from the closed form (no quadrature), on a base grid of ``theta_i_step`` degrees ×
+    Built from the closed form (no quadrature), on a base grid of ``theta_i_step_deg`` degrees ×
     ``u_nodes``; then every θi interval and u interval whose midpoint error of linear
     interpolation (checked against the closed form) exceeds ``rtol`` × the filter's peak is
     bisected, until none is (or the node budgets are reached). The estimates reached are
@@ -177,7 +177,7 @@ def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes
 
     Args:
         alpha: GGX roughness > 0 (a Python number).
-        theta_i_step: base θi spacing in degrees (0.25 = the paper's resolution).
+        theta_i_step_deg: base θi spacing in degrees (0.25 = the paper's resolution).
         u_nodes: base number of nodes of the warped θd axis.
         rtol: target midpoint interpolation error in each direction, relative to the peak
             of F_α (the default keeps the maximum error below 1e-3 of the peak).
@@ -199,8 +199,8 @@ def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes
     """
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not math.isfinite(alpha) or alpha <= 0:
         raise ValueError(f"alpha must be a finite real number > 0 (GGX roughness); got {alpha!r}")
-    if isinstance(theta_i_step, bool) or not isinstance(theta_i_step, (int, float)) or not 0 < theta_i_step <= 90:
-        raise ValueError(f"theta_i_step must lie in (0, 90] degrees; got {theta_i_step!r}")
+    if isinstance(theta_i_step_deg, bool) or not isinstance(theta_i_step_deg, (int, float)) or not 0 < theta_i_step_deg <= 90:
+        raise ValueError(f"theta_i_step_deg must lie in (0, 90] degrees; got {theta_i_step_deg!r}")
     for name, val, least in (("u_nodes", u_nodes, 2), ("max_theta_i_nodes", max_theta_i_nodes, 2),
                              ("max_u_nodes", max_u_nodes, 2)):
         _checks.check_int(val, name, least)
@@ -210,7 +210,7 @@ def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes
         raise ValueError(f"dtype must be torch.float16, float32 or float64; got {dtype}")
     f64 = torch.float64
     a = torch.tensor(float(alpha), dtype=f64)
-    n_i = max(2, int(math.ceil(90.0 / theta_i_step - 1e-9)) + 1)
+    n_i = max(2, int(math.ceil(90.0 / theta_i_step_deg - 1e-9)) + 1)
     ti = torch.linspace(0.0, _HALF_PI, n_i, dtype=f64)
     u = torch.linspace(0.0, 1.0, u_nodes, dtype=f64)
     ti, u, g, est_i, est_u = _refine(ti, u, a, float(rtol), max_theta_i_nodes, max_u_nodes)
@@ -221,7 +221,7 @@ def transmission_filter_lut(alpha: float, *, theta_i_step: float = 0.25, u_nodes
         parameters={
             "alpha": float(alpha),
             "layout": _LUT_LAYOUT,
-            "resolution": {"theta_i_step_deg": float(theta_i_step), "theta_i_nodes": int(ti.numel()),
+            "resolution": {"theta_i_step_deg": float(theta_i_step_deg), "theta_i_nodes": int(ti.numel()),
                            "u_nodes_base": int(u_nodes), "u_nodes": int(u.numel())},
             "rtol": float(rtol),
             "estimated_rtol": {"theta_i": est_i, "u": est_u},

@@ -67,8 +67,9 @@ class FilmStack:
             the substrate (may be empty: a bare substrate).  ``material`` is anything
             :func:`torchirid.materials.refractive_index` accepts: a name (``"Ag"``,
             ``"dielectric A"``, ``"SiO2"``...), a ``(shelf, book, page)`` tuple, or a number.
-        substrate: material of the exit medium (medium B).
-        incident: material of the incident medium (medium A), lossless; default ``"air"``.
+        n_substrate: material (or index) of the exit medium (medium B).
+        n_incident: material (or real index) of the incident medium (medium A), lossless;
+            default ``"air"``.
         name: a label (used in LUT metadata).
 
     Raises:
@@ -85,8 +86,8 @@ class FilmStack:
     """
 
     layers: Sequence[tuple[Any, float]]
-    substrate: Any
-    incident: Any = "air"
+    n_substrate: Any
+    n_incident: Any = "air"
     name: str = ""
 
     def __post_init__(self):
@@ -101,11 +102,11 @@ class FilmStack:
                 raise ValueError(f"layers[{i}] thickness must be finite and >= 0 nm; got {thickness!r}")
             material_range(material)  # validates the material (ValueError if unknown)
             layers.append((tuple(material) if isinstance(material, list) else material, float(thickness)))
-        material_range(self.substrate)
-        material_range(self.incident)
-        if not isinstance(self.incident, str) and isinstance(self.incident, numbers.Number):
-            if complex(self.incident).imag != 0:
-                raise ValueError(f"incident must be a lossless (real) medium; got {self.incident!r}")
+        material_range(self.n_substrate)
+        material_range(self.n_incident)
+        if not isinstance(self.n_incident, str) and isinstance(self.n_incident, numbers.Number):
+            if complex(self.n_incident).imag != 0:
+                raise ValueError(f"n_incident must be a lossless (real) medium; got {self.n_incident!r}")
         object.__setattr__(self, "layers", tuple(layers))
 
     @classmethod
@@ -127,7 +128,7 @@ class FilmStack:
     @property
     def materials(self) -> tuple:
         """(incident, layer materials…, substrate)."""
-        return (self.incident, *(m for m, _ in self.layers), self.substrate)
+        return (self.n_incident, *(m for m, _ in self.layers), self.n_substrate)
 
     @property
     def thicknesses(self) -> tuple[float, ...]:
@@ -145,7 +146,7 @@ class FilmStack:
     def describe(self) -> str:
         """``"air | dielectric A 1000 nm | Ag 5 nm | … | Al"``."""
         inner = [f"{_material_label(m)} {d:g} nm" for m, d in self.layers]
-        return " | ".join([_material_label(self.incident), *inner, _material_label(self.substrate)])
+        return " | ".join([_material_label(self.n_incident), *inner, _material_label(self.n_substrate)])
 
 
 def stack_indices(stack: FilmStack, wavelength) -> torch.Tensor:
@@ -299,8 +300,8 @@ def smooth_radiance(wavelength, normal, view, stack: FilmStack, reflected,
     # lists there would default to float32 next to a float64 wavelength)
     normal = _checks.as_real(normal, "normal", dtype, device)
     view = _checks.as_real(view, "view", dtype, device)
-    n0 = refractive_index(stack.incident, lam).real
-    n1 = refractive_index(stack.substrate, lam)
+    n0 = refractive_index(stack.n_incident, lam).real
+    n1 = refractive_index(stack.n_substrate, lam)
     r_dir, t_dir, cos_i = smooth_directions(normal, view, n0, n1)
     k_r, k_t = film_reflectance(lam, cos_i[..., None], stack, polarization=polarization)
     I_r = reflected(r_dir, lam) if callable(reflected) else _checks.as_real(reflected, "reflected", dtype, device)

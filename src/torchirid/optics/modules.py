@@ -21,6 +21,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from .. import _checks
 from .bragg import bragg_reflectance
 from .transfer import multilayer
 from .thin_film import thin_film_reflectance
@@ -74,7 +75,7 @@ class ThinFilm(nn.Module):
         self.n_film = _param(n_film, dtype)
         self.thickness = _param(thickness, dtype)
         sub = torch.as_tensor(n_substrate)
-        self.register_buffer("n_substrate", sub.to(torch.complex128 if sub.is_complex() else dtype))
+        self.register_buffer("n_substrate", sub.to(_checks.complex_dtype(dtype) if sub.is_complex() else dtype))
         self.n_incident = n_incident
         self.polarization = polarization
 
@@ -93,7 +94,7 @@ class Multilayer(nn.Module):
     def __init__(self, indices, thicknesses, *, polarization=None, dtype=torch.float64):
         super().__init__()
         idx = torch.as_tensor(indices)
-        self.register_buffer("indices", idx.to(torch.complex128 if idx.is_complex() else dtype))
+        self.register_buffer("indices", idx.to(_checks.complex_dtype(dtype) if idx.is_complex() else dtype))
         self.thicknesses = _param(thicknesses, dtype)
         self.polarization = polarization
 

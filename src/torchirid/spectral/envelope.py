@@ -154,7 +154,7 @@ def envelope_weights(samples: int, *, observer: str = "CIE 1931 2", illuminant: 
     return _hat_weights(samples, observer, illuminant, lo, hi, dtype, torch.device(device)).clone()  # cache stays intact
 
 
-def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells=20, *, polarization: str = "unpolarized", samples: int = 64,
+def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, *, polarization: str = "unpolarized", samples: int = 64,
                        observer: str = "CIE 1931 2", illuminant: str = "D65",
                        wavelength_range=(380.0, 780.0)) -> torch.Tensor:
     r"""XYZ of a Bragg mirror embedded in n1 from its fringe-averaged spectrum (module docstring).

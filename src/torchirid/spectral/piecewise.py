@@ -58,7 +58,7 @@ NEWTON_STEPS = 4
 
 
 @_checks.inference_when_no_grad  # (no gradient wanted: the ~370 small ops ~10 % faster)
-def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells=20, *, polarization="unpolarized", subdivisions: int = 8,
+def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpolarized", subdivisions: int = 8,
                         weights="averaged", correction="fitted", observer="CIE 1931 2", illuminant="D65",
                         wavelength_range=(380.0, 780.0)) -> torch.Tensor:
     r"""XYZ of a Bragg mirror embedded in n1 from its piecewise-constant spectrum (Fourneau eq. 14–16).
