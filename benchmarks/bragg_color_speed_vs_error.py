@@ -769,7 +769,7 @@ wavelength sampling), ours the converged 96-samples-per-fringe integration, whos
 with N·Λ·n (more fringes), while the piecewise cost grows only with the number of landmarks.
 {trend_txt} The ratios are not like for like, and neither says anything about accuracy: that is
 the Pareto table's job. On this shared VM the speed-ups of this table moved by up to ~1.6× between
-runs of the same code (2026-11-22: small-op-bound piecewise calls and memory-bound spectral calls
+runs of the same code (small-op-bound piecewise calls and memory-bound spectral calls
 drift differently).
 
 <details><summary>Full table, fig4 grid (n2 = {g4['n2']:g}, N = {g4['cells']})</summary>

@@ -1,6 +1,6 @@
 """Fourneau et al. 2024 Table 2 for torchirid: the single-reflection BRDF model (eq. 34), its
 LUT variant and the single-reflection simulation ("SR sim.") against a converged full-path
-Monte Carlo reference, plus the issue-4 speed figure (a 64×64-direction × 64-wavelength
+Monte Carlo reference, plus a speed figure (a 64×64-direction × 64-wavelength
 BRDF table of a two-layer structure).
 
 Configurations (Fig. 7; each structure is **two** identical rough Bragg layers — the paper
@@ -141,7 +141,7 @@ def timed(fn, repeats=1):
 
 
 def speed_table(repeats=7):
-    """Issue 4 part 6: 64 × 64 direction pairs × 64 wavelengths, two layers (A over B, ρd = 0.5)."""
+    """Speed: 64 × 64 direction pairs × 64 wavelengths, two layers (A over B, ρd = 0.5)."""
     s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.1), RoughBraggLayer(1.0, 1.5, 494.0, 494.0, 10, 0.05)],
                      base_albedo=0.5)
     n = 64
@@ -295,7 +295,7 @@ def render(results, speed, args, total, pixels):
         "SMAPEs include its renders' Monte Carlo noise; ours of the Model rows do not (the model is "
         "evaluated, not sampled), so they measure the model's bias alone.",
         "",
-        "### Speed: a 64 × 64-direction × 64-wavelength BRDF table (issue 4 part 6)",
+        "### Speed: a 64 × 64-direction × 64-wavelength BRDF table",
         "",
         "Two layers (A over B, ρd = 0.5), 64 × 64 (ωi, ωo) pairs from a Fibonacci hemisphere set, 64 "
         "wavelengths, float64, one `single_reflection_brdf` call including its per-call tables (τ(θ) per "

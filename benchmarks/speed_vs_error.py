@@ -269,10 +269,9 @@ once per polarization).
 
 Reading the table:
 
-* **Against the issue-2 bar** (bragg_reflectance ≥ 300× tmm_fast, multilayer faster than
+* **Against the target** (bragg_reflectance ≥ 300× tmm_fast, multilayer faster than
   tmm_fast): `multilayer` is 6–12× faster than tmm_fast. `bragg_reflectance` reaches the
-  300× bar **with `torchirid.set_compile(True)`** (406–779× over all runs made on
-  2026-11-22); the default eager evaluation gives 168–293× in float64 and 229–424× in
+  300× bar **with `torchirid.set_compile(True)`** (406–779× over all runs made); the default eager evaluation gives 168–293× in float64 and 229–424× in
   float32 over the same runs, i.e. below the bar in eager float64. Eager
   float64 is bound by ~9 transcendental evaluations per point (sin a, sin b, sin/cos of
   (a+b)/2, √, atan2, sin NKΛ, log1p, expm1 for both pass band and gap) plus ~30 passes over

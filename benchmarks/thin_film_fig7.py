@@ -248,7 +248,7 @@ def main(argv=None) -> int:
                         doc, flags=re.S)
         keep = f"\n\n{sub.group(0)}" if sub else ""  # the --sensitivity-accuracy subsection survives
         body = (f"{start}\n## Thin-film colour on rough surfaces under uniform light: Kneiphof Fig. 7 "
-                f"(issue 6 part 4)\n\n{text}\n\n![Fig. 7](../../docs/figures/thin_film_fig7.png){keep}\n{end}")
+                f"\n\n{text}\n\n![Fig. 7](../../docs/figures/thin_film_fig7.png){keep}\n{end}")
         if start in doc:
             doc = re.sub(re.escape(start) + ".*?" + re.escape(end), lambda m: body, doc, flags=re.S)
         else:

@@ -10,6 +10,7 @@ import torchirid as ti
 
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+@pytest.mark.slow
 def test_compiled_bragg_matches_eager():
     lam = torch.linspace(380, 780, 101, dtype=torch.float64, requires_grad=True)
     c = torch.cos(torch.linspace(0, math.pi / 2, 50, dtype=torch.float64))[:, None].clamp(0, 1)
@@ -51,6 +52,7 @@ def test_set_compile_validates():
 
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
+@pytest.mark.slow
 def test_compiled_piecewise_matches_eager(monkeypatch):
     # both compiled stages (landmarks + box layout, sub-boxes + table lookup), no eager fallback
     from torchirid import _compile

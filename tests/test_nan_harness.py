@@ -543,6 +543,7 @@ print("\\n".join(failed))
 """
 
 
+@pytest.mark.slow
 def test_caches_filled_in_inference_mode_serve_autograd():
     """A fresh process whose first calls run in ``torch.inference_mode()`` (tables, quadratures and
     colour data get cached then) must still differentiate every case afterwards: cached tensors

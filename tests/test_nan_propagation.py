@@ -1,7 +1,7 @@
 """NaN inputs propagate (docs/conventions.md): one NaN entry of a batch gives NaN outputs for that entry,
 the other entries stay exactly what they are alone, and nothing raises for the whole batch.
 
-Regression tests for paths found on 2026-12-02 to "fix" NaN (guarded square roots and masks of
+Regression tests for paths found to "fix" NaN (guarded square roots and masks of
 the form ``where(x > 0, f(x), 0)``, which send NaN to the 0 branch) or to raise for the batch
 (``int(NaN)`` / ``.long()`` of a NaN index). The optics core has its own in test_validation.py.
 """

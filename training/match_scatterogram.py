@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-r"""Recover the jewel-beetle Bragg layers from their scatterograms by autograd (issue 5 part 3).
+r"""Recover the jewel-beetle Bragg layers from their scatterograms by autograd (Fourneau et al. 2024 §5).
 
 For each preset of :func:`torchirid.layered.presets.jewel_beetle` (Fourneau et al. 2024,
 Table 3): render the target — narrow D65 beams at several incidences (default 0°, 30°,

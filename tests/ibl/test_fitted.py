@@ -81,6 +81,7 @@ def test_gradients_and_validation():
         light_mixture(torch.tensor(0.5, dtype=F64), 0.3, quantiles=(0.5, 0.2))
 
 
+@pytest.mark.slow
 def test_sensitivity_lut_mode_close_to_exact():
     c = torch.tensor([0.9, 0.5, 0.15], dtype=F64)
     a = torch.tensor([0.05, 0.3, 0.6], dtype=F64)

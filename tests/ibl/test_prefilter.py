@@ -266,6 +266,7 @@ def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
         PrefilteredEnvironment.from_lut(LUT(torch.zeros(2), {"x": torch.tensor([0.0, 1.0])}, builder="other"))
 
 
+@pytest.mark.slow
 def test_shipped_dfg_matches_builder():
     from torchirid.ibl import DFG_SHIPPED, dfg_lut, shipped_dfg_lut
 

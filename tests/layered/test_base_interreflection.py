@@ -65,6 +65,7 @@ def test_base_term_scaled_by_series():
     torch.testing.assert_close(lut, single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True), rtol=2e-3, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_return_fraction_quadrature_and_bounds():
     for s in (LayeredBragg([_layer()], 0.5), LayeredBragg([_layer(1.0, 494.0, 0.05)], 0.5),
               LayeredBragg([_layer(1.35)], 0.5), LayeredBragg([_layer()] * 2, 0.5)):

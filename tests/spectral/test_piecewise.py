@@ -1,4 +1,4 @@
-"""The piecewise-constant Bragg colour against the converged spectral colour (issue bar)."""
+"""The piecewise-constant Bragg colour against the converged spectral colour (the accuracy bar)."""
 
 import math
 

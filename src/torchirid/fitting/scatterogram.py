@@ -6,7 +6,7 @@ r"""Scatterogram matching by autograd: recover a rough Bragg layer from its scat
 number of cells N and the GGX roughness α — from a target scatterogram (one or several
 narrow-beam incidences and/or the white environment of
 :func:`~torchirid.render.scatterogram.scatterogram`) whose exposure is unknown
-(Fourneau et al. 2024 §5; issue 5 part 3).
+(Fourneau et al. 2024 §5).
 
 The loss lives in CIE L*a*b* (D65): the target is normalised once so that its brightest Y
 is 1, the model is multiplied by a free exposure ``s = exp(log s)`` (started at the

@@ -31,8 +31,8 @@ box starts) and integrated against the cumulative table in one gather and one ba
 product: ~370 ops per call in all, run in inference mode when no gradient is wanted.
 With :func:`torchirid.set_compile` the two stages around the one host sync (the compact
 length) are two compiled kernels (landmarks + box layout; sub-boxes + table lookup, its final
-sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8,
-2026-12-01), at a one-off compile time of ~20 s.
+sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8), at
+a one-off compile time of ~20 s.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ __all__ = ["bragg_xyz_piecewise"]
 
 #: Newton steps for the landmarks of a colour (one fewer than :mod:`~torchirid.spectral.landmarks`'
 #: default, which converges the positions to ~1e-14): 4 steps leave the landmarks within ~1e-7
-#: (relative) and the colour within 1e-6 ΔE2000 of the converged one (measured 2026-12-02,
+#: (relative) and the colour within 1e-6 ΔE2000 of the converged one (measured at
 #: s = 8: 6e-7 on Fourneau's Fig. 4 grid, 3.5e-9 on grazing high-contrast mirrors with n2 up to
 #: 10 and N = 50; 3 steps: 2.9e-3), ~5 % of the cost of a call (tests/spectral/test_bragg_color.py)
 NEWTON_STEPS = 4
