@@ -153,8 +153,8 @@ def bragg_xyz(
                                    wavelength_range=(lo, hi))
     if method == "sampled" and samples is None:
         raise ValueError("samples (number of wavelengths) is required for method='sampled'")
-    if samples is not None and (not isinstance(samples, int) or isinstance(samples, bool) or samples < 2):
-        raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
+    if samples is not None:
+        _checks.check_int(samples, "samples", 2)
     if not samples_per_fringe > 0:
         raise ValueError(f"samples_per_fringe must be > 0; got {samples_per_fringe!r}")
     dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2, n_incident)

@@ -146,8 +146,7 @@ def envelope_weights(samples: int, *, observer: str = "CIE 1931 2", illuminant: 
         >>> W.shape, round(W[:, 1].sum().item(), 9)
         (torch.Size([64, 3]), 1.0)
     """
-    if not isinstance(samples, int) or isinstance(samples, bool) or samples < 2:
-        raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
+    _checks.check_int(samples, "samples", 2)
     lo, hi = (float(v) for v in wavelength_range)
     if not (0 < lo < hi):
         raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
@@ -179,8 +178,7 @@ def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, *, polarization: str = 
         [0.203, 0.074, 0.773]
     """
     _checks.check_polarization(polarization)
-    if not isinstance(samples, int) or isinstance(samples, bool) or samples < 2:
-        raise ValueError(f"samples must be an integer >= 2; got {samples!r}")
+    _checks.check_int(samples, "samples", 2)
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "envelope")
     lo, hi = mirror["range"]
     A, B, delta, C_coef, N = mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], mirror["N"]

@@ -35,6 +35,8 @@ import math
 
 import torch
 
+from .. import _checks
+
 __all__ = ["bragg_landmarks", "dispersion_parts"]
 
 
@@ -211,8 +213,7 @@ def bragg_landmarks(omega_min, omega_max, A, B, delta, *, iterations: int = HALV
         [531.8, 688.2]
     """
     for name, v in (("iterations", iterations), ("newton_steps", newton_steps)):
-        if not isinstance(v, int) or isinstance(v, bool) or v < 0:
-            raise ValueError(f"{name} must be an integer >= 0; got {v!r}")
+        _checks.check_int(v, name, 0)
     A, B, delta = torch.broadcast_tensors(torch.as_tensor(A), torch.as_tensor(B), torch.as_tensor(delta))
     m, z, z_hi = _counts(omega_min, omega_max, A, B)
     up, airy, down = _roots(A, B, delta, m, iterations, newton_steps)

@@ -77,8 +77,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
         XYZ ``(*, 3)``, Y = 1 for a perfect reflector.
     """
     _checks.check_polarization(polarization)
-    if not isinstance(subdivisions, int) or isinstance(subdivisions, bool) or subdivisions < 1:
-        raise ValueError(f"subdivisions must be an integer >= 1; got {subdivisions!r}")
+    _checks.check_int(subdivisions, "subdivisions", 1)
     if isinstance(correction, str):
         if correction not in ("fitted", "paper", "none"):
             raise ValueError(f"correction must be 'fitted', 'paper', 'none' or a pair (a, b); got {correction!r}")
