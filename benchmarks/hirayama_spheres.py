@@ -17,7 +17,7 @@ from pathlib import Path
 
 import torch
 
-from torchirid.render import sphere as sp
+from torchirid.app.figures import spheres as sp
 
 
 def main(argv=None) -> int:

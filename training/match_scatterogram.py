@@ -38,7 +38,7 @@ if os.path.join(ROOT, "src") not in sys.path:  # run from a checkout without ins
 from torchirid.color import delta_e_2000, xyz_to_lab  # noqa: E402
 from torchirid.fitting import match_scatterogram, render_targets  # noqa: E402
 from torchirid.layered.presets import JEWEL_BEETLE, JEWEL_BEETLE_ALPHA, JEWEL_BEETLE_NAMES, jewel_beetle  # noqa: E402
-from torchirid.render import scatterogram_directions  # noqa: E402
+from torchirid.layered import scatterogram_directions  # noqa: E402
 
 F64 = torch.float64
 BARS = {"period_nm": 2.0, "alpha": 0.01, "delta_e2000": 1.0, "seconds": 120.0}

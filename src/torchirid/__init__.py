@@ -51,7 +51,7 @@ from .layered import (
     transmission_filter,
 )
 from .lut import LUT
-from .render import scatterogram  # (the forward model moves to torchirid.layered with the app split)
+from .layered import scatterogram
 from .materials import available_materials, refractive_index
 from .microfacet import MicrofacetBRDF, microfacet_brdf
 from .optics import (

@@ -42,7 +42,8 @@ def test_band_average_vs_dense_integral(passband):
         wt = torch.exp(-0.5 * (x / sigma) ** 2)
     R = torchirid.thin_film_reflectance(lam_b + x, c, 2.0, d, 1.64, polarization="s")
     ref = torch.trapezoid(R * wt, x) / torch.trapezoid(wt, x)
-    got = band_reflectance(torch.tensor(lam_b, dtype=F64), c, 2.0, d, 1.64, passband=passband, nodes=12)
+    got = band_reflectance(torch.tensor(lam_b, dtype=F64), c, 2.0, d, 1.64, passband=passband, nodes=12,
+                           polarization="s")
     assert abs(float(got - ref)) < 1e-9
     point = torchirid.thin_film_reflectance(torch.tensor(lam_b, dtype=F64), c, 2.0, d, 1.64, polarization="s")
     assert abs(float(point - ref)) > 1e-4  # the band average matters at this thickness
@@ -50,7 +51,7 @@ def test_band_average_vs_dense_integral(passband):
 
 def test_zero_bandwidth_is_point_sampling_and_callable_index():
     lam = torch.linspace(400, 720, 11, dtype=F64)
-    a = band_reflectance(lam, 0.9, zns_index, 500.0, 1.64, bandwidth=0.0)
+    a = band_reflectance(lam, 0.9, zns_index, 500.0, 1.64, bandwidth=0.0, polarization="s")
     b = torchirid.thin_film_reflectance(lam, 0.9, zns_index(lam), 500.0, 1.64, polarization="s")
     assert torch.allclose(a, b, atol=1e-15)
 
@@ -60,16 +61,16 @@ def test_fast_band_model_vs_quadrature(nf, d, tol):
     lam = torch.arange(400.0, 721.0, 4.0, dtype=F64)
     for deg in (10.0, 50.0):
         c = math.cos(math.radians(deg))
-        ref = band_reflectance(lam, c, nf, d, 1.64, nodes=8)
-        fast = band_reflectance_fast(band_terms(lam, c, nf, 1.64), d)
-        point = band_reflectance(lam, c, nf, d, 1.64, bandwidth=0.0)
+        ref = band_reflectance(lam, c, nf, d, 1.64, nodes=8, polarization="s")
+        fast = band_reflectance_fast(band_terms(lam, c, nf, 1.64, polarization="s"), d)
+        point = band_reflectance(lam, c, nf, d, 1.64, bandwidth=0.0, polarization="s")
         assert (fast - ref).abs().max() < tol
         assert (fast - ref).abs().max() < 0.35 * (point - ref).abs().max()  # the O(σ²) term does its job
 
 
 def test_fast_band_model_gradcheck():
     lam = torch.tensor([450.0, 600.0], dtype=F64)
-    terms = band_terms(lam, 0.8, 1.9, 1.64)
+    terms = band_terms(lam, 0.8, 1.9, 1.64, polarization="s")
     d = torch.tensor([333.0], dtype=F64, requires_grad=True)
     assert torch.autograd.gradcheck(lambda t: band_reflectance_fast(terms, t), (d,))
 
@@ -90,10 +91,11 @@ def test_band_nodes_and_errors():
 
 def test_float32_and_broadcast():
     lam = torch.arange(400.0, 721.0, 4.0)
-    R = band_reflectance(lam, torch.tensor([[0.9], [0.7]]), 1.37, torch.tensor([[300.0], [400.0]]), 1.64)
+    R = band_reflectance(lam, torch.tensor([[0.9], [0.7]]), 1.37, torch.tensor([[300.0], [400.0]]), 1.64,
+                         polarization="s")
     assert R.shape == (2, 81) and R.dtype == torch.float32 and bool(torch.isfinite(R).all())
     R64 = band_reflectance(lam.double(), torch.tensor([[0.9], [0.7]], dtype=F64), 1.37,
-                           torch.tensor([[300.0], [400.0]], dtype=F64), 1.64)
+                           torch.tensor([[300.0], [400.0]], dtype=F64), 1.64, polarization="s")
     assert (R.double() - R64).abs().max() < 1e-5
 
 
@@ -105,6 +107,6 @@ from hypothesis import given, settings, strategies as st  # noqa: E402
 def test_fast_band_model_property(n, d, deg, lam):
     c = math.cos(math.radians(deg))
     w = torch.tensor([lam], dtype=F64)
-    ref = band_reflectance(w, c, n, d, 1.64, nodes=10)
-    fast = band_reflectance_fast(band_terms(w, c, n, 1.64), d)
+    ref = band_reflectance(w, c, n, d, 1.64, nodes=10, polarization="s")
+    fast = band_reflectance_fast(band_terms(w, c, n, 1.64, polarization="s"), d)
     assert abs(float(fast - ref)) < 1e-4

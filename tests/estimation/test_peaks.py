@@ -29,7 +29,8 @@ def test_eq12_and_regression_agree():
 
 def test_sub_band_peak_precision():
     # 4 nm bands: the band argmax is up to 2 nm off; the parabola vertex must do much better
-    cube = synthetic_cube("mgf2_400", height=1, width=1, gaussian_noise=0.0, shot_noise=0.0, thickness_variation=0.0)
+    cube = synthetic_cube("mgf2_400", height=1, width=1, gaussian_noise=0.0, shot_noise=0.0, thickness_variation=0.0,
+                          polarization="s")
     pos, kind, W = detect_extrema(cube.clean[0, 0], cube.wavelength)
     for a, deg in enumerate((10, 20, 30, 40, 50)):
         p = pos[a][kind[a] == 1]
@@ -42,13 +43,14 @@ def test_sub_band_peak_precision():
 
 def test_tracks_and_half_orders_for_dense_film():
     # ZnS (n > n_substrate): r01 r12 < 0, maxima at half-integer orders (the paper's eq. 9 assumes integers)
-    cube = synthetic_cube("zns_500", height=1, width=2, gaussian_noise=0.0, shot_noise=0.0, thickness_variation=0.0)
+    cube = synthetic_cube("zns_500", height=1, width=2, gaussian_noise=0.0, shot_noise=0.0, thickness_variation=0.0,
+                          polarization="s")
     Y = cube.clean.reshape(-1, 5, 81)
     pos, kind, _ = detect_extrema(Y, cube.wavelength)
     tracks, kinds = track_extrema(pos, kind, cube.cos_theta)
     full = (~tracks.isnan()).all(-1)
     assert bool(full.any())
-    cand = thickness_candidates(tracks, kinds, cube.cos_theta, 2.37, 1.64)
+    cand = thickness_candidates(tracks, kinds, cube.cos_theta, 2.37, 1.64, polarization="s")
     row = cand[0][~cand[0].isnan()]
     spacing = float(row.diff().median())
     assert abs(float(row[0]) - spacing / 2) < 1e-9 * spacing or abs(float(row[0]) - spacing * 1.5) < 1e-9 * spacing
@@ -56,12 +58,12 @@ def test_tracks_and_half_orders_for_dense_film():
 
 
 def test_peak_method_mgf2_and_the_papers_zns_bias():
-    mg = synthetic_cube("mgf2_600", height=12, width=12, seed=2)
-    r = peak_method(mg.cube, mg.wavelength, mg.cos_theta, 1.64)
+    mg = synthetic_cube("mgf2_600", height=12, width=12, seed=2, polarization="s")
+    r = peak_method(mg.cube, mg.wavelength, mg.cos_theta, 1.64, polarization="s")
     assert abs(r.n - 1.37) < 0.01
     assert float((r.thickness - mg.thickness).abs().mean()) < 5
-    zn = synthetic_cube("zns_500", height=12, width=12, seed=2)
-    rz = peak_method(zn.cube, zn.wavelength, zn.cos_theta, 1.64)
+    zn = synthetic_cube("zns_500", height=12, width=12, seed=2, polarization="s")
+    rz = peak_method(zn.cube, zn.wavelength, zn.cos_theta, 1.64, polarization="s")
     # eq. 12 over a dispersive film lands far above n(589 nm) = 2.37, as the paper's 2.674 did
     assert rz.n - 2.37 > 0.15
 

@@ -5,7 +5,8 @@ import torch
 
 from torchirid.estimation import (band_reflectance_fast, d_only_gauss_newton, estimate_film,
                                   film_metrics, index_model, refine_film, synthetic_cube)
-from torchirid.estimation.refine import _residual_parts, _smooth_terms, model_terms
+from torchirid.estimation.refine import _smooth_terms, model_terms
+from torchirid.estimation.residuals import residual_parts
 
 F64 = torch.float64
 
@@ -13,10 +14,10 @@ F64 = torch.float64
 def test_analytic_thickness_jacobian_matches_autograd():
     lam = torch.arange(400.0, 721.0, 16.0, dtype=F64)
     c = torch.cos(torch.deg2rad(torch.tensor([10.0, 45.0], dtype=F64)))
-    terms = model_terms(torch.tensor([2.3, 0.04, 0.001], dtype=F64), "cauchy3", lam, c, 1.64)
+    terms = model_terms(torch.tensor([2.3, 0.04, 0.001], dtype=F64), "cauchy3", lam, c, 1.64, polarization="s")
     d = torch.tensor([[210.0, 777.0]], dtype=F64, requires_grad=True)
     y = torch.zeros(1, 2, lam.numel(), dtype=F64)
-    r, Jd, _ = _residual_parts(y, d, terms)
+    r, Jd, _ = residual_parts(y, d, terms)
     auto = torch.autograd.grad(r.sum(), d)[0]
     assert torch.allclose(Jd.sum((-1, -2)), auto, rtol=1e-10, atol=1e-14)
     # and the model part is band_reflectance_fast
@@ -34,26 +35,28 @@ def test_smoothness_gradient_matches_autograd():
 
 
 def test_refine_recovers_index_and_thickness_from_a_perturbed_start():
-    cube = synthetic_cube("mgf2_400", height=10, width=10, seed=5)
-    res = refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, cube.thickness + 8.0, 1.40)
+    cube = synthetic_cube("mgf2_400", height=10, width=10, seed=5, polarization="s")
+    res = refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, cube.thickness + 8.0, 1.40, polarization="s")
     assert abs(float(res.params[0]) - 1.37) < 2e-3
     assert float((res.thickness - cube.thickness).abs().mean()) < 1.0
     assert all(b <= a * (1 + 1e-12) for a, b in zip(res.history, res.history[1:]))
 
 
 def test_order_check_fixes_a_wrong_order():
-    cube = synthetic_cube("mgf2_600", height=4, width=4, seed=1, gaussian_noise=0.002, shot_noise=0.002)
+    cube = synthetic_cube("mgf2_600", height=4, width=4, seed=1, gaussian_noise=0.002, shot_noise=0.002,
+                          polarization="s")
     T = 560.0 / (2 * math.sqrt(1.37 ** 2 - 0.2))
     start = cube.thickness.clone()
     start[0, :] += T  # one row one order off
-    res = refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, start, 1.37, fit_index=False)
+    res = refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, start, 1.37, fit_index=False, polarization="s")
     assert res.reordered >= 4
     assert float((res.thickness - cube.thickness).abs().max()) < 2.0
 
 
 def test_d_only_gauss_newton_nan_candidates():
-    cube = synthetic_cube("mgf2_400", height=1, width=3, gaussian_noise=0, shot_noise=0)
-    terms = model_terms(torch.tensor([1.37], dtype=F64), "constant", cube.wavelength, cube.cos_theta, 1.64)
+    cube = synthetic_cube("mgf2_400", height=1, width=3, gaussian_noise=0, shot_noise=0, polarization="s")
+    terms = model_terms(torch.tensor([1.37], dtype=F64), "constant", cube.wavelength, cube.cos_theta, 1.64,
+                        polarization="s")
     D = torch.stack([cube.thickness.reshape(-1) + 5, torch.full((3,), math.nan, dtype=F64)], -1)
     d, sse = d_only_gauss_newton(cube.clean.reshape(-1, 5, 81), D, terms)
     assert torch.isinf(sse[:, 1]).all() and torch.isnan(d[:, 1]).all()
@@ -62,9 +65,10 @@ def test_d_only_gauss_newton_nan_candidates():
 
 @pytest.mark.parametrize("name,model", [("mgf2_400", "constant"), ("mgf2_600", "constant"), ("zns_500", "cauchy3")])
 def test_bars_at_reduced_size(name, model):
-    """The issue's bars (1 % noise: |Δn| ≤ 0.01, mean |Δd| ≤ 5 nm) on 24 × 24 cubes."""
-    cube = synthetic_cube(name, height=24, width=24, seed=0)
-    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256)
+    """The acceptance bars (1 % noise: |Δn| ≤ 0.01, mean |Δd| ≤ 5 nm) on 24 × 24 cubes."""
+    cube = synthetic_cube(name, height=24, width=24, seed=0, polarization="s")
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256,
+                        polarization="s")
     m = film_metrics(est, cube)
     assert m["n_error"] <= 0.01
     assert m["d_error_mean"] <= 5.0
@@ -72,7 +76,7 @@ def test_bars_at_reduced_size(name, model):
 
 
 def test_metrics_are_zero_for_the_truth():
-    cube = synthetic_cube("zns_500", height=3, width=3, seed=0)
+    cube = synthetic_cube("zns_500", height=3, width=3, seed=0, polarization="s")
     from torchirid.estimation import FilmEstimate, fit_index_model
 
     lam = torch.linspace(380, 760, 200, dtype=F64)
@@ -97,16 +101,17 @@ def test_refine_errors():
 
 
 def test_dead_pixels_smoothness_and_float32():
-    cube = synthetic_cube("mgf2_400", height=16, width=16, seed=3)
+    cube = synthetic_cube("mgf2_400", height=16, width=16, seed=3, polarization="s")
     y = cube.cube.clone()
     y[0, 0] = math.nan  # a dead pixel: every angle and band
     y[5, 5, 2, 10:20] = math.nan  # a few dropped samples
-    est = estimate_film(y, cube.wavelength, cube.cos_theta, 1.64, sample=128, smoothness=1e-6)
+    est = estimate_film(y, cube.wavelength, cube.cos_theta, 1.64, sample=128, smoothness=1e-6, polarization="s")
     assert abs(est.n - 1.37) < 0.005
     err = (est.thickness - cube.thickness).abs()
     err[0, 0] = 0
     assert float(err.mean()) < 2.0 and float(err[5, 5]) < 2.0
-    est32 = estimate_film(cube.cube.float(), cube.wavelength.float(), cube.cos_theta.float(), 1.64, sample=128)
+    est32 = estimate_film(cube.cube.float(), cube.wavelength.float(), cube.cos_theta.float(), 1.64, sample=128,
+                          polarization="s")
     assert est32.thickness.dtype == torch.float32
     assert abs(est32.n - 1.37) < 0.005 and float((est32.thickness.double() - cube.thickness).abs().mean()) < 2.0
 
@@ -121,8 +126,9 @@ def test_hard_cases(sample, model, kw):
 
     s = {"thin": FilmSample("thin", "MgF2 150 nm", 1.37, 150.0),
          "thick_zns": FilmSample("thick", "ZnS 1200 nm", zns_index, 1200.0)}.get(sample, sample)
-    cube = synthetic_cube(s, height=16, width=16, seed=1, **kw)
-    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256)
+    cube = synthetic_cube(s, height=16, width=16, seed=1, polarization="s", **kw)
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name=model, sample=256,
+                        polarization="s")
     m = film_metrics(est, cube)
     assert m["n_error"] <= 0.01 and m["d_error_mean"] <= 5.0
 
@@ -130,13 +136,13 @@ def test_hard_cases(sample, model, kw):
 def test_grid_scan_and_slope_scan_find_the_index():
     from torchirid.estimation.refine import grid_scan, scan_index
 
-    cube = synthetic_cube("zns_500", height=4, width=4, seed=0, gaussian_noise=0.0, shot_noise=0.0)
+    cube = synthetic_cube("zns_500", height=4, width=4, seed=0, gaussian_noise=0.0, shot_noise=0.0, polarization="s")
     Y = cube.clean.reshape(-1, 5, 81)
     grid = torch.tensor([1.6, 2.0, 2.4, 2.8], dtype=F64)
-    losses, d = grid_scan(Y, cube.wavelength, cube.cos_theta, 1.64, grid)
+    losses, d = grid_scan(Y, cube.wavelength, cube.cos_theta, 1.64, grid, polarization="s")
     assert int(losses.argmin()) == 2 and d.shape == (4, 16)
     p, dd, g, l = scan_index(Y, d[2], 2.4, cube.wavelength, cube.cos_theta, 1.64, rel_range=0.05, steps=11,
-                             slopes=(0.0, 0.03, 0.06))
+                             slopes=(0.0, 0.03, 0.06), polarization="s")
     assert p.shape == (2,) and g.shape == (33, 2) and float(p[1]) > 0  # ZnS needs a positive Cauchy slope
 
 
@@ -181,7 +187,7 @@ def test_noise_level_matches_the_added_noise():
     from torchirid.estimation.estimate import noise_level
 
     for name in ("mgf2_400", "zns_500"):
-        cube = synthetic_cube(name, height=12, width=12, seed=4, gaussian_noise=0.01, shot_noise=0.0)
+        cube = synthetic_cube(name, height=12, width=12, seed=4, gaussian_noise=0.01, shot_noise=0.0, polarization="s")
         true = float((cube.cube - cube.clean).std())
         assert abs(noise_level(cube.cube) - true) < 0.1 * true
     assert noise_level(torch.full((3, 7), math.nan, dtype=F64)) != noise_level(torch.zeros(3, 7))  # NaN: no data
@@ -192,15 +198,17 @@ def test_noise_level_matches_the_added_noise():
 def test_auto_index_model_picks_dispersion_for_zns_and_warns_for_a_constant_index():
     """Synthetic ZnS (Debenham dispersion, 500 nm, 1 % noise): the constant index fails far
     above the noise (n 2.41, ~110 nm off) and says so; "auto" picks a Cauchy model by BIC and meets the bars."""
-    cube = synthetic_cube("zns_500", height=24, width=24, seed=0)
+    cube = synthetic_cube("zns_500", height=24, width=24, seed=0, polarization="s")
     with pytest.warns(RuntimeWarning, match="noise level"):
-        bad = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="constant", sample=256)
+        bad = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="constant", sample=256,
+                            polarization="s")
     assert bad.settings["residual_to_noise"] > 3 and film_metrics(bad, cube)["d_error_mean"] > 20
     import warnings
 
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
-        est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=256)
+        est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=256,
+                            polarization="s")
     sel = est.settings["index_selection"]
     assert set(sel) == {"constant", "cauchy", "cauchy3"} and est.settings["index_model_requested"] == "auto"
     assert est.index_model in ("cauchy", "cauchy3") and sel[est.index_model]["bic"] == min(v["bic"] for v in sel.values())
@@ -210,8 +218,9 @@ def test_auto_index_model_picks_dispersion_for_zns_and_warns_for_a_constant_inde
 
 
 def test_auto_index_model_keeps_a_constant_index_for_mgf2():
-    cube = synthetic_cube("mgf2_600", height=16, width=16, seed=1)
-    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=128)
+    cube = synthetic_cube("mgf2_600", height=16, width=16, seed=1, polarization="s")
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="auto", sample=128,
+                        polarization="s")
     assert est.index_model == "constant" and abs(est.n - 1.37) < 0.005
     with pytest.raises(ValueError, match="auto"):
         estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, index_model_name="sellmeier")

@@ -8,9 +8,9 @@ F64 = torch.float64
 
 
 def test_seeded_and_documented_ranges():
-    a = synthetic_cube("mgf2_600", height=6, width=7, seed=3)
-    b = synthetic_cube("mgf2_600", height=6, width=7, seed=3)
-    c = synthetic_cube("mgf2_600", height=6, width=7, seed=4)
+    a = synthetic_cube("mgf2_600", height=6, width=7, seed=3, polarization="s")
+    b = synthetic_cube("mgf2_600", height=6, width=7, seed=3, polarization="s")
+    c = synthetic_cube("mgf2_600", height=6, width=7, seed=4, polarization="s")
     assert torch.equal(a.cube, b.cube) and not torch.equal(a.cube, c.cube)
     assert a.cube.shape == (6, 7, 5, 81)
     assert abs(float(a.thickness.min()) - 540.0) < 1e-9 and abs(float(a.thickness.max()) - 660.0) < 1e-9
@@ -18,20 +18,20 @@ def test_seeded_and_documented_ranges():
 
 @pytest.mark.parametrize("name", list(SAMPLES))
 def test_clean_cube_matches_thin_film_reflectance(name):
-    cube = synthetic_cube(name, height=2, width=3, seed=1)
+    cube = synthetic_cube(name, height=2, width=3, seed=1, polarization="s")
     s = cube.sample
     i, j = 1, 2
     ref = band_reflectance(cube.wavelength, cube.cos_theta[:, None], s.n_film, cube.thickness[i, j], s.n_substrate,
-                           nodes=8)
+                           nodes=8, polarization="s")
     assert (cube.clean[i, j] - ref).abs().max() < 1e-13
 
 
 def test_noise_levels():
-    cube = synthetic_cube("zns_500", height=24, width=24, gaussian_noise=0.01, shot_noise=0.0, seed=0)
+    cube = synthetic_cube("zns_500", height=24, width=24, gaussian_noise=0.01, shot_noise=0.0, seed=0, polarization="s")
     r_max = float(cube.clean.max())
     std = float((cube.cube - cube.clean).std())
     assert abs(std / (0.01 * r_max) - 1) < 0.05
-    shot = synthetic_cube("zns_500", height=24, width=24, gaussian_noise=0.0, shot_noise=0.02, seed=0)
+    shot = synthetic_cube("zns_500", height=24, width=24, gaussian_noise=0.0, shot_noise=0.02, seed=0, polarization="s")
     z = (shot.cube - shot.clean) / (0.02 * (shot.clean * float(shot.clean.max())).sqrt())
     assert abs(float(z.std()) - 1) < 0.05
 

@@ -22,7 +22,7 @@ from torchirid.fitting import (
 )
 from torchirid.fitting.measured import _read_png, _rgb_to_xyz_matrix, _write_png
 from torchirid.layered.presets import jewel_beetle
-from torchirid.render import scatterogram, scatterogram_directions
+from torchirid.layered import scatterogram, scatterogram_directions
 
 F64 = torch.float64
 LAM = torch.linspace(380.0, 780.0, 41, dtype=F64)
@@ -140,7 +140,7 @@ def test_png_round_trip(tmp_path, bits, tol):
 
 def test_png_round_trip_rendered_and_fitted_grid(tmp_path):
     """A rendered scatterogram written with the auto exposure and read back into the fit's grid."""
-    sg = scatterogram(jewel_beetle("red"), incident=(0.0, 0.0), resolution=16, wavelength=LAM)
+    sg = scatterogram(jewel_beetle("red"), incident_deg=(0.0, 0.0), resolution=16, wavelength=LAM)
     e = 0.8 / float(sg.xyz[..., 1].max())
     image = load_scatterogram(save_scatterogram_png(sg, tmp_path / "red.png", exposure=e), exposure=1 / e)
     lab_in, lab_out = xyz_to_lab(sg.xyz * e), xyz_to_lab(image.xyz * e)
@@ -233,7 +233,7 @@ def test_exr_round_trip_rendered_unclipped(tmp_path):
     pytest.importorskip("OpenEXR")
     from torchirid.color import xyz_to_linear_srgb
 
-    sg = scatterogram(jewel_beetle("green"), incident=(0.0, 0.0), resolution=16, wavelength=LAM)
+    sg = scatterogram(jewel_beetle("green"), incident_deg=(0.0, 0.0), resolution=16, wavelength=LAM)
     e = 3.0 / float(sg.xyz[..., 1].max())
     image = load_scatterogram(save_scatterogram_exr(sg, tmp_path / "green.exr", exposure=e), exposure=1 / e)
     rgb = xyz_to_linear_srgb(sg.xyz * e)[sg.mask]

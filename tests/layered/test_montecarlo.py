@@ -258,8 +258,10 @@ def test_shapes_broadcast_and_float32():
     f64 = montecarlo_brdf(LAM, WI, WO, COATED, samples=4000)
     assert _z(f64, (f32.double(), err32.double())) < Z
     # a single layer is accepted as a structure; a (3,) direction gives (W,)
-    f1, _ = montecarlo_brdf(LAM, WI[0], WO[0], A, samples=4, progress=True)
+    done = []  # the progress callback gets the cumulative number of finished paths, per batch
+    f1, _ = montecarlo_brdf(LAM, WI[0], WO[0], A, samples=4, batch_size=3, progress=done.append)
     assert f1.shape == (3,)
+    assert done == [3, 4]
 
 
 @pytest.mark.parametrize(
@@ -271,6 +273,7 @@ def test_shapes_broadcast_and_float32():
         (dict(max_depth=0), "max_depth"),
         (dict(seed=-1), "seed"),
         (dict(single_reflection=1), "single_reflection"),
+        (dict(progress=True), "progress"),  # a callback, not a flag
         (dict(wi=torch.tensor([0.0, 1.0, 0.0], dtype=F64)), "wi"),
         (dict(wo=torch.tensor([0.0, 0.0, -1.0], dtype=F64)), "wo"),
         (dict(wi=torch.tensor([0.0, 0.0, 2.0], dtype=F64)), "unit"),

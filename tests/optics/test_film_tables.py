@@ -183,28 +183,6 @@ def test_bad_inputs(teapot_lut):
     assert torch.isnan(k_r[0]) and torch.isfinite(k_r[1])
 
 
-def test_cli_hook(tmp_path, capsys):
-    import argparse
-
-    from torchirid.optics.film_tables import add_parser
-
-    parser = argparse.ArgumentParser(prog="torchirid")
-    add_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["film-table", "--stack", "sphere", "--angles", "9", "--wavelengths", "400", "700",
-                              "13", "--out", str(tmp_path), "--check"])
-    assert args.func(args) == 0
-    lut = LUT.load(tmp_path / "sphere.npz", builder=BUILDER)
-    assert lut.values.shape == (9, 13, 2) and lut.dtype == torch.float32
-    ref, _ = film_reflectance(lut.axes["wavelength"].double(), lut.axes["cos_theta"].double()[:, None],
-                              hirayama_stacks()["sphere"])
-    assert float((lut.values[..., 0].double() - ref).abs().max()) < 1e-6
-    assert "max |Δk_r|" in capsys.readouterr().out
-    bad = parser.parse_args(["film-table", "--wavelengths", "200", "700", "13", "--out", str(tmp_path),
-                             "--stack", "cylinder"])
-    with pytest.raises(SystemExit):
-        bad.func(bad)  # silicon (Green 2008) starts at 250 nm: argparse error, exit status 2
-
-
 def test_stack_names_match_hirayama_stacks():
     """The CLI's fixed ``--stack`` choices are exactly the presets of hirayama_stacks()."""
     assert STACK_NAMES == tuple(sorted(hirayama_stacks()))

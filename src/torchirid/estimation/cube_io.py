@@ -28,6 +28,13 @@ import torch
 
 __all__ = ["Cube", "read_cube", "write_npz", "write_envi"]
 
+_CPU = torch.device("cpu")
+
+
+def _host(x) -> torch.Tensor:
+    """``x`` as a float64 CPU tensor (files are written from host memory, whatever the device)."""
+    return torch.as_tensor(x, dtype=torch.float64, device=_CPU)
+
 
 @dataclass
 class Cube:
@@ -58,15 +65,15 @@ def _check_shapes(cube, wavelength, angles):
 
 
 def write_npz(path, cube, wavelength, angles_deg, *, bandwidth=None, thickness=None, meta=None) -> None:
-    """Write a cube as .npz (module docstring)."""
-    cube, wl, ang = (torch.as_tensor(x, dtype=torch.float64) for x in (cube, wavelength, angles_deg))
+    """Write a cube as .npz (module docstring); tensors on any device."""
+    cube, wl, ang = (_host(x) for x in (cube, wavelength, angles_deg))
     _check_shapes(cube, wl, ang)
     arrays = dict(cube=cube.numpy(), wavelength_nm=wl.numpy(), angle_deg=ang.numpy(),
                   meta=np.array(json.dumps(meta or {})))
     if bandwidth is not None:
         arrays["bandwidth_nm"] = np.array(float(bandwidth))
     if thickness is not None:
-        arrays["thickness_nm"] = torch.as_tensor(thickness, dtype=torch.float64).numpy()
+        arrays["thickness_nm"] = _host(thickness).numpy()
     tmp = os.fspath(path) + ".tmp.npz"
     np.savez_compressed(tmp, **arrays)
     os.replace(tmp, path)
@@ -76,7 +83,7 @@ def write_envi(path_hdr, cube, wavelength, angles_deg, *, bandwidth=None) -> Non
     """Write a cube as ENVI .hdr + .img (float32 data, angle-major bands, module docstring)."""
     from spectral.io import envi
 
-    cube, wl, ang = (torch.as_tensor(x, dtype=torch.float64) for x in (cube, wavelength, angles_deg))
+    cube, wl, ang = (_host(x) for x in (cube, wavelength, angles_deg))
     _check_shapes(cube, wl, ang)
     H, W, A, B = cube.shape
     data = cube.reshape(H, W, A * B).numpy().astype(np.float32)
@@ -227,6 +234,6 @@ def read_cube(path, *, angles_deg=None) -> Cube:
                 raise ValueError(f"angles_deg {ang_arg.tolist()} disagrees with the 'incidence angle' field of "
                                  f"{p!r} ({angles})")
         cube = data.reshape(data.shape[0], data.shape[1], A, B)
-        return Cube(torch.from_numpy(cube), torch.from_numpy(wl_all[:B].copy()), torch.tensor(angles, dtype=torch.float64),
+        return Cube(torch.from_numpy(cube), torch.from_numpy(wl_all[:B].copy()), torch.tensor(angles, dtype=torch.float64, device=_CPU),
                     bw).sorted()
     raise ValueError(f"path must be a .npz file, an ENVI .hdr file or a list of .hdr files; got {p!r}")

@@ -4,7 +4,7 @@ r"""The whole estimate: peak method → index scan → global order test → joi
 
 1. :func:`~torchirid.estimation.peak_method` — Kobayashi et al. eq. 8–14: a robust n and a
    per-pixel d (eq. 14 over the admissible orders, scored on a decimated cube);
-2. on a seeded pixel sample (512), on a decimated cube (3 angles, every 3rd band):
+2. on a seeded pixel sample (``sample``, 512), on a decimated cube (3 angles, every 3rd band):
    :func:`~torchirid.estimation.refine.scan_index`, the best constant n within ±15 % of
    eq. 12's (eq. 12 is biased for a dispersive film: the paper's ZnS came out 2.674 for
    2.37), checked against an exhaustive (n, d) search on 128 pixels
@@ -32,6 +32,12 @@ After the fit the per-pixel RMS residual is compared with the noise level of the
 — the model does not explain the data (wrong index model, absorbing film, wrong substrate or
 angles).
 
+In the code each stage is a private function (:func:`_validate_inputs`, :func:`_peak_stage`,
+:func:`_index_scan`, :func:`_select_index_model`, :func:`_image_thickness`,
+:func:`_order_check`, :func:`_final_pass`, :func:`_noise_check`); the numbers above are the
+module-level constants (``SCAN_*``, ``GRID_CHECK_*``, ``RESTART_RATIO``, ...), each with the
+reason for its value. dtype and device follow the cube, wavelength and cos_theta.
+
 :func:`film_metrics` scores an estimate against a synthetic truth as in Table 1 (n error,
 mean |d error|, mean ΔE*ab over angles under D65 / CIE 1931 2°, spectral RMSE).
 """
@@ -47,16 +53,35 @@ import torch
 
 from .. import _checks
 from ..color import delta_e_1976, spectrum_to_xyz, xyz_to_lab
+from ._validation import (band_settings, cube_axes, real_index, sorted_angles, tensor, uniform_bands, value_range,
+                          weight)
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
-from .measurement import band_terms, band_reflectance_fast
+from .measurement import band_reflectance_fast, band_terms
 from .peaks import peak_method
-from .refine import d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
+from .refine import POLISH_ITERATIONS, d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
+from .residuals import THICKNESS_GRID_DIVISOR, cube_sse, decimation, order_candidates, thickness_grid
 
-__all__ = ["INDEX_CHOICES", "NOISE_WARNING_RATIO", "FilmEstimate", "estimate_film", "film_metrics", "model_cube",
-           "noise_level"]
+__all__ = ["INDEX_CHOICES", "NOISE_WARNING_RATIO", "DECIMATION_STRIDE", "SCAN_REL_RANGE", "GRID_CHECK_PIXELS",
+           "GRID_CHECK_INDICES", "RESTART_RATIO", "FINE_SCAN_REL_RANGE", "FINE_SCAN_STEPS", "SLOPE_SCAN_REL_RANGE",
+           "SLOPE_SCAN_STEPS", "SLOPE_SCAN_SLOPES", "ORDER_SHIFTS", "EXHAUSTIVE_MISFIT_RATIO", "FilmEstimate",
+           "estimate_film", "film_metrics", "model_cube", "noise_level"]
 
 INDEX_CHOICES = ("auto",) + tuple(INDEX_MODELS)  # what estimate_film / fit-film accept
 NOISE_WARNING_RATIO = 3.0  # median RMS residual / noise level above which estimate_film warns
+DECIMATION_STRIDE = 3  # index stages: every 3rd band of the first, middle, last angles (~8x cheaper, orders distinct)
+SCAN_REL_RANGE = 0.15  # the index scan spans n_peak ± 15 %: the paper's ZnS eq. 12 bias was +13 %
+GRID_CHECK_PIXELS = 128  # sample pixels in the exhaustive (n, d) check: enough to expose a wrong n; cost ∝ pixels
+GRID_CHECK_INDICES = 32  # log-spaced constant indices over n_range in that check (3.5 % apart for 1.2–3.5)
+RESTART_RATIO = 0.8  # restart from the grid when its misfit is below 0.8x the peaks' start: clearly better, not noise
+FINE_SCAN_REL_RANGE = 0.05  # after a restart, n_grid ± 5 %: covers the ±1.75 % half-spacing of the check's grid
+FINE_SCAN_STEPS = 11  # 1 % steps over that range; the joint fit then converges from the nearest
+SLOPE_SCAN_REL_RANGE = 0.05  # dispersive scan: n(λ_mid) within ± 5 % of the constant index found
+SLOPE_SCAN_STEPS = 11  # 1 % steps for n(λ_mid) in the dispersive scan
+SLOPE_SCAN_SLOPES = tuple(0.015 * i for i in range(7))  # Cauchy B (µm²) 0–0.09 by 0.015: ZnS's B ≈ 0.06 inside
+ORDER_SHIFTS = (0.0, -1.0, 1.0)  # stage 3's global order hypotheses d + jT; the peaks' order first (it wins ties)
+EXHAUSTIVE_MISFIT_RATIO = 3.0  # pixels above 3x the sample's mean misfit get the exhaustive thickness search
+MAD_TO_SIGMA = 1.482602218505602  # σ of a Gaussian per unit median absolute deviation, 1/Φ⁻¹(3/4)
+DIFF4_NOISE_GAIN = 70.0  # the 4th difference multiplies white-noise variance by 1² + 4² + 6² + 4² + 1² = 70
 
 
 @dataclass
@@ -80,13 +105,8 @@ class FilmEstimate:
 
     def index(self, wavelength) -> torch.Tensor:
         """n(λ) of the estimate (λ in nm)."""
-        return index_model(torch.as_tensor(wavelength, dtype=self.params.dtype), self.params, self.index_model)
-
-
-def _sse_at(cube, d, terms):
-    from .peaks import cube_sse
-
-    return cube_sse(cube, terms, d).sum()
+        lam = torch.as_tensor(wavelength, dtype=self.params.dtype, device=self.params.device)
+        return index_model(lam, self.params, self.index_model)
 
 
 def noise_level(cube) -> float:
@@ -106,7 +126,7 @@ def noise_level(cube) -> float:
         >>> round(noise_level(y), 3)
         0.01
     """
-    y = torch.as_tensor(cube)
+    y = tensor(cube)
     if y.ndim < 1 or y.shape[-1] < 5:
         raise ValueError(f"cube must have at least 5 bands on its last axis; got shape {tuple(y.shape)}")
     y = y.to(torch.float64) if not y.is_floating_point() else y
@@ -114,12 +134,264 @@ def noise_level(cube) -> float:
     d4 = d4[~d4.isnan()]
     if d4.numel() == 0:
         return math.nan
-    return float(1.482602218505602 * d4.abs().median() / math.sqrt(70.0))
+    return float(MAD_TO_SIGMA * d4.abs().median() / math.sqrt(DIFF4_NOISE_GAIN))
+
+
+@dataclass
+class _Setup:
+    """A validated estimate_film problem: the cube ``y`` ``(*, A, B)`` and its pixels ``Y``
+    ``(P, A, B)`` (NaN kept), the axes, the band model ``band`` and the decimation ``a_sel``/``b_sel``."""
+
+    y: torch.Tensor
+    Y: torch.Tensor
+    lam: torch.Tensor
+    c: torch.Tensor
+    ns: float
+    band: dict
+    n_range: tuple
+    thickness_range: tuple
+    a_sel: list
+    b_sel: list
+    step: object  # progress callable
+
+    @property
+    def s2(self) -> torch.Tensor:
+        """n₀² sin²θ per angle."""
+        return (self.band["n_incident"] ** 2) * (1 - self.c * self.c)
+
+    @property
+    def lam_mid(self) -> float:
+        """The median band centre (nm)."""
+        return float(self.lam.median())
+
+    def scalar(self, value) -> torch.Tensor:
+        """A 0-d tensor of ``value`` in the problem's dtype and device."""
+        return torch.as_tensor(value, dtype=self.Y.dtype, device=self.Y.device)
+
+    def decimated(self, Y) -> torch.Tensor:
+        """Pixels ``(p, A, B)`` reduced to the decimated angles and bands."""
+        return Y[:, self.a_sel][:, :, self.b_sel]
+
+    def terms(self, n, full_bands=False, all_angles=False):
+        """Band terms of a constant index ``n`` on the decimated (or full) bands and angles."""
+        lam = self.lam if full_bands else self.lam[self.b_sel]
+        c = self.c if all_angles else self.c[self.a_sel]
+        return band_terms(lam, c[:, None], n, self.ns, **self.band)
+
+    def model_terms(self, theta, model, full_bands=False, all_angles=False):
+        """Terms of the index model ``theta`` on the decimated (or full) bands and angles."""
+        lam = self.lam if full_bands else self.lam[self.b_sel]
+        c = self.c if all_angles else self.c[self.a_sel]
+        return model_terms(theta, model, lam, c, self.ns, **self.band)
+
+    def period(self, n: float) -> float:
+        """Interference-order period T = λ_mid / (2 mean√(n² − n₀² sin²θ)) in nm."""
+        return self.lam_mid / (2 * float(torch.sqrt(n * n - self.s2).mean()))
+
+
+@dataclass
+class _Scan:
+    """The index-scan sample: pixels ``ys`` ``(p, A, B)``, their decimated cube ``yd``, the
+    scanned constant index and thicknesses, and whether the grid overruled the peaks."""
+
+    ys: torch.Tensor
+    yd: torch.Tensor
+    n: float
+    d: torch.Tensor
+    restarted: bool
+
+
+def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name, band, n_range, thickness_range,
+                     smoothness, sample, iterations, final_iterations, seed, progress) -> _Setup:
+    """Check every argument of :func:`estimate_film` (ValueError naming it) before any work."""
+    if index_model_name not in INDEX_CHOICES:
+        raise ValueError(f"index_model_name must be one of {_checks.names(INDEX_CHOICES)}; got {index_model_name!r}")
+    y, lam, c = cube_axes(cube, wavelength, cos_theta, pixel_axes=1)
+    if lam.numel() < 7:
+        raise ValueError(f"wavelength must have at least 7 bands; got {lam.numel()}")
+    uniform_bands(lam)
+    sorted_angles(c)
+    band_settings(band["bandwidth"], band["passband"], band["polarization"])
+    band = dict(band, n_incident=real_index(band["n_incident"], "n_incident", y, incident=True))
+    ns = real_index(n_substrate, "n_substrate", y)
+    n_range = value_range(n_range, "n_range", positive=True)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    weight(smoothness, "smoothness")
+    _checks.check_int(sample, "sample")
+    _checks.check_int(iterations, "iterations", minimum=0)
+    _checks.check_int(final_iterations, "final_iterations", minimum=0)
+    _checks.check_int(seed, "seed", minimum=0)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be a callable or None; got {progress!r}")
+    a_sel, b_sel = decimation(*y.shape[-2:], DECIMATION_STRIDE)
+    return _Setup(y=y, Y=y.reshape(-1, *y.shape[-2:]), lam=lam, c=c, ns=ns, band=band, n_range=n_range,
+                  thickness_range=thickness_range, a_sel=a_sel, b_sel=b_sel,
+                  step=progress if progress is not None else (lambda name: None))
+
+
+def _peak_stage(st: _Setup):
+    """Stage 1, the peak method (eq. 8–14) → ``(PeakResult, d_peak (P,))``; pixels without data get
+    a finite seed (the median; their estimate is set to NaN at the end)."""
+    pk = peak_method(st.y, st.lam, st.c, st.ns, n_range=st.n_range, thickness_range=st.thickness_range, **st.band)
+    d_peak = pk.thickness.reshape(-1)
+    if bool(d_peak.isnan().any()):
+        fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else st.scalar(st.thickness_range[0])
+        d_peak = torch.where(d_peak.isnan(), fill, d_peak)
+    st.step("peaks")
+    return pk, d_peak
+
+
+def _index_scan(st: _Setup, d_peak, n_peak: float, sample: int, seed: int) -> _Scan:
+    """Stage 2 on a seeded pixel sample: the best constant n near the peaks' (:func:`scan_index`),
+    then :func:`_grid_check`."""
+    P = st.Y.shape[0]
+    g = torch.Generator(device="cpu").manual_seed(int(seed))  # (the same sample on every device)
+    idx = torch.randperm(P, generator=g, device="cpu")[: min(P, sample)].to(st.Y.device)
+    ys, ds = st.Y[idx], d_peak[idx]
+    yd = st.decimated(ys)
+    p_scan, d_scan, _, _ = scan_index(yd, ds, n_peak, st.lam[st.b_sel], st.c[st.a_sel], st.ns,
+                                      rel_range=SCAN_REL_RANGE, **st.band)
+    n_scan, d_scan, restarted = _grid_check(st, yd, float(p_scan[0]), d_scan)
+    st.step("index scan")
+    return _Scan(ys=ys, yd=yd, n=n_scan, d=d_scan, restarted=restarted)
+
+
+def _grid_check(st: _Setup, yd, n_scan: float, d_scan):
+    """The peaks may mislead (noise, too few extrema, dispersion): an exhaustive (n, d) search on
+    ``GRID_CHECK_PIXELS`` pixels settles which start to trust; when the grid is clearly better
+    (``RESTART_RATIO``) a fine scan around its n replaces the scan → ``(n, d, restarted)``."""
+    few = yd[: min(yd.shape[0], GRID_CHECK_PIXELS)]
+    lo, hi = st.n_range
+    n_grid = torch.exp(torch.linspace(math.log(lo), math.log(hi), GRID_CHECK_INDICES, dtype=yd.dtype, device=yd.device))
+    kw = dict(thickness_range=st.thickness_range, **st.band)
+    lam_d, c_d = st.lam[st.b_sel], st.c[st.a_sel]
+    g_loss, _ = grid_scan(few, lam_d, c_d, st.ns, n_grid, **kw)
+    d_few, _ = d_only_gauss_newton(few, d_scan[: few.shape[0], None], st.terms(n_scan), iterations=POLISH_ITERATIONS)
+    peak_loss = float(cube_sse(few, st.terms(n_scan), d_few).sum())
+    if not float(g_loss.min()) < RESTART_RATIO * peak_loss:
+        return n_scan, d_scan, False
+    fine = float(n_grid[g_loss.argmin()]) * torch.linspace(1 - FINE_SCAN_REL_RANGE, 1 + FINE_SCAN_REL_RANGE,
+                                                          FINE_SCAN_STEPS, dtype=yd.dtype, device=yd.device)
+    f_loss, f_d = grid_scan(yd, lam_d, c_d, st.ns, fine, **kw)
+    return float(fine[f_loss.argmin()]), f_d[f_loss.argmin()], True
+
+
+def _model_start(st: _Setup, scan: _Scan, model: str, slope_cache: dict):
+    """Starting ``(theta (K,), d (p,), n at λ_mid)`` of one index model: the scanned constant index,
+    or for a dispersive model a second scan over (n(λ_mid), Cauchy slope B), shared by the Cauchy
+    models through ``slope_cache`` (a thick dispersive film otherwise falls into a wrong
+    (index slope, order) pair)."""
+    K = INDEX_MODELS[model]
+    if K == 1:
+        return st.scalar([scan.n]), scan.d, scan.n
+    if "scan" not in slope_cache:
+        slope_cache["scan"] = scan_index(scan.yd, scan.d, scan.n, st.lam[st.b_sel], st.c[st.a_sel], st.ns,
+                                         rel_range=SLOPE_SCAN_REL_RANGE, steps=SLOPE_SCAN_STEPS,
+                                         slopes=SLOPE_SCAN_SLOPES, **st.band)[:2]
+    p2, d_start = slope_cache["scan"]
+    theta0 = torch.cat([p2, p2.new_zeros(K - 2)])
+    return theta0, d_start, float(index_model(st.scalar(st.lam_mid), theta0, model))
+
+
+def _order_hypotheses(st: _Setup, scan: _Scan, model: str, theta0, d_start, n_start: float, iterations: int):
+    """Stage 3 for one model: the joint fit (:func:`refine_film`) from each global order shift of
+    ``ORDER_SHIFTS`` → ``(sse, RefineResult)`` of the least misfit."""
+    best = None
+    T = st.period(n_start)
+    for j in ORDER_SHIFTS:
+        start = d_start + j * T
+        if bool((start <= 0).any()):
+            continue
+        res = refine_film(scan.ys, st.lam, st.c, st.ns, start, theta0, index_model_name=model, iterations=iterations,
+                          **st.band)
+        loss = float(res.sse.sum())
+        if best is None or loss < best[0]:
+            best = (loss, res)
+        st.step("order hypothesis")
+    return best
+
+
+def _select_index_model(st: _Setup, scan: _Scan, candidates, iterations: int):
+    """Stage 3 for every candidate model; the one of least BIC over the sample's finite samples
+    wins → ``(model, RefineResult on the sample, selection {model: sse, bic, params})``."""
+    n_obs = int((~scan.ys.isnan()).sum())  # samples in the BIC (NaN samples do not count)
+    slope_cache, selection, results = {}, {}, {}
+    for model in candidates:
+        theta0, d_start, n_start = _model_start(st, scan, model, slope_cache)
+        sse, res = _order_hypotheses(st, scan, model, theta0, d_start, n_start, iterations)
+        K = INDEX_MODELS[model]
+        sse_m = max(sse, torch.finfo(st.Y.dtype).tiny)
+        bic = n_obs * math.log(sse_m / max(n_obs, 1)) + K * math.log(max(n_obs, 2))
+        selection[model] = dict(sse=sse, bic=bic, params=res.params.tolist())
+        results[model] = res
+    model = min(selection, key=lambda m: selection[m]["bic"])
+    return model, results[model], selection
+
+
+def _image_thickness(st: _Setup, theta, model: str, d_peak, n_peak: float):
+    """Stage 4a, every pixel at the fitted index: the peak thicknesses rescaled to it (same optical
+    thickness), their three nearest orders polished on the decimated cube, the best kept →
+    ``(d0 (P, 1), misfit (P,), n at λ_mid)``."""
+    n_mid = float(index_model(st.scalar(st.lam_mid), theta, model))
+    s2 = st.s2
+    scale = float(torch.sqrt(n_peak ** 2 - s2).mean()) / float(torch.sqrt(n_mid ** 2 - s2).mean())
+    D = order_candidates(d_peak * scale, st.period(n_mid))
+    Dn, S = d_only_gauss_newton(st.decimated(st.Y), D, st.model_terms(theta, model), iterations=POLISH_ITERATIONS)
+    return Dn.gather(-1, S.argmin(-1, keepdim=True)), S.min(-1).values, n_mid
+
+
+def _order_check(st: _Setup, scan: _Scan, theta, model: str, d0, s0, n_mid: float, sample_fit):
+    """Stage 4b: pixels with no good order among the peak-based candidates — misfit above
+    ``EXHAUSTIVE_MISFIT_RATIO`` × the sample's mean at the fitted index, or all of them when the
+    peaks misled the index search — get an exhaustive thickness search on every band of the
+    decimated angles; it replaces d0 where it fits better → ``(d0, pixels searched)``."""
+    ref = float(cube_sse(scan.yd, st.model_terms(theta, model), sample_fit.thickness[:, None]).sum() / scan.yd.shape[0])
+    bad = (s0 > EXHAUSTIVE_MISFIT_RATIO * ref) | torch.full_like(s0, float(scan.restarted), dtype=torch.bool)
+    if bool(bad.any()):
+        gstep = float(st.lam.min()) / (THICKNESS_GRID_DIVISOR * float(torch.sqrt(n_mid ** 2 - st.s2).max()))
+        grid = thickness_grid(st.thickness_range, gstep, st.Y)
+        terms_b = st.model_terms(theta, model, full_bands=True)  # every band: no fringe aliasing
+        yb = st.Y[bad][:, st.a_sel]
+        sg = cube_sse(yb, terms_b, grid.expand(int(bad.sum()), -1))
+        db, sb = d_only_gauss_newton(yb, grid[sg.argmin(-1)][:, None], terms_b, iterations=POLISH_ITERATIONS,
+                                     max_step=gstep)
+        s_old = cube_sse(yb, terms_b, d0[bad])
+        d0[bad] = torch.where(sb < s_old, db, d0[bad])
+    st.step("order check")
+    return d0, int(bad.sum())
+
+
+def _final_pass(st: _Setup, theta, model: str, d0, final_iterations: int, smoothness: float, progress):
+    """Stage 4c: d polished on the full cube, then ``final_iterations`` joint iterations on every
+    pixel (with the smoothness term) → ``(theta, d (P,), sse (P,))``."""
+    d, S = d_only_gauss_newton(st.Y, d0, st.model_terms(theta, model, full_bands=True, all_angles=True),
+                               iterations=POLISH_ITERATIONS)
+    d = d[:, 0]
+    st.step("thickness")
+    if final_iterations == 0 and smoothness == 0:
+        return theta, d, S[:, 0]
+    res = refine_film(st.y, st.lam, st.c, st.ns, d.reshape(st.y.shape[:-2]), theta, index_model_name=model,
+                      iterations=max(final_iterations, 1), smoothness=smoothness, order_check=False,
+                      fit_index=final_iterations > 0, progress=progress, **st.band)
+    return res.params, res.thickness.reshape(-1), res.sse.reshape(-1)
+
+
+def _noise_check(st: _Setup, rms, model: str):
+    """Compare the median RMS residual with the data's noise level; warn (``RuntimeWarning``) above
+    ``NOISE_WARNING_RATIO`` → ``(noise level, ratio)``."""
+    sigma = noise_level(st.Y)
+    ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
+    if ratio > NOISE_WARNING_RATIO:
+        warnings.warn(f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data "
+                      f"({sigma:.2g}); the {model!r} index model does not explain the cube — try "
+                      f"index_model_name='auto' or 'cauchy3' (dispersive film), or check the substrate index, "
+                      f"angles and polarization", RuntimeWarning, stacklevel=4)
+    return sigma, ratio
 
 
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
-                  passband: str = "box", polarization: str = "s", n_incident=1.0, n_range=(1.2, 3.5),
+                  passband: str = "box", polarization: str = "unpolarized", n_incident=1.0, n_range=(1.2, 3.5),
                   thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
                   iterations: int = 10, final_iterations: int = 2, seed: int = 0, progress=None) -> FilmEstimate:
     """Film index (shared) and per-pixel thickness from a cube (module docstring).
@@ -131,183 +403,60 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         index_model_name: ``"constant"``, a dispersive ``"cauchy"`` / ``"cauchy3"``, or ``"auto"``
             (the model of least BIC on the sample, module docstring; ~1.5× the index stage).
         bandwidth, passband: the camera's band model.
+        polarization: ``"unpolarized"``, ``"s"`` or ``"p"``; Kobayashi et al.'s camera sees the
+            s wave through a polarizer: their setup is ``polarization="s"``.
+        n_incident: real index of the incident medium.
+        n_range, thickness_range: the admissible film index and thickness (nm).
+        smoothness: spatial smoothness weight μ_s ≥ 0 of the final pass (image cubes).
         sample: pixels used for the index search (stages 2–3).
+        iterations: joint iterations per order hypothesis on the sample (stage 3).
         final_iterations: joint iterations on the full image (0: index from the sample only).
+        seed: seeds the pixel sample.
         progress: optional callable ``progress(stage_name)``.
 
     Returns:
-        :class:`FilmEstimate`.
+        :class:`FilmEstimate`; dtype and device follow cube, wavelength and cos_theta.
     """
-    if index_model_name not in INDEX_CHOICES:
-        raise ValueError(f"index_model_name must be one of {_checks.names(INDEX_CHOICES)}; got {index_model_name!r}")
-    requested = index_model_name
-    y = torch.as_tensor(cube)
-    if y.ndim < 3:
-        raise ValueError(f"cube must have shape (*, A, B) with at least one pixel axis; got {tuple(y.shape)}")
-    y = y.to(torch.float64) if not y.is_floating_point() else y
-    dtype = y.dtype
-    batch = y.shape[:-2]
-    A, B = y.shape[-2:]
-    lam = torch.as_tensor(wavelength, dtype=dtype)
-    c = torch.as_tensor(cos_theta, dtype=dtype).reshape(-1)
-    if lam.shape != (B,) or c.shape != (A,):
-        raise ValueError(f"wavelength must have {B} values and cos_theta {A} for a cube of shape {tuple(y.shape)}")
-    ns = float(n_substrate)
-    kw = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_incident=n_incident)
-    step = progress if progress is not None else (lambda name: None)
-
-    def terms_for(n, lam_, c_):
-        return band_terms(lam_, c_[:, None], n, ns, **kw)
-
+    band = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_incident=n_incident)
+    st = _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name, band, n_range, thickness_range,
+                          smoothness, sample, iterations, final_iterations, seed, progress)
     times = {}
     t0 = time.perf_counter()
-    pk = peak_method(y, lam, c, ns, n_range=n_range, thickness_range=thickness_range, **kw)
+    pk, d_peak = _peak_stage(st)
     times["peaks"] = time.perf_counter() - t0
-    step("peaks")
-    Y = y.reshape(-1, A, B)
-    P = Y.shape[0]
-    d_peak = pk.thickness.reshape(-1)
-    if bool(d_peak.isnan().any()):  # pixels without data (NaN from peak_method): a finite seed inside
-        fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else torch.tensor(float(thickness_range[0]), dtype=dtype)
-        d_peak = torch.where(d_peak.isnan(), fill, d_peak)  # (their estimate is set to NaN at the end)
-    # 2. index scan on a seeded sample
     t1 = time.perf_counter()
-    g = torch.Generator().manual_seed(int(seed))
-    idx = torch.randperm(P, generator=g)[: min(P, sample)]
-    ys, ds = Y[idx], d_peak[idx]
-    a_sel = sorted({0, A // 2, A - 1})  # decimated cube for the scans: 3 angles, every 3rd band
-    b_sel = list(range(0, B, 3))
-    yd = ys[:, a_sel][:, :, b_sel]
-    p_scan, d_scan, _, _ = scan_index(yd, ds, pk.n, lam[b_sel], c[a_sel], ns, **kw)
-    n_scan = float(p_scan[0])
-    # the peaks may mislead (noise, too few extrema, dispersion): an exhaustive (n, d) search on a
-    # smaller sample settles which of the two to trust, then a fine scan around the winner
-    few = yd[: min(yd.shape[0], 128)]
-    n_grid = torch.exp(torch.linspace(math.log(n_range[0]), math.log(n_range[1]), 32, dtype=dtype))
-    g_loss, _ = grid_scan(few, lam[b_sel], c[a_sel], ns, n_grid, thickness_range=thickness_range, **kw)
-    d_few, _ = d_only_gauss_newton(few, d_scan[: few.shape[0], None], terms_for(n_scan, lam[b_sel], c[a_sel]),
-                                   iterations=2)
-    n_best_grid = float(n_grid[g_loss.argmin()])
-    peak_loss = float(_sse_at(few, d_few, terms_for(n_scan, lam[b_sel], c[a_sel])))
-    if float(g_loss.min()) < 0.8 * peak_loss:  # the peak-based start is clearly worse: restart from the grid
-        fine = n_best_grid * torch.linspace(0.95, 1.05, 11, dtype=dtype)
-        f_loss, f_d = grid_scan(yd, lam[b_sel], c[a_sel], ns, fine, thickness_range=thickness_range, **kw)
-        n_scan, d_scan = float(fine[f_loss.argmin()]), f_d[f_loss.argmin()]
-        restarted = True
-    else:
-        restarted = False
-    step("index scan")
-    s2 = (float(n_incident) ** 2) * (1 - c * c)
-    lam_mid = float(lam.median())
-
-    def period(n):
-        return lam_mid / (2 * float(torch.sqrt(n * n - s2).mean()))
-
+    scan = _index_scan(st, d_peak, pk.n, sample, seed)
     candidates = tuple(INDEX_MODELS) if index_model_name == "auto" else (index_model_name,)
-    n_obs = int((~ys.isnan()).sum())  # samples in the BIC (NaN samples do not count)
-    slope_scan = None
-    selection = {}
-    for model in candidates:
-        K = INDEX_MODELS[model]
-        theta0, d_start, n_start = torch.tensor([n_scan], dtype=dtype), d_scan, n_scan
-        if K > 1:
-            # dispersive model: a second scan over (n(λ_mid), dn/d(1/λ²)) around the constant index;
-            # a thick dispersive film otherwise falls into a wrong (index slope, order) pair
-            if slope_scan is None:  # shared by the Cauchy models
-                slope_scan = scan_index(yd, d_scan, n_scan, lam[b_sel], c[a_sel], ns, rel_range=0.05, steps=11,
-                                        slopes=tuple(0.015 * i for i in range(7)), **kw)[:2]
-            p2, d_start = slope_scan
-            theta0 = torch.cat([p2, torch.zeros(K - 2, dtype=dtype)])
-            n_start = float(index_model(torch.tensor(lam_mid, dtype=dtype), theta0, model))
-        # 3. global order hypotheses with the full index model
-        best_m = None
-        T = period(n_start)
-        for j in (0.0, -1.0, 1.0):
-            start = d_start + j * T
-            if bool((start <= 0).any()):
-                continue
-            res = refine_film(ys, lam, c, ns, start, theta0, index_model_name=model, iterations=iterations, **kw)
-            loss = float(res.sse.sum())
-            if best_m is None or loss < best_m[0]:
-                best_m = (loss, res)
-            step("order hypothesis")
-        sse_m = max(best_m[0], torch.finfo(dtype).tiny)
-        bic = n_obs * math.log(sse_m / max(n_obs, 1)) + K * math.log(max(n_obs, 2))
-        selection[model] = dict(sse=best_m[0], bic=bic, params=best_m[1].params.tolist(), result=best_m)
-    index_model_name = min(selection, key=lambda m: selection[m]["bic"])
-    best = selection[index_model_name].pop("result")
-    for v in selection.values():
-        v.pop("result", None)
-    theta = best[1].params
+    model, sample_fit, selection = _select_index_model(st, scan, candidates, iterations)
     times["index"] = time.perf_counter() - t1
-    # 4. full image: d at that index from the three nearest orders, then joint polish
     t2 = time.perf_counter()
-    n_mid = float(index_model(torch.tensor(lam_mid, dtype=dtype), theta, index_model_name))
-    scale = float(torch.sqrt(pk.n ** 2 - s2).mean()) / float(torch.sqrt(n_mid ** 2 - s2).mean())
-    Tm = period(n_mid)
-    D = (d_peak * scale)[:, None] + Tm * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
-    D = torch.where(D > 0, D, torch.full_like(D, math.nan))
-    # the order: 3 candidates polished on the decimated cube, then the winner on the full cube
-    terms_s = model_terms(theta, index_model_name, lam[b_sel], c[a_sel], ns, **kw)
-    Dn, S = d_only_gauss_newton(Y[:, a_sel][:, :, b_sel], D, terms_s, iterations=2)
-    d0 = Dn.gather(-1, S.argmin(-1, keepdim=True))
-    s0 = S.min(-1).values
-    # pixels with no good order among the peak-based candidates (misfit well above what the
-    # sample reached at the fitted index) get an exhaustive search; all of them when the
-    # peaks misled the index search (index_start == "grid")
-    ref = float(_sse_at(yd, best[1].thickness[:, None], terms_s) / yd.shape[0])
-    bad = (s0 > 3 * ref) | torch.full_like(s0, float(restarted), dtype=torch.bool)
-    if bool(bad.any()):
-        from .peaks import cube_sse
-
-        lo, hi = map(float, thickness_range)
-        gstep = float(lam.min()) / (8 * float(torch.sqrt(n_mid ** 2 - s2).max()))
-        grid = torch.arange(lo, hi + gstep, gstep, dtype=dtype)
-        terms_b = model_terms(theta, index_model_name, lam, c[a_sel], ns, **kw)  # every band: no fringe aliasing
-        yb = Y[bad][:, a_sel]
-        sg = cube_sse(yb, terms_b, grid.expand(int(bad.sum()), -1))
-        db, sb = d_only_gauss_newton(yb, grid[sg.argmin(-1)][:, None], terms_b, iterations=2, max_step=gstep)
-        s_old = cube_sse(yb, terms_b, d0[bad])
-        d0[bad] = torch.where(sb < s_old, db, d0[bad])
-    step("order check")
-    terms = model_terms(theta, index_model_name, lam, c, ns, **kw)
-    d, S = d_only_gauss_newton(Y, d0, terms, iterations=2)
-    d = d[:, 0]
-    step("thickness")
-    if final_iterations > 0 or smoothness > 0:
-        res = refine_film(y, lam, c, ns, d.reshape(batch), theta, index_model_name=index_model_name,
-                          iterations=max(final_iterations, 1), smoothness=smoothness, order_check=False,
-                          fit_index=final_iterations > 0, progress=progress, **kw)
-        theta, d, sse = res.params, res.thickness.reshape(-1), res.sse.reshape(-1)
-    else:
-        sse = S[:, 0]
+    d0, s0, n_mid = _image_thickness(st, sample_fit.params, model, d_peak, pk.n)
+    d0, exhaustive = _order_check(st, scan, sample_fit.params, model, d0, s0, n_mid, sample_fit)
+    theta, d, sse = _final_pass(st, sample_fit.params, model, d0, final_iterations, smoothness, progress)
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
-    n_ref = float(index_model(torch.tensor(REFERENCE_WAVELENGTH, dtype=dtype), theta, index_model_name))
+    A, B = st.Y.shape[-2:]
     rms = (sse / (A * B)).sqrt()
-    empty = Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (its residuals were 0 by the NaN fill)
+    empty = st.Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (its residuals were 0 by the NaN fill)
     d, rms = torch.where(empty, math.nan, d), torch.where(empty, math.nan, rms)
-    sigma = noise_level(Y)
-    ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
-    if ratio > NOISE_WARNING_RATIO:
-        warnings.warn(f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data "
-                      f"({sigma:.2g}); the {index_model_name!r} index model does not explain the cube — try "
-                      f"index_model_name='auto' or 'cauchy3' (dispersive film), or check the substrate index, "
-                      f"angles and polarization", RuntimeWarning, stacklevel=2)
-    return FilmEstimate(params=theta, index_model=index_model_name, n=n_ref, thickness=d.reshape(batch),
-                        rms=rms.reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness,
-                        timings=times, settings=dict(kw, n_substrate=ns, index_model=index_model_name, index_start='grid' if restarted else 'peaks',
-                                                     index_model_requested=requested, index_selection=selection,
-                                                     noise_level=sigma, residual_to_noise=ratio,
-                                                     exhaustive_pixels=int(bad.sum()),
-                                                     smoothness=smoothness, sample=sample, seed=seed))
+    sigma, ratio = _noise_check(st, rms, model)
+    batch = st.y.shape[:-2]
+    return FilmEstimate(
+        params=theta, index_model=model, n=float(index_model(st.scalar(REFERENCE_WAVELENGTH), theta, model)),
+        thickness=d.reshape(batch), rms=rms.reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness, timings=times,
+        settings=dict(st.band, n_substrate=st.ns, index_model=model, index_start="grid" if scan.restarted else "peaks",
+                      index_model_requested=index_model_name, index_selection=selection, noise_level=sigma,
+                      residual_to_noise=ratio, exhaustive_pixels=exhaustive, smoothness=smoothness, sample=sample,
+                      seed=seed))
 
 
 def model_cube(params, index_model_name, thickness, wavelength, cos_theta, n_substrate, **kw) -> torch.Tensor:
-    """Noise-free band reflectance ``(*, A, B)`` of an estimate (fast band model), for the metrics."""
-    lam = torch.as_tensor(wavelength, dtype=torch.as_tensor(thickness).dtype)
-    terms = model_terms(params, index_model_name, lam, torch.as_tensor(cos_theta, dtype=lam.dtype), float(n_substrate), **kw)
-    d = torch.as_tensor(thickness)
+    """Noise-free band reflectance ``(*, A, B)`` of an estimate (fast band model), for the metrics;
+    dtype and device follow ``thickness``."""
+    d = tensor(thickness)
+    lam = torch.as_tensor(wavelength, dtype=d.dtype, device=d.device)
+    c = torch.as_tensor(cos_theta, dtype=d.dtype, device=d.device)
+    terms = model_terms(params, index_model_name, lam, c, real_index(n_substrate, "n_substrate", d), **kw)
     # the polarization axis leads the terms: pixels go after it, angles and bands last
     R = band_reflectance_fast(tuple(t[:, None] for t in terms), d.reshape(1, -1, 1, 1))
     return R.reshape(*d.shape, *R.shape[-2:])

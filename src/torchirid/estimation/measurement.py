@@ -8,8 +8,11 @@ passband. For a *box* passband of full width w,
 
 with Gauss–Legendre nodes δ_q and weights ω_q (exact for polynomials of degree 2Q−1 in λ);
 a *gaussian* passband of full width at half maximum w uses Gauss–Hermite nodes instead.
-R is the Airy reflectance of the film (Kobayashi et al. eq. 4–7, :func:`torchirid.thin_film_reflectance`)
-for one polarization — Kobayashi et al. measure the s wave through a polarizer (§5.1).
+R is the Airy reflectance of the film (Kobayashi et al. eq. 4–7, :func:`torchirid.thin_film_reflectance`).
+
+``polarization`` defaults to ``"unpolarized"`` (the mean of the s and p reflectances), as in the
+rest of the library. Kobayashi et al.'s camera sees only the s wave through a polarizer (§5.1):
+their setup is ``polarization="s"``.
 
 For the fits there is also a closed form for a *lossless* film on a lossless substrate
 (real indices): with the real Fresnel amplitudes r₀₁, r₁₂ of eq. 6/7 and the film phase
@@ -51,7 +54,7 @@ def band_nodes(bandwidth: float, nodes: int = 3, passband: str = "box", *, dtype
     """Quadrature offsets (nm) and weights of a band's passband, both ``(Q,)``, weights sum to 1.
 
     ``"box"``: Gauss–Legendre on [−w/2, w/2]; ``"gaussian"``: Gauss–Hermite for a Gaussian
-    of FWHM w. ``bandwidth = 0`` (point sampling) returns one node at 0.
+    of FWHM w. ``bandwidth = 0`` (point sampling) returns one node at 0. ``device`` None: the CPU.
 
     >>> off, wts = band_nodes(4.0, 2)
     >>> [round(v, 4) for v in off.tolist()], [round(v, 3) for v in wts.tolist()]
@@ -59,8 +62,7 @@ def band_nodes(bandwidth: float, nodes: int = 3, passband: str = "box", *, dtype
     """
     if passband not in PASSBANDS:
         raise ValueError(f"passband must be one of {_checks.names(PASSBANDS)}; got {passband!r}")
-    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 1:
-        raise ValueError(f"nodes must be an integer >= 1; got {nodes!r}")
+    nodes = _checks.check_int(nodes, "nodes")
     bw = float(bandwidth)
     if not math.isfinite(bw) or bw < 0:
         raise ValueError(f"bandwidth must be >= 0 nm and finite; got {bandwidth!r}")
@@ -73,6 +75,7 @@ def band_nodes(bandwidth: float, nodes: int = 3, passband: str = "box", *, dtype
         x, w = np.polynomial.hermite_e.hermegauss(nodes)  # weight exp(-x²/2)
         sigma = bw / (2.0 * math.sqrt(2.0 * math.log(2.0)))
         x, w = x * sigma, w / w.sum()
+    device = torch.device("cpu") if device is None else device
     return (torch.as_tensor(x, dtype=dtype, device=device), torch.as_tensor(w, dtype=dtype, device=device))
 
 
@@ -91,7 +94,7 @@ def band_reflectance(
     passband: str = "box",
     nodes: int = 8,
     n_incident=1.0,
-    polarization: str = "s",
+    polarization: str = "unpolarized",
 ) -> torch.Tensor:
     r"""Band-integrated reflectance of a film on a substrate, as a hyperspectral camera sees it.
 
@@ -106,7 +109,7 @@ def band_reflectance(
         passband: ``"box"`` or ``"gaussian"``.
         nodes: quadrature nodes Q per band (8 integrates 4 nm bands of a 1 µm film to ~1e-9).
         n_incident: real index of the incident medium.
-        polarization: ``"s"`` (as in the paper), ``"p"`` or ``"unpolarized"``.
+        polarization: ``"unpolarized"``, ``"s"`` (Kobayashi et al.'s setup) or ``"p"``.
 
     Returns:
         R_b with the broadcast shape of the arguments, their real dtype.
@@ -114,7 +117,7 @@ def band_reflectance(
     Example (MgF₂ 400 nm on PET, s wave, 10°, the 4 nm band at 548 nm):
         >>> import math, torch
         >>> c = math.cos(math.radians(10.0))
-        >>> R = band_reflectance(torch.tensor(548.0, dtype=torch.float64), c, 1.37, 400.0, 1.64)
+        >>> R = band_reflectance(torch.tensor(548.0, dtype=torch.float64), c, 1.37, 400.0, 1.64, polarization="s")
         >>> round(float(R), 5)
         0.06085
     """
@@ -145,7 +148,7 @@ def band_reflectance(
     return (R * wts).sum(-1)
 
 
-def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_incident=1.0, polarization: str = "s"):
+def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_incident=1.0, polarization: str = "unpolarized"):
     r"""Terms (a, b, e, k) of the lossless closed form :math:`R = (a + b\cos kd)/(e + b\cos kd)`.
 
     All indices must be real (lossless film and substrate, no total internal reflection in
@@ -159,7 +162,7 @@ def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_incident=1.0, po
         >>> round(float(k[0]) * 500 / (4 * 3.141592653589793), 12)
         1.5
     """
-    _checks.check_polarization(polarization)
+    pols = _checks.polarization_terms(polarization)
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, n_substrate)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
@@ -172,7 +175,6 @@ def airy_terms(wavelength, cos_theta, n_film, n_substrate, *, n_incident=1.0, po
     qf = (nf * nf - s2).clamp_min(0).sqrt()
     qs = (ns * ns - s2).clamp_min(0).sqrt()
     out = []
-    pols = ("s", "p") if polarization == "unpolarized" else (polarization,)
     for pol in pols:
         if pol == "s":
             r01 = (q0 - qf) / (q0 + qf)
@@ -192,7 +194,7 @@ def reflectance_from_terms(a, b, e, k, thickness) -> torch.Tensor:
 
     Example:
         >>> import torch
-        >>> t = airy_terms(torch.tensor(548.0, dtype=torch.float64), 0.9848, 1.37, 1.64)
+        >>> t = airy_terms(torch.tensor(548.0, dtype=torch.float64), 0.9848, 1.37, 1.64, polarization="s")
         >>> round(float(reflectance_from_terms(*t, 400.0)), 4)
         0.0609
     """
@@ -217,7 +219,7 @@ def band_variance(bandwidth: float, passband: str = "box") -> float:
 
 
 def band_terms(wavelength, cos_theta, n_film, n_substrate, *, bandwidth: float = 4.0, passband: str = "box",
-               n_incident=1.0, polarization: str = "s"):
+               n_incident=1.0, polarization: str = "unpolarized"):
     r"""Terms (a, b, e, k, h) of the fast band model :func:`band_reflectance_fast` (lossless film).
 
     (a, b, e, k) are :func:`airy_terms` at the band centre (``n_film`` may be a callable of λ
@@ -227,9 +229,10 @@ def band_terms(wavelength, cos_theta, n_film, n_substrate, *, bandwidth: float =
     Example:
         >>> import torch
         >>> t = band_terms(torch.tensor([500.0], dtype=torch.float64), 1.0, 1.5, 1.64)
-        >>> [tuple(x.shape) for x in t]
-        [(1, 1), (1, 1), (1, 1), (1, 1), (1, 1)]
+        >>> [tuple(x.shape) for x in t]  # (polarization: s and p, then the broadcast shape)
+        [(2, 1), (2, 1), (2, 1), (2, 1), (2, 1)]
     """
+    _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, *(x for x in (n_film, n_substrate) if not callable(x)))
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     _checks.check_positive(lam, "wavelength")
@@ -261,7 +264,7 @@ def band_reflectance_fast(terms, thickness) -> torch.Tensor:
     Example:
         >>> import torch
         >>> w = torch.tensor([548.0], dtype=torch.float64)
-        >>> R = band_reflectance_fast(band_terms(w, 0.9848, 1.37, 1.64), 400.0)
+        >>> R = band_reflectance_fast(band_terms(w, 0.9848, 1.37, 1.64, polarization="s"), 400.0)
         >>> round(float(R), 5)
         0.06085
     """

@@ -26,7 +26,11 @@ Steps, each batched over every pixel of the cube:
    median over all tracks of all pixels (robust to mismatched tracks).
 4. :func:`thickness_candidates`: eq. 13 for every admissible order m of the longest track.
 5. :func:`select_candidates`: eq. 14 — the candidate whose modelled cube (all angles and
-   bands) is closest in least squares to the measured one.
+   bands) is closest in least squares to the measured one
+   (:func:`~torchirid.estimation.residuals.cube_sse`).
+
+The tuning constants (``WINDOW_*``, ``PROBE_*``, ``MIN_TRACK_ANGLES``, ...) are module-level
+names, each with the reason for its value.
 """
 
 from __future__ import annotations
@@ -36,9 +40,22 @@ from dataclasses import dataclass
 
 import torch
 
+from .. import _checks
+from ._validation import band_settings, cube_axes, real_index, sorted_angles, tensor, uniform_bands, value_range
 from .measurement import airy_terms, band_terms
+from .residuals import THICKNESS_GRID_DIVISOR, cube_sse, decimation, thickness_grid
 
 __all__ = [
+    "WINDOW_PROBE_SPECTRA",
+    "WINDOW_FRACTION",
+    "WINDOW_MIN",
+    "WINDOW_MAX",
+    "PROBE_SIGMA",
+    "PROBE_EDGE",
+    "HALF_WINDOW",
+    "MAX_EXTREMA",
+    "MIN_TRACK_ANGLES",
+    "PARITY_FALLBACK_WAVELENGTH",
     "PeakResult",
     "detect_extrema",
     "track_extrema",
@@ -46,9 +63,21 @@ __all__ = [
     "index_from_tracks",
     "thickness_candidates",
     "select_candidates",
-    "cube_sse",
     "peak_method",
 ]
+
+# the adaptive window W of detect_extrema: a fraction of the spacing of the extrema, probed on a
+# few smoothed spectra
+WINDOW_PROBE_SPECTRA = 2048  # spectra probed for the extremum spacing: a spread over the image is enough
+PROBE_SIGMA = 1.5  # bands: light smoothing of the probe, so that noise does not add spurious extrema
+PROBE_EDGE = 2  # bands ignored at each end of a probe spectrum (a one-sided smoothing makes false extrema there)
+WINDOW_FRACTION = 5  # W = spacing / 5: the parabola spans 2W+1 ≈ 0.4 of a fringe, where a peak is still parabolic
+WINDOW_MIN = 2  # bands: at least 5 samples in the parabola fit (3 would leave no noise averaging)
+WINDOW_MAX = 12  # bands: 25 samples already average the noise; wider only mixes in the fringe's asymmetry
+HALF_WINDOW = 0.5  # W/2 bands (at least 1): the candidates' smoothing σ, and how far a vertex may sit from its band
+MAX_EXTREMA = 16  # extrema kept per spectrum: all of a 2 µm MgF2 (~12) or 1.2 µm ZnS film (~15) in 400–720 nm
+MIN_TRACK_ANGLES = 3  # eq. 12 over ≥ 3 angles: two points always fit the line, a third tests the pairing
+PARITY_FALLBACK_WAVELENGTH = 550.0  # nm: where the sign of r01 r12 is taken for a pixel without a track (mid-visible)
 
 
 def index_from_peak_pair(lambda1, lambda2, sin1, sin2) -> torch.Tensor:
@@ -64,7 +93,7 @@ def index_from_peak_pair(lambda1, lambda2, sin1, sin2) -> torch.Tensor:
     >>> round(float(index_from_peak_pair(torch.tensor(l1, dtype=torch.float64), torch.tensor(l2, dtype=torch.float64), s1, s2)), 10)
     1.37
     """
-    l1, l2 = torch.as_tensor(lambda1), torch.as_tensor(lambda2)
+    l1, l2 = tensor(lambda1), tensor(lambda2)
     num = l2 * l2 * sin1 * sin1 - l1 * l1 * sin2 * sin2
     den = l2 * l2 - l1 * l1
     q = num / den
@@ -110,14 +139,15 @@ def _raw_extrema(sm: torch.Tensor, edge: int):
     return kind
 
 
-def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
+def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = MAX_EXTREMA):
     r"""Maxima and minima of spectra with sub-band precision (step 1 of the module docstring).
 
     Args:
         spectra: ``(*, B)`` band values (wavelength on the last axis), B ≥ 7.
         wavelength: ``(B,)`` band centres in nm, strictly increasing and uniformly spaced.
         window: half-width W (bands) of the parabola fit; default: adaptive (a fifth of the
-            median spacing of the extrema of the smoothed spectra, in [2, 12]).
+            median spacing of the extrema of the smoothed spectra, in [2, 12]: the ``WINDOW_*``
+            constants).
         max_extrema: K, the most extrema kept per spectrum (in order of wavelength).
 
     Returns:
@@ -132,42 +162,72 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
         >>> [(round(v, 1), k) for v, k in zip(pos.tolist(), kind.tolist()) if k != 0]
         [(440.0, 1), (488.9, -1), (550.0, 1), (628.6, -1)]
     """
-    y = torch.as_tensor(spectra)
-    if not y.is_floating_point():
-        y = y.to(torch.get_default_dtype())
-    lam = torch.as_tensor(wavelength, dtype=y.dtype, device=y.device)
-    if lam.ndim != 1 or lam.numel() != y.shape[-1] or lam.numel() < 7:
+    _checks.check_numbers(spectra=spectra, wavelength=wavelength)
+    dtype, device = _checks.resolve_dtype_device(spectra, wavelength)
+    y = _checks.as_real(spectra, "spectra", dtype, device)
+    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    if y.ndim < 1 or lam.ndim != 1 or lam.numel() != y.shape[-1] or lam.numel() < 7:
         raise ValueError(f"wavelength must be 1-D with spectra.shape[-1] >= 7 samples; got {tuple(lam.shape)} for spectra {tuple(y.shape)}")
+    uniform_bands(lam)
+    max_extrema = _checks.check_int(max_extrema, "max_extrema")
+    if window is not None:
+        window = _checks.check_int(window, "window")
+        if 2 * window + 1 > lam.numel():
+            raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")
     step = lam[1] - lam[0]
-    if not bool(step > 0) or bool(((lam.diff() - step).abs() > 1e-6 * step.abs()).any()):
-        raise ValueError("wavelength must be strictly increasing and uniformly spaced")
-    if isinstance(max_extrema, bool) or not isinstance(max_extrema, int) or max_extrema < 1:
-        raise ValueError(f"max_extrema must be an integer >= 1; got {max_extrema!r}")
+    return _detect_extrema(y, lam, step, window, max_extrema)
+
+
+def _adaptive_window(Yf: torch.Tensor) -> int:
+    """W for :func:`detect_extrema`: a ``WINDOW_FRACTION`` of the median spacing of the extrema of
+    lightly smoothed probe spectra, clamped to [``WINDOW_MIN``, ``WINDOW_MAX``]."""
+    N, B = Yf.shape
+    # (float32 index ramp, whatever the default dtype: the same probe set everywhere)
+    pick = torch.linspace(0, N - 1, min(N, WINDOW_PROBE_SPECTRA), dtype=torch.float32, device=Yf.device).long()
+    kind0 = _raw_extrema(_smooth(Yf[pick], PROBE_SIGMA), PROBE_EDGE)
+    idx = torch.arange(B, device=Yf.device).expand_as(kind0)
+    posn = torch.where(kind0 != 0, idx, -1)
+    # spacing between successive extrema, pooled over every spectrum
+    srt = posn.sort(dim=-1).values
+    gaps = srt.diff(dim=-1)
+    valid = (srt[:, :-1] >= 0) & (gaps > 0)
+    med = float(gaps[valid].to(Yf.dtype).median()) if bool(valid.any()) else float(B)
+    return int(min(WINDOW_MAX, max(WINDOW_MIN, round(med / WINDOW_FRACTION))))
+
+
+def _detect_extrema(y, lam, step, window, max_extrema):
+    """:func:`detect_extrema` on validated inputs."""
     batch = y.shape[:-1]
     B = y.shape[-1]
     Y = y.reshape(-1, B)
     Yf = torch.nan_to_num(Y, nan=0.0)
-    if window is None:
-        probe = Yf[torch.linspace(0, Yf.shape[0] - 1, min(Yf.shape[0], 2048)).long()]  # a spread of spectra is enough
-        kind0 = _raw_extrema(_smooth(probe, 1.5), 2)
-        idx = torch.arange(B, device=y.device).expand_as(kind0)
-        posn = torch.where(kind0 != 0, idx, -1)
-        # spacing between successive extrema, pooled over every spectrum
-        srt = posn.sort(dim=-1).values
-        gaps = srt.diff(dim=-1)
-        valid = (srt[:, :-1] >= 0) & (gaps > 0)
-        med = gaps[valid].to(y.dtype).median() if bool(valid.any()) else torch.tensor(float(B), dtype=y.dtype)
-        window = int(min(12, max(2, round(float(med) / 5))))
-    W = int(window)
-    if W < 1 or 2 * W + 1 > B:
-        raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")
-    sm = _smooth(Yf, max(W / 2, 1.0))
-    kind = _raw_extrema(sm, W)
+    W = _adaptive_window(Yf) if window is None else window
+    if 2 * W + 1 > B:
+        raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {W!r}")
+    kind = _raw_extrema(_smooth(Yf, _half_window(W)), W)
     # the first K candidate extrema by wavelength, then a parabola only there
     idx = torch.arange(B, device=y.device).expand_as(kind)
     key = torch.where(kind != 0, idx, B + idx)
     order = key.topk(min(max_extrema, B), dim=-1, largest=False, sorted=True).indices  # (N, K) band indices
-    k_sel = kind.gather(-1, order)
+    k_sel, p_sel = _vertices(Yf, lam, step, W, order, kind.gather(-1, order))
+    # rejected candidates last, the rest in order of wavelength
+    key2 = torch.where(k_sel != 0, order, B + order)
+    o2 = key2.argsort(-1)
+    k_sel, p_sel = k_sel.gather(-1, o2), p_sel.gather(-1, o2)
+    K = order.shape[-1]
+    return p_sel.reshape(*batch, K), k_sel.reshape(*batch, K), W
+
+
+def _half_window(W: int) -> float:
+    """``HALF_WINDOW`` × W bands, at least one band."""
+    return max(HALF_WINDOW * W, 1.0)
+
+
+def _vertices(Yf, lam, step, W, order, k_sel):
+    """Parabola vertices of the candidate extrema at bands ``order`` ``(N, K)`` of kinds ``k_sel``
+    → ``(kind, position nm)``, kind 0 and NaN where the fit has the wrong curvature or its vertex
+    lies more than ``HALF_WINDOW``·W bands away."""
+    B = Yf.shape[-1]
     centre = order.clamp(W, B - 1 - W)
     # least-squares parabola in the wavenumber ν = 1/λ over the 2W+1 bands around each extremum:
     # the film phase is linear in ν, so a fringe is symmetric in ν (not in λ) — no skew bias
@@ -178,24 +238,19 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = 16):
     ts = t / scale_t
     V = torch.stack([torch.ones_like(ts), ts, ts * ts], dim=-1)  # (B-2W, 2W+1, 3)
     Pm = torch.linalg.pinv(V)[:, 1:]  # rows for c1, c2: (B-2W, 2, 2W+1)
-    offs = torch.arange(-W, W + 1, device=y.device)
+    offs = torch.arange(-W, W + 1, device=Yf.device)
     win = Yf.gather(-1, (centre[..., None] + offs).reshape(Yf.shape[0], -1)).reshape(*centre.shape, 2 * W + 1)
     Psel = Pm[centre - W]  # (N, K, 2, 2W+1)
     coef = (Psel * win[..., None, :]).sum(-1)  # (N, K, 2)
     c1, c2 = coef[..., 0], coef[..., 1]
     vertex = -c1 / (2 * c2) * scale_t[centre - W, 0]  # in ν, relative to the centre band
     nu_c = nu[centre]
-    half = max(W / 2, 1.0) * step / lam[centre] * nu_c  # W/2 bands, in ν
+    half = _half_window(W) * step / lam[centre] * nu_c  # W/2 bands, in ν
     good = (((k_sel == 1) & (c2 < 0)) | ((k_sel == -1) & (c2 > 0))) & (vertex.abs() <= half)
     k_sel = torch.where(good, k_sel, torch.zeros_like(k_sel))
     p_sel = torch.where(k_sel != 0, 1000.0 / (nu_c + torch.nan_to_num(vertex, nan=0.0)),
                         torch.full_like(nu_c, math.nan))
-    # rejected candidates last, the rest in order of wavelength
-    key2 = torch.where(k_sel != 0, order, B + order)
-    o2 = key2.argsort(-1)
-    k_sel, p_sel = k_sel.gather(-1, o2), p_sel.gather(-1, o2)
-    K = order.shape[-1]
-    return p_sel.reshape(*batch, K), k_sel.reshape(*batch, K), W
+    return k_sel, p_sel
 
 
 def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_incident=1.0, tolerance=0.01):
@@ -219,14 +274,13 @@ def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_incident=1
         >>> tr[0].tolist()
         [[548.0, 500.0], [600.0, 560.0]]
     """
-    pos = torch.as_tensor(position)
+    pos = tensor(position)
     c = torch.as_tensor(cos_theta, dtype=pos.dtype, device=pos.device).reshape(-1)
     A = pos.shape[-2]
     if c.numel() != A:
         raise ValueError(f"cos_theta must have one value per angle ({A}); got {c.numel()}")
-    if A > 1 and bool((c.diff() > 0).any()):
-        raise ValueError("angles must be sorted by increasing incidence angle (decreasing cos_theta)")
-    n_min = float(n_range[0])
+    sorted_angles(c)
+    n_min, _ = value_range(n_range, "n_range", positive=True)
     s2 = (float(n_incident) ** 2) * (1 - c * c)
     cur = pos[..., 0, :]  # (*, K)
     knd = kind[..., 0, :]
@@ -262,7 +316,8 @@ def index_from_tracks(tracks, cos_theta, *, n_incident=1.0, min_angles: int = 3)
         >>> round(float(index_from_tracks(lam, c)[0]), 10)
         2.37
     """
-    tr = torch.as_tensor(tracks)
+    min_angles = _checks.check_int(min_angles, "min_angles")
+    tr = tensor(tracks)
     c = torch.as_tensor(cos_theta, dtype=tr.dtype, device=tr.device)
     s2 = (float(n_incident) ** 2) * (1 - c * c)
     m = ~tr.isnan()
@@ -281,7 +336,7 @@ def index_from_tracks(tracks, cos_theta, *, n_incident=1.0, min_angles: int = 3)
 
 
 def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thickness_range=(20.0, 2000.0),
-                         n_incident=1.0, polarization="s", max_candidates: int = 24):
+                         n_incident=1.0, polarization="unpolarized", max_candidates: int = 24):
     r"""Thickness candidates of eq. 13, d = m λ / (2√(n² − sin²θ)), for every admissible order.
 
     Per pixel the track seen at the most angles is used; d is the mean over its angles of
@@ -303,56 +358,38 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
         >>> [round(v, 6) for v in cand[0, :3].tolist()]
         [200.0, 400.0, 600.0]
     """
-    tr = torch.as_tensor(tracks)
-    c = torch.as_tensor(cos_theta, dtype=tr.dtype, device=tr.device)
+    _checks.check_polarization(polarization)
+    max_candidates = _checks.check_int(max_candidates, "max_candidates")
+    lo, hi = value_range(thickness_range, "thickness_range", positive=False)
+    tr = tensor(tracks)
+    nf = real_index(n_film, "n_film", tr)
+    ns = real_index(n_substrate, "n_substrate", tr)
+    c = torch.as_tensor(cos_theta, dtype=tr.dtype, device=tr.device).reshape(-1)
     s2 = (float(n_incident) ** 2) * (1 - c * c)
-    nf = float(n_film)
-    if not nf > 0:
-        raise ValueError(f"n_film must be > 0; got {n_film!r}")
     cnt = (~tr.isnan()).sum(-1)  # (P, K)
     best = cnt.argmax(-1)  # (P,)
     P = tr.shape[0]
-    sel = tr[torch.arange(P), best]  # (P, A)
-    kind = kinds[torch.arange(P), best].to(tr.dtype)
-    has = cnt[torch.arange(P), best] > 0
+    rows = torch.arange(P, device=tr.device)
+    sel = tr[rows, best]  # (P, A)
+    kind = kinds[rows, best].to(tr.dtype)
+    has = cnt[rows, best] > 0
     u = (sel / (2 * torch.sqrt(nf * nf - s2))).nanmean(-1)  # d per unit order
     # parity: maxima at integer orders iff r01 r12 > 0 (sign of b at the track's mean wavelength, first angle)
-    lam_mean = sel.nanmean(-1).nan_to_num(550.0)
-    _, b, _, _ = airy_terms(lam_mean, c[0], nf, float(n_substrate), n_incident=n_incident, polarization=polarization)
+    lam_mean = sel.nanmean(-1).nan_to_num(PARITY_FALLBACK_WAVELENGTH)
+    _, b, _, _ = airy_terms(lam_mean, c[0], nf, ns, n_incident=n_incident, polarization=polarization)
     bpos = b.mean(0) > 0
-    half = torch.where((kind > 0) == bpos, 0.0, 0.5).to(tr.dtype)  # max & b>0 → integer, etc.
+    half = ((kind > 0) != bpos).to(tr.dtype) * 0.5  # max & b>0 → integer order, etc.
     j = torch.arange(0, max_candidates + 1, dtype=tr.dtype, device=tr.device)
     m = j[None, :] + half[:, None]
     cand = m * u[:, None]
-    lo, hi = thickness_range
     ok = (m > 0) & (cand >= lo) & (cand <= hi) & has[:, None]
     cand = torch.where(ok, cand, torch.full_like(cand, math.nan))
-    # compact: NaNs last, keep max_candidates columns
-    key = torch.where(ok, j.expand_as(cand), j.expand_as(cand) + 1e6)
+    # compact: NaNs last (their keys after every valid one), keep max_candidates columns
+    key = torch.where(ok, j.expand_as(cand), j.expand_as(cand) + j.numel())
     order = key.argsort(-1)[:, :max_candidates]
     out = cand.gather(-1, order)
     keep = (~out.isnan()).any(0)
     return out[:, keep] if bool(keep.any()) else out[:, :1]
-
-
-def cube_sse(cube, terms, thickness):
-    """Σ over angles and bands of (model − cube)² for thickness candidates ``(P, C)`` → ``(P, C)``.
-
-    ``terms`` = (a, b, e, k, h), each ``(pol, A, B)`` (:func:`~torchirid.estimation.band_terms`);
-    cube ``(P, A, B)``. NaN candidates → +inf. NaN cube samples (missing data) are left out of
-    the sum, so a pixel without a single finite sample gives the empty sum 0 for every candidate:
-    it adds nothing to a sum over pixels and cannot decide a choice; :func:`peak_method` and
-    :func:`~torchirid.estimation.estimate_film` report NaN thickness and error for such pixels.
-    """
-    from .refine import _chunks, _residual_parts
-
-    P, C = thickness.shape
-    out = torch.empty(P, C, dtype=cube.dtype)
-    for i0, i1 in _chunks(P, C * terms[0].numel()):
-        r, _, _ = _residual_parts(cube[i0:i1], thickness[i0:i1].nan_to_num(0.0), terms, with_jacobian=False)
-        r = r.nan_to_num(0.0)
-        out[i0:i1] = (r * r).sum((-1, -2))
-    return torch.where(thickness.isnan(), torch.full_like(out, math.inf), out)
 
 
 def select_candidates(cube, candidates, terms):
@@ -381,60 +418,89 @@ class PeakResult:
 
 
 def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 4.0, passband: str = "box",
-                polarization: str = "s", n_incident=1.0, n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0),
-                n_film=None, window=None, score_stride: int = 3) -> PeakResult:
+                polarization: str = "unpolarized", n_incident=1.0, n_range=(1.2, 3.5),
+                thickness_range=(20.0, 2000.0), n_film=None, window=None, score_stride: int = 3) -> PeakResult:
     r"""Kobayashi et al.'s estimate of n (eq. 12) and per-pixel d (eq. 13–14) from a cube ``(*, A, B)``.
 
     Args:
         cube: ``(*, A, B)`` band reflectance, angles sorted by increasing θ.
-        wavelength: ``(B,)`` band centres (nm), uniform; cos_theta ``(A,)``.
+        wavelength: ``(B,)`` band centres (nm), uniform, B ≥ 7; cos_theta ``(A,)``.
         n_substrate: real substrate index.
+        bandwidth, passband, polarization, n_incident: the band model
+            (:func:`~torchirid.estimation.band_terms`; Kobayashi et al.'s camera: ``polarization="s"``).
+        n_range, thickness_range: the admissible film index and thickness (nm).
         n_film: if given, skip eq. 12 and use this index.
+        window: the extremum fit's half-width (bands), default adaptive (:func:`detect_extrema`).
         score_stride: eq. 14 scores the orders on every ``score_stride``-th band of the first,
             middle and last angles (enough to tell orders apart, 5× cheaper at the default 3;
             1 with all angles = the full cube).
 
+    Returns:
+        :class:`PeakResult`; dtype and device follow the inputs.
+
     Example: see ``tests/estimation/test_peaks.py`` (a synthetic MgF₂ cube gives n within 0.02).
     """
-    y = torch.as_tensor(cube)
-    dtype = y.dtype if y.is_floating_point() else torch.float64
-    y = y.to(dtype)
-    lam = torch.as_tensor(wavelength, dtype=dtype)
-    c = torch.as_tensor(cos_theta, dtype=dtype).reshape(-1)
+    y, lam, c = cube_axes(cube, wavelength, cos_theta)
+    if lam.numel() < 7:
+        raise ValueError(f"wavelength must have at least 7 bands; got {lam.numel()}")
+    uniform_bands(lam)
+    sorted_angles(c)
+    band_settings(bandwidth, passband, polarization)
+    ns = real_index(n_substrate, "n_substrate", y)
+    n0 = real_index(n_incident, "n_incident", y, incident=True)
+    n_range = value_range(n_range, "n_range", positive=True)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    n_film = None if n_film is None else real_index(n_film, "n_film", y)
+    if window is not None and 2 * _checks.check_int(window, "window") + 1 > lam.numel():
+        raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")
+    score_stride = _checks.check_int(score_stride, "score_stride")
+    band = dict(bandwidth=bandwidth, passband=passband, polarization=polarization, n_incident=n0)
     batch = y.shape[:-2]
-    A, B = y.shape[-2:]
-    Y = y.reshape(-1, A, B)
-    P = Y.shape[0]
-    pos, kind, W = detect_extrema(Y, lam, window=window)
+    Y = y.reshape(-1, *y.shape[-2:])
+    tracks, kinds, n_tr, W = _tracks(Y, lam, c, window, n_range, n0)
+    n_est = _eq12_index(n_tr, n_range) if n_film is None else n_film
+    d, sse, nofb = _eq14_thickness(Y, lam, c, ns, tracks, kinds, n_est, thickness_range, score_stride, band)
+    return PeakResult(n=n_est, thickness=d.reshape(batch), sse=sse.reshape(batch),
+                      track_index=n_tr.reshape(*batch, -1), window=W, fallback=nofb)
+
+
+def _tracks(Y, lam, c, window, n_range, n_incident):
+    """Steps 1–3 on pixels ``Y`` ``(P, A, B)``: extrema, their tracks over the angles and each
+    track's index → ``(tracks (P, K, A), kinds (P, K), n per track (P, K), window W)``."""
+    A = Y.shape[-2]
+    pos, kind, W = _detect_extrema(Y, lam, lam[1] - lam[0], window, MAX_EXTREMA)
     tracks, kinds = track_extrema(pos, kind, c, n_range=n_range, n_incident=n_incident)  # (P, K, A), (P, K)
-    n_tr, cnt = index_from_tracks(tracks, c, n_incident=n_incident, min_angles=min(3, A))
-    in_range = (n_tr >= n_range[0]) & (n_tr <= n_range[1])
-    if n_film is None:
-        vals = n_tr[in_range]
-        if vals.numel() == 0:
-            raise ValueError("no extremum could be followed over angles: the index cannot be estimated by eq. 12; pass n_film")
-        n_est = float(vals.median())
-    else:
-        n_est = float(n_film)
-    cand = thickness_candidates(tracks, kinds, c, n_est, n_substrate, thickness_range=thickness_range,
-                                n_incident=n_incident, polarization=polarization)
-    a_sel = sorted({0, A // 2, A - 1}) if score_stride > 1 else list(range(A))
-    b_sel = list(range(0, B, max(1, int(score_stride))))
-    terms = band_terms(lam[b_sel], c[a_sel, None], n_est, float(n_substrate), bandwidth=bandwidth, passband=passband,
-                       n_incident=n_incident, polarization=polarization)
+    n_tr, _ = index_from_tracks(tracks, c, n_incident=n_incident, min_angles=min(MIN_TRACK_ANGLES, A))
+    return tracks, kinds, n_tr, W
+
+
+def _eq12_index(n_tr, n_range) -> float:
+    """The film's n: the median of the per-track indices inside ``n_range`` (robust to mismatched tracks)."""
+    vals = n_tr[(n_tr >= n_range[0]) & (n_tr <= n_range[1])]
+    if vals.numel() == 0:
+        raise ValueError("no extremum could be followed over angles: the index cannot be estimated by eq. 12; pass n_film")
+    return float(vals.median())
+
+
+def _eq14_thickness(Y, lam, c, ns, tracks, kinds, n_est, thickness_range, score_stride, band):
+    """Steps 4–5: per pixel the eq. 13 candidate of least misfit on the decimated cube (eq. 14);
+    pixels without a track search a thickness grid instead. → ``(d (P,), sse (P,), fallback count)``."""
+    P, A, B = Y.shape
+    cand = thickness_candidates(tracks, kinds, c, n_est, ns, thickness_range=thickness_range,
+                                n_incident=band["n_incident"], polarization=band["polarization"])
+    a_sel, b_sel = decimation(A, B, score_stride)
+    terms = band_terms(lam[b_sel], c[a_sel, None], n_est, ns, **band)
     Ys = Y[:, a_sel][:, :, b_sel]
-    d = torch.full((P,), math.nan, dtype=dtype)
-    sse = torch.full((P,), math.inf, dtype=dtype)
+    d = torch.full((P,), math.nan, dtype=Y.dtype, device=Y.device)
+    sse = torch.full((P,), math.inf, dtype=Y.dtype, device=Y.device)
     has = ~cand.isnan().all(-1)
     if bool(has.any()):
         d[has], sse[has] = select_candidates(Ys[has], cand[has], terms)
     nofb = int((~has).sum())
     if nofb:
-        # no usable extremum: a grid fine enough for the refinement's basin (λ_min/(8 n))
-        step = float(lam[0]) / (8 * n_est)
-        grid = torch.arange(thickness_range[0], thickness_range[1] + step, step, dtype=dtype)
+        # no usable extremum: a grid fine enough for the refinement's basin
+        grid = thickness_grid(thickness_range, float(lam[0]) / (THICKNESS_GRID_DIVISOR * n_est), Y)
         d[~has], sse[~has] = select_candidates(Ys[~has], grid.expand(nofb, -1), terms)
     empty = Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (not the range floor with SSE 0)
     d, sse = torch.where(empty, math.nan, d), torch.where(empty, math.nan, sse)
-    return PeakResult(n=n_est, thickness=d.reshape(batch), sse=sse.reshape(batch),
-                      track_index=n_tr.reshape(*batch, -1), window=W, fallback=nofb)
+    return d, sse, nofb

@@ -23,61 +23,69 @@ d is multimodal (one basin per interference order): :func:`refine_film` keeps th
 from its start, then re-tests every pixel at d ± one order period T = λ/(2√(n²−sin²θ)) in
 one batched call (a few d-only Gauss–Newton steps each) and keeps the best. Pixels whose
 misfit stays above 10× the median are left out of the index update (robust to stray orders).
+
+:func:`refine_film` runs in stages — :func:`_refine_inputs` (validation), :func:`_lm_fit` (the
+damped iterations: :func:`_normal_equations` then :func:`_damped_step`) and :func:`_order_check`.
+The tuning constants (``LM_*``, ``INLIER_MISFIT_RATIO``, ``MAX_THICKNESS_STEP``, ...) are
+module-level names, each with the reason for its value.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import torch
 
 from .. import _checks
+from ._validation import band_settings, cube_axes, real_index, value_range, weight
 from .dispersion import INDEX_MODELS, index_model
 from .measurement import band_terms
+from .residuals import (THICKNESS_GRID_DIVISOR, cube_sse, order_candidates, pixel_chunks, residual_parts, terms_size,
+                        thickness_grid)
 
-__all__ = ["RefineResult", "model_terms", "lm_jacobian", "d_only_gauss_newton", "refine_film", "scan_index"]
+__all__ = [
+    "LM_DAMPING_START",
+    "LM_DAMPING_MIN",
+    "LM_DAMPING_MAX",
+    "LM_DAMPING_DECREASE",
+    "LM_DAMPING_INCREASE",
+    "INLIER_MISFIT_RATIO",
+    "MAX_THICKNESS_STEP",
+    "ORDER_CHECK_ITERATIONS",
+    "SCAN_ITERATIONS",
+    "POLISH_ITERATIONS",
+    "FALLBACK_THICKNESS",
+    "RefineResult",
+    "model_terms",
+    "lm_jacobian",
+    "d_only_gauss_newton",
+    "refine_film",
+    "scan_index",
+    "grid_scan",
+]
+
+LM_DAMPING_START = 1e-3  # initial Levenberg–Marquardt damping μ: nearly Gauss–Newton, the start is usually close
+LM_DAMPING_MIN = 1e-9  # floor of μ after accepted steps (keeps the damped system well conditioned)
+LM_DAMPING_MAX = 1e8  # an iteration gives up once μ exceeds this: the step is then ~0, no descent left
+LM_DAMPING_DECREASE = 3.0  # μ /= 3 after an accepted step (Marquardt's usual factors: slower down than up)
+LM_DAMPING_INCREASE = 5.0  # μ *= 5 after a refused step: a few refusals reach a short gradient step
+INLIER_MISFIT_RATIO = 10.0  # pixels above 10× the median misfit (stray orders) do not steer the index
+MAX_THICKNESS_STEP = 30.0  # nm per step: under a quarter of the shortest fringe period (λ/(2n) ≈ 120 nm for ZnS)
+ORDER_CHECK_ITERATIONS = 3  # d-only Gauss–Newton steps per order candidate in refine_film's final order check
+SCAN_ITERATIONS = 3  # d-only Gauss–Newton steps per candidate and grid index in scan_index
+POLISH_ITERATIONS = 2  # Gauss–Newton steps polishing a thickness found on a grid (a quarter fringe away at most)
+FALLBACK_THICKNESS = 100.0  # nm: start where thickness_init is NaN everywhere (any finite value; empty pixels end NaN)
 
 
 def model_terms(params, index_model_name, wavelength, cos_theta, n_substrate, *, bandwidth=4.0, passband="box",
-                n_incident=1.0, polarization="s"):
+                n_incident=1.0, polarization="unpolarized"):
     """Terms (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.band_reflectance_fast`
     for index parameters ``params`` ``(K,)``; ``wavelength`` ``(B,)`` nm, ``cos_theta`` ``(A,)``.
     """
     return band_terms(wavelength, cos_theta[:, None], lambda lam: index_model(lam, params, index_model_name),
                       n_substrate, bandwidth=bandwidth, passband=passband, n_incident=n_incident, polarization=polarization)
-
-
-def _chunks(P: int, per_pixel: int, budget: int = 200_000):
-    step = max(1, budget // max(per_pixel, 1))  # small chunks stay in cache: ~3x faster than large ones
-    return [(i, min(P, i + step)) for i in range(0, P, step)]
-
-
-def _residual_parts(y, d, terms, with_jacobian=True):
-    """Residual, ∂R_b/∂d and the uncorrected partials for d ``(p, C)``; y ``(p, A, B)`` → ``(p, C, A, B)``."""
-    a, b, e, k, h = terms
-    dd = d[:, :, None, None, None]
-    D = k * dd  # (p, C, pol, A, B)
-    u, s = torch.cos(D), torch.sin(D)
-    g = 1 / (e + b * u)
-    E = e - a
-    g2 = g * g
-    R = 1 - E * g
-    R2 = -E * b * g2 * (u + 2 * b * s * s * g)
-    hd2 = h * dd * dd
-    npol = a.shape[0]
-    model = (R + hd2 * R2).sum(2) / npol
-    r = model - y[:, None]
-    if not with_jacobian:
-        return r, None, None
-    R1 = -E * b * s * g2
-    R3 = -E * b * s * (-g2 + 6 * b * g2 * g * (u + b * s * s * g))
-    Jd = (R1 * k + 2 * h * dd * R2 + hd2 * R3 * k).sum(2) / npol
-    return r, Jd, (R, g, u, R1)
-
-
-def a_size(terms) -> int:
-    return terms[0].numel()
 
 
 def _band_model(terms, d):
@@ -118,7 +126,7 @@ def lm_jacobian(y, d, terms, dterms=None):
         ``(r, Jd, Jt)``: ``(p, A, B)``, ``(p, A, B)`` and ``(p, A, B, K)`` (None without ``dterms``).
     """
     if dterms is None:  # thickness only: the closed-form ∂r/∂d (same values, no graph)
-        r, Jd, _ = _residual_parts(y, d[:, None], terms)
+        r, Jd, _ = residual_parts(y, d[:, None], terms)
         return r[:, 0], Jd[:, 0], None
     P = y.shape[0]
     npol = terms[0].shape[0]
@@ -134,24 +142,31 @@ def lm_jacobian(y, d, terms, dterms=None):
     return r, Jd, Jt
 
 
-def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step: float = 30.0):
+def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step: float = MAX_THICKNESS_STEP):
     """Per-pixel, per-candidate Gauss–Newton on d with the index fixed (batched, no loops over pixels).
 
     Args:
         cube: ``(P, A, B)``; thickness ``(P, C)`` starts (C candidates per pixel, NaN ignored).
         terms: from :func:`model_terms` / :func:`~torchirid.estimation.band_terms`, ``(pol, A, B)``.
+        iterations: Gauss–Newton steps (≥ 0); max_step: the most one step moves d (nm, > 0).
 
     Returns:
         ``(d, sse)`` both ``(P, C)``; a step that raises a candidate's misfit is refused.
     """
+    iterations = _checks.check_int(iterations, "iterations", minimum=0)
+    if not max_step > 0:
+        raise ValueError(f"max_step must be > 0 nm; got {max_step!r}")
+    if cube.ndim != 3 or thickness.ndim != 2 or thickness.shape[0] != cube.shape[0]:
+        raise ValueError(f"cube must be (P, A, B) and thickness (P, C); got {tuple(cube.shape)} and "
+                         f"{tuple(thickness.shape)}")
     P, C = thickness.shape
     d = thickness.clone()
     nan = d.isnan()
     d = d.nan_to_num(0.0)
     sse_out = torch.empty_like(d)
-    for i0, i1 in _chunks(P, C * a_size(terms)):
+    for i0, i1 in pixel_chunks(P, C * terms_size(terms)):
         y, dd = cube[i0:i1], d[i0:i1]
-        r, Jd, _ = _residual_parts(y, dd, terms)
+        r, Jd, _ = residual_parts(y, dd, terms)
         r = r.nan_to_num(0.0)
         sse = (r * r).sum((-1, -2))
         for it in range(iterations):
@@ -160,7 +175,7 @@ def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step
             step = (-g / H.clamp_min(torch.finfo(H.dtype).tiny)).clamp(-max_step, max_step)
             new = (dd + step).clamp_min(0.0)
             last = it + 1 == iterations
-            r2, Jd2, _ = _residual_parts(y, new, terms, with_jacobian=not last)
+            r2, Jd2, _ = residual_parts(y, new, terms, with_jacobian=not last)
             r2 = r2.nan_to_num(0.0)
             sse2 = (r2 * r2).sum((-1, -2))
             better = sse2 < sse
@@ -176,25 +191,25 @@ def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step
     return d, sse_out
 
 
-def _smooth_terms(d_img, weight):
-    """(value, gradient, diagonal) of weight·Σ_{4-neighbours}(d_p − d_q)² for an image (H, W)."""
-    if weight == 0 or d_img.ndim != 2:
+def _smooth_terms(d_img, mu_s):
+    """(value, gradient, diagonal) of mu_s·Σ_{4-neighbours}(d_p − d_q)² for an image (H, W)."""
+    if mu_s == 0 or d_img.ndim != 2:
         z = torch.zeros_like(d_img)
         return d_img.new_zeros(()), z, z
     dx = d_img[:, 1:] - d_img[:, :-1]
     dy = d_img[1:, :] - d_img[:-1, :]
-    val = weight * ((dx * dx).sum() + (dy * dy).sum())
+    val = mu_s * ((dx * dx).sum() + (dy * dy).sum())
     g = torch.zeros_like(d_img)
-    g[:, 1:] += 2 * weight * dx
-    g[:, :-1] -= 2 * weight * dx
-    g[1:, :] += 2 * weight * dy
-    g[:-1, :] -= 2 * weight * dy
+    g[:, 1:] += 2 * mu_s * dx
+    g[:, :-1] -= 2 * mu_s * dx
+    g[1:, :] += 2 * mu_s * dy
+    g[:-1, :] -= 2 * mu_s * dy
     deg = torch.zeros_like(d_img)
     deg[:, 1:] += 1
     deg[:, :-1] += 1
     deg[1:, :] += 1
     deg[:-1, :] += 1
-    return val, g, 2 * weight * deg
+    return val, g, 2 * mu_s * deg
 
 
 @dataclass
@@ -211,45 +226,249 @@ class RefineResult:
     reordered: int = 0
 
 
+def _pixels_axes(cube, wavelength, cos_theta, thickness=None):
+    """Validated ``(P, A, B)`` pixels with their axes for :func:`scan_index` / :func:`grid_scan`."""
+    y, lam, c = cube_axes(cube, wavelength, cos_theta)
+    if y.ndim != 3:
+        raise ValueError(f"cube must have shape (P, A, B); got {tuple(y.shape)}")
+    if thickness is not None:
+        d = _checks.as_real(thickness, "thickness", y.dtype, y.device)
+        if d.shape != y.shape[:1]:
+            raise ValueError(f"thickness must have one value per pixel ({y.shape[0]}); got shape {tuple(d.shape)}")
+        return y, lam, c, d
+    return y, lam, c
+
+
 def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, rel_range=0.15, steps: int = 21,
-               slopes=(0.0,), bandwidth=4.0, passband="box", polarization="s", n_incident=1.0):
+               slopes=(0.0,), bandwidth=4.0, passband="box", polarization="unpolarized", n_incident=1.0):
     """Best index n(λ) = A + B/λ_µm² on a grid by total misfit of ``cube`` ``(P, A, B)``.
 
     The grid: n(λ_mid) ∈ n_start·[1 − r, 1 + r] (``steps`` values) × B ∈ ``slopes`` (µm²;
     ``(0,)``: constant index). For each grid value the pixel's optical thickness is kept
     (d·√(n²−s²) fixed), the three nearest interference orders are tried and polished by
-    :func:`d_only_gauss_newton`. Guards against a biased eq. 12 estimate (dispersive films:
-    Kobayashi et al.'s ZnS). Returns ``(params (2,) = (A, B), d_best (P,), grid (N, 2), losses (N,))``.
+    :func:`d_only_gauss_newton` (``SCAN_ITERATIONS`` steps). Guards against a biased eq. 12
+    estimate (dispersive films: Kobayashi et al.'s ZnS). Returns
+    ``(params (2,) = (A, B), d_best (P,), grid (N, 2), losses (N,))``.
     """
-    dtype = cube.dtype
-    lam = torch.as_tensor(wavelength, dtype=dtype)
-    c = torch.as_tensor(cos_theta, dtype=dtype)
+    y, lam, c, thickness = _pixels_axes(cube, wavelength, cos_theta, thickness)
+    band_settings(bandwidth, passband, polarization)
+    n_start = real_index(n_start, "n_start", y)
+    ns = real_index(n_substrate, "n_substrate", y)
+    n_incident = real_index(n_incident, "n_incident", y, incident=True)
+    steps = _checks.check_int(steps, "steps")
+    if not 0 <= rel_range < 1:
+        raise ValueError(f"rel_range must be in [0, 1); got {rel_range!r}")
+    try:
+        slopes = tuple(float(b) for b in slopes)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"slopes must be a sequence of numbers (Cauchy B in µm²); got {slopes!r}") from exc
+    dtype, device = y.dtype, y.device
     s2 = (n_incident ** 2) * (1 - c * c)
     lam_mid = float(lam.median())
     inv_mid = (1000.0 / lam_mid) ** 2
-    mids = n_start * torch.linspace(1 - rel_range, 1 + rel_range, steps, dtype=dtype)
-    grid = torch.tensor([[float(m) - b * inv_mid, b] for m in mids for b in slopes], dtype=dtype)
+    mids = n_start * torch.linspace(1 - rel_range, 1 + rel_range, steps, dtype=dtype, device=device)
+    grid = torch.tensor([[float(m) - b * inv_mid, b] for m in mids for b in slopes], dtype=dtype, device=device)
     losses, ds = [], []
     nc0 = float(torch.sqrt(n_start ** 2 - s2).mean())
     for A_, B_ in grid.tolist():
         n_mid = A_ + B_ * inv_mid
-        terms = band_terms(lam, c[:, None], lambda l: A_ + B_ * (1000.0 / l) ** 2, n_substrate, bandwidth=bandwidth,
+        terms = band_terms(lam, c[:, None], lambda l: A_ + B_ * (1000.0 / l) ** 2, ns, bandwidth=bandwidth,
                            passband=passband, n_incident=n_incident, polarization=polarization)
         nc = float(torch.sqrt(n_mid ** 2 - s2).mean())
-        D = (thickness * (nc0 / nc))[:, None] + (lam_mid / (2 * nc)) * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
-        D = torch.where(D > 0, D, torch.full_like(D, math.nan))
-        dd, sse = d_only_gauss_newton(cube, D, terms, iterations=3)
+        D = order_candidates(thickness * (nc0 / nc), lam_mid / (2 * nc))
+        dd, sse = d_only_gauss_newton(y, D, terms, iterations=SCAN_ITERATIONS)
         best = sse.argmin(-1, keepdim=True)
         losses.append(float(sse.gather(-1, best).sum()))
         ds.append(dd.gather(-1, best)[:, 0])
-    losses = torch.tensor(losses, dtype=dtype)
+    losses = torch.tensor(losses, dtype=dtype, device=device)
     i = int(losses.argmin())
     return grid[i], ds[i], grid, losses
 
 
+class _Fit:
+    """One validated refinement problem: the pixels ``Y`` ``(P, A, B)`` (NaN → 0) with their mask
+    ``valid``, the band grid, the index model and the band-model keywords; evaluates the misfit."""
+
+    def __init__(self, Y, valid, lam, c, ns, model, band, batch, smoothness):
+        self.Y, self.valid, self.lam, self.c, self.ns = Y, valid, lam, c, ns
+        self.model, self.band, self.batch, self.smoothness = model, band, batch, smoothness
+        self.image = len(batch) == 2 and smoothness > 0
+
+    def terms(self, theta):
+        """Terms (a, b, e, k, h) of the index parameters ``theta`` on the whole grid."""
+        return model_terms(theta, self.model, self.lam, self.c, self.ns, **self.band)
+
+    def sse(self, theta, d):
+        """Per-pixel misfit ``(P,)`` at index ``theta`` and thickness ``d`` ``(P,)`` (NaN samples skipped)."""
+        terms = self.terms(theta)
+        P = self.Y.shape[0]
+        out = torch.empty(P, dtype=self.Y.dtype, device=self.Y.device)
+        for i0, i1 in pixel_chunks(P, terms_size(terms)):
+            r, _, _ = residual_parts(self.Y[i0:i1], d[i0:i1, None], terms, with_jacobian=False)
+            r = torch.where(self.valid[i0:i1, None], r, torch.zeros_like(r))
+            out[i0:i1] = (r * r).sum((-1, -2))[:, 0]
+        return out
+
+    def smooth(self, d):
+        """(value, gradient, diagonal) of the smoothness term (zeros unless an image with μ_s > 0)."""
+        return _smooth_terms(d.reshape(self.batch), self.smoothness) if self.image else _smooth_terms(d, 0.0)
+
+    def total(self, sse, d) -> float:
+        """The objective L: misfit plus smoothness."""
+        return float(sse.sum() + self.smooth(d)[0])
+
+
+class _Normal(NamedTuple):
+    """Gauss–Newton pieces of ½L: the thickness diagonal ``Hdd`` and gradient ``gd`` ``(P,)``
+    (smoothness included), the inlier cross terms ``Hdt`` ``(P, K)``, the index block ``Htt``
+    ``(K, K)`` and gradient ``gt`` ``(K,)`` (None without the index)."""
+
+    Hdd: torch.Tensor
+    gd: torch.Tensor
+    Hdt: torch.Tensor | None
+    Htt: torch.Tensor | None
+    gt: torch.Tensor | None
+
+
+def _refine_inputs(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, index_model_name, band,
+                   smoothness, iterations, tol):
+    """Validate :func:`refine_film`'s arguments (ValueError naming the parameter) and prepare the
+    problem → ``(fit, theta (K,), d (P,))``; NaN starts become the median start."""
+    if index_model_name not in INDEX_MODELS:
+        raise ValueError(f"index_model_name must be one of {_checks.names(tuple(INDEX_MODELS))}; got {index_model_name!r}")
+    smoothness = weight(smoothness, "smoothness")
+    _checks.check_int(iterations, "iterations", minimum=0)
+    weight(tol, "tol")
+    band_settings(band["bandwidth"], band["passband"], band["polarization"])
+    y_all, lam, c = cube_axes(cube, wavelength, cos_theta)
+    band = dict(band, n_incident=real_index(band["n_incident"], "n_incident", y_all, incident=True))
+    ns = real_index(n_substrate, "n_substrate", y_all)
+    dtype, device = y_all.dtype, y_all.device
+    batch = y_all.shape[:-2]
+    Y = y_all.reshape(-1, *y_all.shape[-2:])
+    P = Y.shape[0]
+    K = INDEX_MODELS[index_model_name]
+    _checks.check_numbers(index_init=index_init, thickness_init=thickness_init)
+    theta = _checks.as_real(index_init, "index_init", dtype, device).reshape(-1).clone()
+    if theta.numel() == 1 and K > 1:
+        theta = torch.cat([theta, theta.new_zeros(K - 1)])
+    if theta.numel() != K:
+        raise ValueError(f"index_init must have {K} parameters for {index_model_name!r}; got {theta.numel()}")
+    d = _checks.as_real(thickness_init, "thickness_init", dtype, device).reshape(-1).clone()
+    if d.numel() != P:
+        raise ValueError(f"thickness_init must have one value per pixel ({P}); got {d.numel()}")
+    d = d.nan_to_num(float(d[~d.isnan()].median()) if bool((~d.isnan()).any()) else FALLBACK_THICKNESS).clamp_min(0.0)
+    fit = _Fit(Y.nan_to_num(0.0), ~Y.isnan(), lam, c, ns, index_model_name, band, batch, smoothness)
+    return fit, theta, d
+
+
+def _normal_equations(fit, theta, d, sse, fit_index) -> _Normal:
+    """The Gauss–Newton system at (θ, d): exact Jacobians by chunks of pixels (:func:`lm_jacobian`),
+    ∂terms/∂θ once by forward mode; pixels above ``INLIER_MISFIT_RATIO`` × the median misfit are
+    left out of the index rows."""
+    terms = fit.terms(theta)
+    P, K = fit.Y.shape[0], theta.numel()
+    dtype, device = fit.Y.dtype, fit.Y.device
+    if fit_index:
+        # ∂(a, b, e, k, h)/∂θ on the small (pol, A, B) grid, once per iteration: 5 × (pol, A, B, K)
+        dterms = torch.func.jacfwd(fit.terms)(theta)
+        Htt_p = torch.empty(P, K, K, dtype=dtype, device=device)
+        gt_p = torch.empty(P, K, dtype=dtype, device=device)
+        Hdt = torch.zeros(P, K, dtype=dtype, device=device)
+    Hdd = torch.empty(P, dtype=dtype, device=device)
+    gd = torch.empty(P, dtype=dtype, device=device)
+    for i0, i1 in pixel_chunks(P, terms_size(terms)):
+        r, Jd, Jt = lm_jacobian(fit.Y[i0:i1], d[i0:i1], terms, dterms if fit_index else None)
+        m = fit.valid[i0:i1]
+        r = torch.where(m, r, torch.zeros_like(r))
+        Jd = torch.where(m, Jd, torch.zeros_like(Jd))
+        Hdd[i0:i1] = (Jd * Jd).sum((-1, -2))
+        gd[i0:i1] = (Jd * r).sum((-1, -2))
+        if fit_index:
+            Jt = torch.where(m[..., None], Jt, torch.zeros_like(Jt))
+            Hdt[i0:i1] = torch.einsum("pab,pabk->pk", Jd, Jt)
+            Htt_p[i0:i1] = torch.einsum("pabk,pabl->pkl", Jt, Jt)
+            gt_p[i0:i1] = torch.einsum("pabk,pab->pk", Jt, r)
+    _, sg, sdiag = fit.smooth(d)
+    Hdd, gd = Hdd + sdiag.reshape(-1) / 2, gd + sg.reshape(-1) / 2  # of ½L
+    if not fit_index:
+        return _Normal(Hdd, gd, None, None, None)
+    inlier = (sse <= INLIER_MISFIT_RATIO * sse.median()).to(dtype)  # robust: stray-order pixels do not steer n
+    return _Normal(Hdd, gd, Hdt * inlier[:, None], (Htt_p * inlier[:, None, None]).sum(0),
+                   (gt_p * inlier[:, None]).sum(0))
+
+
+def _damped_step(fit, theta, d, sse, system, mu, loss0):
+    """One Levenberg–Marquardt step from (θ, d): solve the damped arrow-shaped system by the Schur
+    complement of the per-pixel block, raising μ until the objective falls below ``loss0``.
+
+    Returns ``(theta, d, sse, mu, accepted)`` — unchanged with accepted False when μ passes
+    ``LM_DAMPING_MAX``."""
+    tiny = torch.finfo(fit.Y.dtype).tiny
+    while mu < LM_DAMPING_MAX:
+        Hd = system.Hdd * (1 + mu) + tiny
+        if system.Htt is not None:
+            Hdt = system.Hdt
+            S = (system.Htt + mu * torch.diag(torch.diagonal(system.Htt))
+                 - torch.einsum("pk,pl->kl", Hdt / Hd[:, None], Hdt))
+            rhs = -system.gt + (Hdt * (system.gd / Hd)[:, None]).sum(0)
+            dth = torch.linalg.solve(S, rhs)
+            dd_step = -(system.gd + Hdt @ dth) / Hd
+        else:
+            dth = torch.zeros_like(theta)
+            dd_step = -system.gd / Hd
+        dd_step = dd_step.clamp(-MAX_THICKNESS_STEP, MAX_THICKNESS_STEP)  # stay in the current interference order
+        th_new, d_new = theta + dth, (d + dd_step).clamp_min(0.0)
+        sse_new = fit.sse(th_new, d_new)
+        if fit.total(sse_new, d_new) < loss0:
+            return th_new, d_new, sse_new, max(mu / LM_DAMPING_DECREASE, LM_DAMPING_MIN), True
+        mu *= LM_DAMPING_INCREASE
+    return theta, d, sse, mu, False
+
+
+def _lm_fit(fit, theta, d, *, iterations, fit_index, tol, progress):
+    """Up to ``iterations`` Levenberg–Marquardt iterations; stops when a step is refused or the
+    objective falls by no more than ``tol`` (relative). → ``(theta, d, sse, history, iterations run)``."""
+    history = []
+    sse = fit.sse(theta, d)
+    mu = LM_DAMPING_START
+    it_done = 0
+    for it in range(iterations):
+        system = _normal_equations(fit, theta, d, sse, fit_index)
+        loss0 = fit.total(sse, d)
+        theta, d, sse, mu, accepted = _damped_step(fit, theta, d, sse, system, mu, loss0)
+        it_done = it + 1
+        history.append(fit.total(sse, d))
+        if progress is not None:
+            progress("refine")
+        if not accepted or (loss0 - history[-1]) <= tol * loss0:
+            break
+    return theta, d, sse, history, it_done
+
+
+def _order_check(fit, theta, d, sse, progress):
+    """Re-test every pixel at d ± one order period T = λ_mid/(2√(n²−sin²θ)) (``ORDER_CHECK_ITERATIONS``
+    d-only steps each) and keep the best order → ``(d, sse, pixels reordered)``."""
+    terms = fit.terms(theta)
+    lam_mid = fit.lam.median()
+    n_mid = index_model(lam_mid, theta, fit.model)
+    s2 = (fit.band["n_incident"] ** 2) * (1 - fit.c * fit.c)
+    T = float(lam_mid) / (2 * float(torch.sqrt(n_mid ** 2 - s2).mean()))
+    Dn, S = d_only_gauss_newton(fit.Y, order_candidates(d, T), terms, iterations=ORDER_CHECK_ITERATIONS)
+    best = S.argmin(-1)
+    changed = best != 1
+    reordered = int(changed.sum())
+    if reordered:
+        d = torch.where(changed, Dn.gather(-1, best[:, None])[:, 0], d)
+        sse = fit.sse(theta, d)
+        if progress is not None:
+            progress("order check")
+    return d, sse, reordered
+
+
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, *, index_model_name="constant",
-                bandwidth=4.0, passband="box", polarization="s", n_incident=1.0, smoothness: float = 0.0,
+                bandwidth=4.0, passband="box", polarization="unpolarized", n_incident=1.0, smoothness: float = 0.0,
                 iterations: int = 12, fit_index: bool = True, order_check: bool = True, tol: float = 1e-7,
                 progress=None) -> RefineResult:
     r"""Joint Levenberg–Marquardt fit of the shared index model and per-pixel thickness (module docstring).
@@ -260,172 +479,61 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
         thickness_init: ``(*)`` starting d (nm), e.g. from :func:`~torchirid.estimation.peak_method`.
         index_init: ``(K,)`` starting index parameters (or a number: A, the rest 0).
         index_model_name: ``"constant"``, ``"cauchy"`` or ``"cauchy3"``.
+        bandwidth, passband, polarization, n_incident: the band model
+            (:func:`~torchirid.estimation.band_terms`; Kobayashi et al.'s camera: ``polarization="s"``).
         smoothness: μ_s ≥ 0 (reflectance² per nm²), only for an image cube.
+        iterations: at most this many joint iterations (≥ 0).
         fit_index: False keeps the index fixed (thickness only).
         order_check: re-test d ± one order period per pixel at the end.
+        tol: stop when an iteration lowers the objective by less than this fraction.
         progress: optional callable ``progress(step_name)`` called once per iteration.
 
     Returns:
-        :class:`RefineResult`.
+        :class:`RefineResult`; dtype and device follow cube, wavelength and cos_theta.
     """
-    if index_model_name not in INDEX_MODELS:
-        raise ValueError(f"index_model_name must be one of {_checks.names(tuple(INDEX_MODELS))}; got {index_model_name!r}")
-    if not (smoothness >= 0 and math.isfinite(smoothness)):
-        raise ValueError(f"smoothness must be >= 0; got {smoothness!r}")
-    y_all = torch.as_tensor(cube)
-    dtype = y_all.dtype
-    batch = y_all.shape[:-2]
-    A, B = y_all.shape[-2:]
-    Y = y_all.reshape(-1, A, B)
-    P = Y.shape[0]
-    valid_y = ~Y.isnan()
-    Y = Y.nan_to_num(0.0)
-    lam = torch.as_tensor(wavelength, dtype=dtype)
-    c = torch.as_tensor(cos_theta, dtype=dtype).reshape(-1)
-    K = INDEX_MODELS[index_model_name]
-    theta = torch.as_tensor(index_init, dtype=dtype).reshape(-1).clone()
-    if theta.numel() == 1 and K > 1:
-        theta = torch.cat([theta, theta.new_zeros(K - 1)])
-    if theta.numel() != K:
-        raise ValueError(f"index_init must have {K} parameters for {index_model_name!r}; got {theta.numel()}")
-    d = torch.as_tensor(thickness_init, dtype=dtype).reshape(-1).clone()
-    if d.numel() != P:
-        raise ValueError(f"thickness_init must have one value per pixel ({P}); got {d.numel()}")
-    d = d.nan_to_num(float(d[~d.isnan()].median()) if bool((~d.isnan()).any()) else 100.0).clamp_min(0.0)
-    ns = float(n_substrate)
-    image = len(batch) == 2 and smoothness > 0
-
-    def terms_of(th):
-        return model_terms(th, index_model_name, lam, c, ns, bandwidth=bandwidth, passband=passband, n_incident=n_incident,
-                           polarization=polarization)
-
-    def sse_of(th, dd):
-        terms = terms_of(th)
-        out = torch.empty(P, dtype=dtype)
-        for i0, i1 in _chunks(P, a_size(terms)):
-            r, _, _ = _residual_parts(Y[i0:i1], dd[i0:i1, None], terms, with_jacobian=False)
-            r = torch.where(valid_y[i0:i1, None], r, torch.zeros_like(r))
-            out[i0:i1] = (r * r).sum((-1, -2))[:, 0]
-        return out
-
-    def smooth_of(dd):
-        return _smooth_terms(dd.reshape(batch), smoothness) if image else _smooth_terms(dd, 0.0)
-
-    def total(sse, dd):
-        return float(sse.sum() + smooth_of(dd)[0])
-
-    history = []
-    sse = sse_of(theta, d)
-    mu = 1e-3
-    it_done = 0
-    for it in range(iterations):
-        terms = terms_of(theta)
-        npol = terms[0].shape[0]
-        if fit_index:
-            # ∂(a, b, e, k, h)/∂θ on the small (pol, A, B) grid, once per iteration: 5 × (pol, A, B, K)
-            dterms = torch.func.jacfwd(terms_of)(theta)
-            Htt_p = torch.empty(P, K, K, dtype=dtype)
-            gt_p = torch.empty(P, K, dtype=dtype)
-        Hdd = torch.empty(P, dtype=dtype)
-        gd = torch.empty(P, dtype=dtype)
-        Hdt = torch.zeros(P, K, dtype=dtype)
-        for i0, i1 in _chunks(P, a_size(terms)):
-            r, Jd, Jt = lm_jacobian(Y[i0:i1], d[i0:i1], terms, dterms if fit_index else None)
-            m = valid_y[i0:i1]
-            r = torch.where(m, r, torch.zeros_like(r))
-            Jd = torch.where(m, Jd, torch.zeros_like(Jd))
-            Hdd[i0:i1] = (Jd * Jd).sum((-1, -2))
-            gd[i0:i1] = (Jd * r).sum((-1, -2))
-            if fit_index:
-                Jt = torch.where(m[..., None], Jt, torch.zeros_like(Jt))
-                Hdt[i0:i1] = torch.einsum("pab,pabk->pk", Jd, Jt)
-                Htt_p[i0:i1] = torch.einsum("pabk,pabl->pkl", Jt, Jt)
-                gt_p[i0:i1] = torch.einsum("pabk,pab->pk", Jt, r)
-        if fit_index:
-            inlier = (sse <= 10 * sse.median()).to(dtype)  # robust: stray-order pixels do not steer n
-            Hdt_in = Hdt * inlier[:, None]
-            Htt = (Htt_p * inlier[:, None, None]).sum(0)
-            gt = (gt_p * inlier[:, None]).sum(0)
-        _, sg, sdiag = smooth_of(d)
-        gdt = gd + sg.reshape(-1) / 2  # gradient of ½L
-        Hdd_t = Hdd + sdiag.reshape(-1) / 2
-        loss0 = total(sse, d)
-        accepted = False
-        while mu < 1e8:
-            Hd = Hdd_t * (1 + mu) + torch.finfo(dtype).tiny
-            if fit_index:
-                S = Htt + mu * torch.diag(torch.diagonal(Htt)) - torch.einsum("pk,pl->kl", Hdt_in / Hd[:, None], Hdt_in)
-                rhs = -gt + (Hdt_in * (gdt / Hd)[:, None]).sum(0)
-                dth = torch.linalg.solve(S, rhs)
-                dd_step = -(gdt + Hdt_in @ dth) / Hd
-            else:
-                dth = torch.zeros(K, dtype=dtype)
-                dd_step = -gdt / Hd
-            dd_step = dd_step.clamp(-30.0, 30.0)  # stay in the current interference order
-            th_new, d_new = theta + dth, (d + dd_step).clamp_min(0.0)
-            sse_new = sse_of(th_new, d_new)
-            loss1 = total(sse_new, d_new)
-            if loss1 < loss0:
-                theta, d, sse = th_new, d_new, sse_new
-                mu = max(mu / 3, 1e-9)
-                accepted = True
-                break
-            mu *= 5
-        it_done = it + 1
-        history.append(total(sse, d))
-        if progress is not None:
-            progress("refine")
-        if not accepted or (loss0 - history[-1]) <= tol * loss0:
-            break
+    band = dict(bandwidth=bandwidth, passband=passband, n_incident=n_incident, polarization=polarization)
+    fit, theta, d = _refine_inputs(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init,
+                                   index_model_name, band, smoothness, iterations, tol)
+    theta, d, sse, history, it_done = _lm_fit(fit, theta, d, iterations=iterations, fit_index=fit_index, tol=tol,
+                                              progress=progress)
     reordered = 0
     if order_check:
-        terms = terms_of(theta)
-        n_mid = index_model(lam.median(), theta, index_model_name)
-        s2 = (n_incident ** 2) * (1 - c * c)
-        T = float(lam.median()) / (2 * float(torch.sqrt(n_mid ** 2 - s2).mean()))
-        D = d[:, None] + T * torch.tensor([-1.0, 0.0, 1.0], dtype=dtype)
-        D = torch.where(D > 0, D, torch.full_like(D, math.nan))
-        Dn, S = d_only_gauss_newton(Y, D, terms, iterations=3)
-        best = S.argmin(-1)
-        changed = best != 1
-        reordered = int(changed.sum())
-        if reordered:
-            d = torch.where(changed, Dn.gather(-1, best[:, None])[:, 0], d)
-            sse = sse_of(theta, d)
-            if progress is not None:
-                progress("order check")
+        d, sse, reordered = _order_check(fit, theta, d, sse, progress)
     # a pixel without a single finite sample has no estimate (its residuals were 0 by the NaN fill)
-    empty = ~valid_y.any(-1).any(-1)
+    empty = ~fit.valid.any(-1).any(-1)
     d, sse = torch.where(empty, math.nan, d), torch.where(empty, math.nan, sse)
-    return RefineResult(params=theta, index_model=index_model_name, thickness=d.reshape(batch), sse=sse.reshape(batch),
-                        history=history, iterations=it_done, reordered=reordered)
+    return RefineResult(params=theta, index_model=index_model_name, thickness=d.reshape(fit.batch),
+                        sse=sse.reshape(fit.batch), history=history, iterations=it_done, reordered=reordered)
 
 
 def grid_scan(cube, wavelength, cos_theta, n_substrate, n_grid, *, thickness_range=(20.0, 2000.0),
-              bandwidth=4.0, passband="box", polarization="s", n_incident=1.0):
+              bandwidth=4.0, passband="box", polarization="unpolarized", n_incident=1.0):
     """Exhaustive search, independent of any peak: for each constant index of ``n_grid`` the
     best thickness of every pixel of ``cube`` ``(P, A, B)`` on a grid of step λ_min/(8√(n²−s²))
-    (inside one interference basin), polished by two Gauss–Newton steps.
+    (``THICKNESS_GRID_DIVISOR``: inside one interference basin), polished by ``POLISH_ITERATIONS``
+    Gauss–Newton steps.
 
     Returns ``(losses (N,), thickness (N, P))`` — the total misfit per index and the thicknesses.
     Cost N × P × (grid size) model evaluations: meant for a pixel sample or few pixels.
     """
-    dtype = cube.dtype
-    lam = torch.as_tensor(wavelength, dtype=dtype)
-    c = torch.as_tensor(cos_theta, dtype=dtype)
+    y, lam, c = _pixels_axes(cube, wavelength, cos_theta)
+    band_settings(bandwidth, passband, polarization)
+    ns = real_index(n_substrate, "n_substrate", y)
+    n_incident = real_index(n_incident, "n_incident", y, incident=True)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    _checks.check_numbers(n_grid=n_grid)
+    n_grid = _checks.as_real(n_grid, "n_grid", y.dtype, y.device).reshape(-1)
+    _checks.check_index(n_grid, "n_grid")
     s2 = (n_incident ** 2) * (1 - c * c)
-    lo, hi = map(float, thickness_range)
     losses, ds = [], []
-    for n in torch.as_tensor(n_grid, dtype=dtype).tolist():
-        terms = band_terms(lam, c[:, None], n, n_substrate, bandwidth=bandwidth, passband=passband, n_incident=n_incident,
+    for n in n_grid.tolist():
+        terms = band_terms(lam, c[:, None], n, ns, bandwidth=bandwidth, passband=passband, n_incident=n_incident,
                            polarization=polarization)
-        step = float(lam.min()) / (8 * float(torch.sqrt(n * n - s2).max()))
-        grid = torch.arange(lo, hi + step, step, dtype=dtype)
-        from .peaks import cube_sse
-
-        sse = cube_sse(cube, terms, grid.expand(cube.shape[0], -1))
+        step = float(lam.min()) / (THICKNESS_GRID_DIVISOR * float(torch.sqrt(n * n - s2).max()))
+        grid = thickness_grid(thickness_range, step, y)
+        sse = cube_sse(y, terms, grid.expand(y.shape[0], -1))
         d0 = grid[sse.argmin(-1)][:, None]
-        d, s = d_only_gauss_newton(cube, d0, terms, iterations=2, max_step=step)
+        d, s = d_only_gauss_newton(y, d0, terms, iterations=POLISH_ITERATIONS, max_step=step)
         losses.append(float(s.sum()))
         ds.append(d[:, 0])
-    return torch.tensor(losses, dtype=dtype), torch.stack(ds)
+    return torch.tensor(losses, dtype=y.dtype, device=y.device), torch.stack(ds)

@@ -1,9 +1,11 @@
 r"""Seeded synthetic hyperspectral cubes of a film on a substrate (Kobayashi et al. §5).
 
 :func:`synthetic_cube` renders a cube ``(H, W, A, B)`` — image rows × columns × incidence
-angles × spectral bands — of the s-polarized, band-integrated reflectance
+angles × spectral bands — of the band-integrated reflectance
 (:mod:`torchirid.estimation.measurement`) of a film whose thickness varies smoothly over the
-image, then adds noise:
+image, then adds noise. Its ``polarization`` defaults to ``"unpolarized"``, like
+:func:`~torchirid.estimation.estimate_film`'s (a cube and its fit agree by default); the paper's
+camera sees the s wave: ``polarization="s"`` renders Kobayashi et al.'s setup.
 
 .. math:: y = R + σ_g R_{max}\, ε_1 + σ_s \sqrt{R\, R_{max}}\, ε_2, \qquad ε_i \sim N(0, 1),
 
@@ -38,18 +40,21 @@ from .. import _checks
 from .dispersion import REFERENCE_WAVELENGTH, zns_index
 from .measurement import airy_terms, band_nodes
 
-__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "smooth_field", "synthetic_cube", "DEFAULT_ANGLES", "default_wavelengths"]
+__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "smooth_field", "synthetic_cube", "DEFAULT_ANGLES",
+           "default_wavelengths", "RENDER_CHUNK"]
 
 DEFAULT_ANGLES = (10.0, 20.0, 30.0, 40.0, 50.0)  # degrees, §5.1
+RENDER_CHUNK = 2048  # pixels rendered at once: bounds memory at (chunk, pol, A, B, nodes) samples
+_CPU = torch.device("cpu")
 
 
 def default_wavelengths(dtype=torch.float64) -> torch.Tensor:
-    """Band centres 400, 404, …, 720 nm (81 bands of 4 nm, the paper's LCTF sampling).
+    """Band centres 400, 404, …, 720 nm (81 bands of 4 nm, the paper's LCTF sampling), on the CPU.
 
     >>> w = default_wavelengths(); (w.numel(), float(w[0]), float(w[-1]))
     (81, 400.0, 720.0)
     """
-    return torch.arange(400.0, 720.0 + 1e-9, 4.0, dtype=dtype)
+    return torch.arange(400.0, 720.0 + 1e-9, 4.0, dtype=dtype, device=_CPU)
 
 
 @dataclass(frozen=True)
@@ -64,7 +69,9 @@ class FilmSample:
     paper: dict = field(default_factory=dict)
 
     def n_at(self, wavelength) -> torch.Tensor:
-        w = torch.as_tensor(wavelength, dtype=torch.float64)
+        """n at ``wavelength`` (nm), float64 on the device of ``wavelength`` (the CPU for a number)."""
+        device = wavelength.device if isinstance(wavelength, torch.Tensor) else _CPU
+        w = torch.as_tensor(wavelength, dtype=torch.float64, device=device)
         return self.n_film(w) if callable(self.n_film) else torch.full_like(w, float(self.n_film))
 
     @property
@@ -118,17 +125,22 @@ class SyntheticCube:
 
 
 def smooth_field(height: int, width: int, generator: torch.Generator, *, waves: int = 4, dtype=torch.float64):
-    """A smooth random field on ``(height, width)`` spanning exactly [−1, 1] (see module docstring).
+    """A smooth random field on ``(height, width)`` spanning exactly [−1, 1] (see module docstring),
+    on the device of ``generator``.
 
     >>> g = torch.Generator().manual_seed(0)
     >>> f = smooth_field(8, 8, g); (round(float(f.min()), 12), round(float(f.max()), 12))
     (-1.0, 1.0)
     """
-    y = torch.linspace(0.0, 1.0, height, dtype=dtype)[:, None]
-    x = torch.linspace(0.0, 1.0, width, dtype=dtype)[None, :]
-    f = torch.zeros(height, width, dtype=dtype)
+    height, width = _checks.check_int(height, "height"), _checks.check_int(width, "width")
+    waves = _checks.check_int(waves, "waves")
+    device = generator.device
+    y = torch.linspace(0.0, 1.0, height, dtype=dtype, device=device)[:, None]
+    x = torch.linspace(0.0, 1.0, width, dtype=dtype, device=device)[None, :]
+    f = torch.zeros(height, width, dtype=dtype, device=device)
+    scale = torch.tensor([3.0, 3.0, 2 * math.pi], dtype=dtype, device=device)
     for _ in range(waves):
-        fx, fy, ph = (torch.rand(3, generator=generator, dtype=dtype) * torch.tensor([3.0, 3.0, 2 * math.pi], dtype=dtype)).tolist()
+        fx, fy, ph = (torch.rand(3, generator=generator, dtype=dtype, device=device) * scale).tolist()
         f = f + torch.cos(2 * math.pi * ((fx - 1.5) * x + (fy - 1.5) * y) * 0.5 + ph)
     if height * width == 1:
         return torch.zeros_like(f)
@@ -145,7 +157,7 @@ def synthetic_cube(
     wavelength=None,
     bandwidth: float = 4.0,
     passband: str = "box",
-    polarization: str = "s",
+    polarization: str = "unpolarized",
     gaussian_noise: float = 0.01,
     shot_noise: float = 0.01,
     thickness_variation: float = 0.1,
@@ -159,9 +171,11 @@ def synthetic_cube(
         sample: a key of :data:`SAMPLES` or a :class:`FilmSample`.
         height, width: image size in pixels (≥ 1).
         angles_deg: incidence angles in degrees, in [0, 90).
-        wavelength: ``(B,)`` band centres in nm; default 400–720 nm every 4 nm.
+        wavelength: ``(B,)`` band centres in nm; default 400–720 nm every 4 nm. The cube is
+            rendered on its device (the CPU by default); the noise is drawn on the CPU.
         bandwidth, passband, nodes: the band model of :func:`~torchirid.estimation.band_reflectance`.
-        polarization: ``"s"`` (the paper), ``"p"`` or ``"unpolarized"``.
+        polarization: ``"unpolarized"`` (default, as :func:`~torchirid.estimation.estimate_film`),
+            ``"s"`` (Kobayashi et al.'s setup) or ``"p"``.
         gaussian_noise, shot_noise: σ_g, σ_s ≥ 0 as fractions of R_max (module docstring).
         thickness_variation: v ≥ 0, relative half-range of the thickness map (< 1).
         seed: seeds one ``torch.Generator`` for the map and the noise.
@@ -175,36 +189,45 @@ def synthetic_cube(
         if sample not in SAMPLES:
             raise ValueError(f"sample must be one of {_checks.names(tuple(SAMPLES))} or a FilmSample; got {sample!r}")
         sample = SAMPLES[sample]
-    for name, v in (("height", height), ("width", width)):
-        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
-            raise ValueError(f"{name} must be an integer >= 1; got {v!r}")
+    height, width = _checks.check_int(height, "height"), _checks.check_int(width, "width")
+    nodes = _checks.check_int(nodes, "nodes")
     for name, v in (("gaussian_noise", gaussian_noise), ("shot_noise", shot_noise)):
         if not (v >= 0 and math.isfinite(v)):
             raise ValueError(f"{name} must be >= 0 (a fraction of R_max); got {v!r}")
     if not (0 <= thickness_variation < 1):
         raise ValueError(f"thickness_variation must be in [0, 1); got {thickness_variation!r}")
     _checks.check_polarization(polarization)
-    ang = torch.as_tensor(angles_deg, dtype=dtype).reshape(-1)
+    _checks.check_int(seed, "seed", minimum=0)
+    device = wavelength.device if isinstance(wavelength, torch.Tensor) else _CPU
+    ang = torch.as_tensor(angles_deg, dtype=dtype, device=device).reshape(-1)
     if ang.numel() < 1 or bool(((ang < 0) | (ang >= 90) | ang.isnan()).any()):
         raise ValueError(f"angles_deg must be in [0, 90) degrees; got {ang.tolist()}")
-    lam = default_wavelengths(dtype) if wavelength is None else torch.as_tensor(wavelength, dtype=dtype).reshape(-1)
-    gen = torch.Generator().manual_seed(int(seed))
-    d = sample.thickness * (1 + thickness_variation * smooth_field(height, width, gen, dtype=dtype))
+    if wavelength is None:
+        lam = default_wavelengths(dtype)
+    else:
+        lam = _checks.as_real(wavelength, "wavelength", dtype, device).reshape(-1)
+    _checks.check_positive(lam, "wavelength")
+    gen = torch.Generator(device=_CPU).manual_seed(int(seed))  # (the same cube on every device)
+    d = sample.thickness * (1 + thickness_variation * smooth_field(height, width, gen, dtype=dtype).to(device))
     cos_t = torch.cos(torch.deg2rad(ang))
-    off, wts = band_nodes(bandwidth, nodes, passband, dtype=dtype)
+    off, wts = band_nodes(bandwidth, nodes, passband, dtype=dtype, device=device)
     lam_q = lam[:, None] + off  # (B, Q)
     n_f = sample.n_at(lam_q).to(dtype) if callable(sample.n_film) else float(sample.n_film)
     a, b, e, k = airy_terms(lam_q, cos_t[:, None, None], n_f, sample.n_substrate, polarization=polarization)
     flat = d.reshape(-1)
     rows = []
-    for chunk in flat.split(2048):  # bounded memory: (chunk, pol, A, B, Q)
+    for chunk in flat.split(RENDER_CHUNK):
         cb = b * torch.cos(k * chunk[:, None, None, None, None])
         R = ((a + cb) / (e + cb)).mean(1)
         rows.append((R * wts).sum(-1))
     clean = torch.cat(rows).reshape(height, width, ang.numel(), lam.numel())
     r_max = clean.max()
-    noise = gaussian_noise * r_max * torch.randn(clean.shape, generator=gen, dtype=dtype)
-    noise = noise + shot_noise * (clean * r_max).sqrt() * torch.randn(clean.shape, generator=gen, dtype=dtype)
+
+    def randn():
+        return torch.randn(clean.shape, generator=gen, dtype=dtype, device=_CPU).to(device)
+
+    noise = gaussian_noise * r_max * randn()
+    noise = noise + shot_noise * (clean * r_max).sqrt() * randn()
     return SyntheticCube(
         cube=clean + noise, clean=clean, thickness=d, wavelength=lam, angles_deg=ang, cos_theta=cos_t,
         sample=sample, bandwidth=float(bandwidth), passband=passband, polarization=polarization,

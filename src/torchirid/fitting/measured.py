@@ -2,7 +2,7 @@ r"""Measured scatterograms: reading and writing image files on the library's ang
 
 :func:`load_scatterogram` reads a measured scatterogram from a PNG file (8 or 16 bit,
 sRGB-encoded, the disc's centre, radius and angular mapping given as parameters) and
-resamples it onto the scatterogram grid of :func:`torchirid.render.scatterogram`;
+resamples it onto the scatterogram grid of :func:`torchirid.layered.scatterogram`;
 :func:`save_scatterogram_png` writes one (16 bit by default), so a rendered target
 round-trips. OpenEXR (``.exr``) files — scene-linear R, G, B (optionally A) in half or
 float, taken as linear sRGB primaries — go through the optional ``openexr`` package
@@ -27,7 +27,7 @@ import torch
 from .. import _checks
 from .._io import import_openexr, read_exr, atomic_write  # noqa: F401  (shared OpenEXR reader)
 from ..color import linear_srgb_to_srgb, xyz_to_linear_srgb
-from ..render.scatterogram import PROJECTIONS, projection_radius, scatterogram_directions
+from ..layered.scatterograms import PROJECTIONS, projection_radius, scatterogram_directions
 
 __all__ = ["ScatterogramImage", "load_scatterogram", "save_scatterogram_exr", "save_scatterogram_png"]
 
@@ -167,8 +167,8 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     the polar angle θ mapped to the distance from ``center`` by ``projection`` (ρ(θ) ·
     ``radius_px`` pixels; ρ = 1 on the horizon) and the azimuth φ counter-clockwise from the
     image's +x (right) axis plus ``rotation_deg`` — the convention of
-    :func:`~torchirid.render.scatterogram.scatterogram` (row 0 at the top, +y up). Each grid
-    pixel of :func:`~torchirid.render.scatterogram.scatterogram_directions` is sampled
+    :func:`~torchirid.layered.scatterograms.scatterogram` (row 0 at the top, +y up). Each grid
+    pixel of :func:`~torchirid.layered.scatterograms.scatterogram_directions` is sampled
     bilinearly after decoding (sRGB → linear → XYZ, the exact inverse of the library's
     :func:`~torchirid.color.xyz_to_srgb`), so an image written by
     :func:`save_scatterogram_png` at the same resolution comes back unchanged up to
@@ -185,7 +185,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     Args:
         path: the PNG or ``.exr`` file.
         projection: the angular mapping of the file, one of
-            :data:`~torchirid.render.scatterogram.PROJECTIONS`.
+            :data:`~torchirid.layered.scatterograms.PROJECTIONS`.
         center: ``(x, y)`` of the disc's centre in pixels (x = column, y = row, pixel
             centres at integers); default the image centre ``((W − 1)/2, (H − 1)/2)``.
         radius_px: the horizon's radius in pixels (default ``min(W, H)/2``).
@@ -311,7 +311,7 @@ def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, b
     counterpart of :func:`load_scatterogram` (read it back with ``exposure=1/exposure``).
 
     Args:
-        scatterogram_or_xyz: a :class:`~torchirid.render.scatterogram.Scatterogram` (or
+        scatterogram_or_xyz: a :class:`~torchirid.layered.scatterograms.Scatterogram` (or
             :class:`ScatterogramImage`), or an ``(H, W, 3)`` XYZ array.
         exposure: multiplies the XYZ before encoding; values outside [0, 1] after encoding
             are clipped (and read back as saturated).
@@ -337,7 +337,7 @@ def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, m
     Needs the optional ``openexr`` package (``pip install openexr``).
 
     Args:
-        scatterogram_or_xyz: a :class:`~torchirid.render.scatterogram.Scatterogram` (or
+        scatterogram_or_xyz: a :class:`~torchirid.layered.scatterograms.Scatterogram` (or
             :class:`ScatterogramImage`), or an ``(H, W, 3)`` XYZ array.
         exposure: multiplies the XYZ before conversion.
         mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).

@@ -5,7 +5,7 @@ r"""Scatterogram matching by autograd: recover a rough Bragg layer from its scat
 :mod:`~torchirid.layered.presets`), the index contrast n2 − n1 (n1 fixed, or fitted), the
 number of cells N and the GGX roughness α — from a target scatterogram (one or several
 narrow-beam incidences and/or the white environment of
-:func:`~torchirid.render.scatterogram.scatterogram`) whose exposure is unknown
+:func:`~torchirid.layered.scatterograms.scatterogram`) whose exposure is unknown
 (Fourneau et al. 2024 §5).
 
 The loss lives in CIE L*a*b* (D65): the target is normalised once so that its brightest Y
@@ -45,7 +45,7 @@ import torch
 from .. import _checks
 from ..color import delta_e_2000, xyz_to_lab
 from ..layered.structure import LayeredBragg, RoughBraggLayer
-from ..render.scatterogram import (
+from ..layered.scatterograms import (
     PROJECTIONS,
     scatterogram,
     scatterogram_directions,
@@ -106,9 +106,9 @@ def _check_incident(incident) -> list:
 def render_targets(structure, incident, *, resolution: int, wavelength=None, projection: str = "equidistant",
                    lut: bool = False) -> torch.Tensor:
     """The scatterograms of ``structure`` under each illumination of ``incident`` stacked:
-    ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.render.scatterogram.scatterogram`)."""
+    ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.layered.scatterograms.scatterogram`)."""
     incs = _check_incident(incident)
-    return torch.stack([scatterogram(structure, incident=inc, resolution=resolution, wavelength=wavelength,
+    return torch.stack([scatterogram(structure, incident_deg=inc, resolution=resolution, wavelength=wavelength,
                                      projection=projection, lut=lut).xyz for inc in incs])
 
 
@@ -308,7 +308,7 @@ def match_scatterogram(
 ) -> ScatterogramFit:
     r"""Recover (Λ, δ, n2 − n1, N, α) of one rough Bragg layer from a target scatterogram.
 
-    The target is what :func:`~torchirid.render.scatterogram.scatterogram` renders (or
+    The target is what :func:`~torchirid.layered.scatterograms.scatterogram` renders (or
     :func:`load_scatterogram` reads) for each illumination of ``incident``, at any unknown
     exposure; the strategy (Λ grid → multi-start L-BFGS → N enumeration → polish) and the
     loss are described in the module docstring.
@@ -317,7 +317,7 @@ def match_scatterogram(
         target_xyz: ``(K, H, W, 3)`` (or ``(H, W, 3)`` for one illumination) XYZ, ``H = W``
             the scatterogram resolution; any positive overall scale.
         mask: ``(H, W)`` bool, the pixels to compare (default: the disc of
-            :func:`~torchirid.render.scatterogram.scatterogram_directions`); False for
+            :func:`~torchirid.layered.scatterograms.scatterogram_directions`); False for
             saturated or missing pixels of a measurement.
         incident: the K illuminations, each ``(θ_i, φ_i)`` in degrees or ``None`` (white
             environment); one illumination alone may be given bare.
@@ -333,7 +333,7 @@ def match_scatterogram(
         max_iter: L-BFGS iterations of the final polish.
         wavelength: ``(W,)`` nm of the model's spectra (default 380–780 nm, 41 values).
         projection: the scatterogram's angular mapping (see
-            :data:`~torchirid.render.scatterogram.PROJECTIONS`).
+            :data:`~torchirid.layered.scatterograms.PROJECTIONS`).
         lut: render the mirrors' reflectance from a per-call angle table.
         n_incident, base_albedo: the medium above the layer and the base (the jewel-beetle
             presets: air, black).

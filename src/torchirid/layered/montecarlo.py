@@ -78,8 +78,7 @@ identical result.
 from __future__ import annotations
 
 import math
-import numbers
-import sys
+from typing import Callable
 
 import torch
 
@@ -101,15 +100,6 @@ __all__ = ["montecarlo_brdf", "TRANSMISSION_MODES"]
 
 #: registry of the transmission sampling strategies of :func:`montecarlo_brdf`
 TRANSMISSION_MODES = ("filter", "microfacet")
-
-
-# ----------------------------------------------------------------------------------------
-# inputs
-# ----------------------------------------------------------------------------------------
-def _check_int(v, name: str, low: int) -> int:
-    if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < low:
-        raise ValueError(f"{name} must be an integer >= {low}; got {v!r}")
-    return int(v)
 
 
 # ----------------------------------------------------------------------------------------
@@ -373,18 +363,6 @@ class _Transport:
 # ----------------------------------------------------------------------------------------
 # public API
 # ----------------------------------------------------------------------------------------
-def _progress_bar(total: int, progress, desc: str):
-    if progress is None:
-        progress = sys.stderr.isatty()
-    if not progress:
-        return None
-    try:
-        from tqdm.auto import tqdm
-    except ImportError:  # tqdm is a dependency, but the estimator does not need it
-        return None
-    return tqdm(total=total, desc=desc, unit="path", unit_scale=True, leave=False)
-
-
 def montecarlo_brdf(
     wavelength,
     wi,
@@ -401,7 +379,7 @@ def montecarlo_brdf(
     batch_size: int = 32768,
     transmissivity_angles: int = DEFAULT_ANGLES,
     theta_d_cells: int = DEFAULT_THETA_D_CELLS,
-    progress: bool | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     r"""Monte Carlo estimate of the BRDF of a layered rough Bragg structure (Fourneau et al. 2024 §4.2).
 
@@ -438,7 +416,11 @@ def montecarlo_brdf(
             ``"filter"`` mode (:func:`~torchirid.layered.transmission.transmissivity_lut`:
             incidence angles uniform in θ, and θd cells of its product integration; raise
             ``theta_d_cells`` for very long stacks, its error grows as cells²).
-        progress: show a tqdm progress bar (None: only when stderr is a terminal).
+        progress: optional callback ``progress(done)``, called after each batch with the number
+            of paths finished so far (cumulative; it reaches ``samples ×`` the number of
+            direction pairs after the last batch). The library draws nothing itself: the
+            caller wraps its own progress bar around it, e.g.
+            ``progress=lambda done: bar.update(done - bar.n)``.
 
     Returns:
         ``(mean, stderr)``, each of shape ``(*, W)`` (sr⁻¹), dtype of the inputs: the BRDF
@@ -466,13 +448,15 @@ def montecarlo_brdf(
         raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
     if transmission not in TRANSMISSION_MODES:
         raise ValueError(f"transmission must be one of {TRANSMISSION_MODES}; got {transmission!r}")
-    samples = _check_int(samples, "samples", 2)
-    seed = _check_int(seed, "seed", 0)
-    max_depth = _check_int(max_depth, "max_depth", 1)
-    rr_depth = _check_int(rr_depth, "rr_depth", 0)
-    batch_size = _check_int(batch_size, "batch_size", 1)
-    transmissivity_angles = _check_int(transmissivity_angles, "transmissivity_angles", 2)
-    theta_d_cells = _check_int(theta_d_cells, "theta_d_cells", 2)
+    samples = _checks.check_int(samples, "samples", 2)
+    seed = _checks.check_int(seed, "seed", 0)
+    max_depth = _checks.check_int(max_depth, "max_depth", 1)
+    rr_depth = _checks.check_int(rr_depth, "rr_depth", 0)
+    batch_size = _checks.check_int(batch_size, "batch_size", 1)
+    transmissivity_angles = _checks.check_int(transmissivity_angles, "transmissivity_angles", 2)
+    theta_d_cells = _checks.check_int(theta_d_cells, "theta_d_cells", 2)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done_paths); got {progress!r}")
     if not isinstance(single_reflection, bool):
         raise ValueError(f"single_reflection must be a bool; got {single_reflection!r}")
     if not isinstance(multiple_reflection, bool):
@@ -501,26 +485,21 @@ def montecarlo_brdf(
         count = torch.zeros(P, 1, dtype=torch.float64, device=device)
         mean = torch.zeros(P, W, dtype=torch.float64, device=device)
         m2 = torch.zeros(P, W, dtype=torch.float64, device=device)
-        bar = _progress_bar(total, progress, "SR sim." if single_reflection else "MC")
-        try:
-            for start in range(0, total, batch_size):
-                k = torch.arange(start, min(start + batch_size, total), device=device)
-                pair = k % P  # sample-major: every chunk spreads over the pairs
-                x = tr.trace(pair, gen).to(torch.float64)
-                n_c = torch.zeros_like(count).index_add_(0, pair, torch.ones_like(x[:, :1]))
-                mean_c = torch.zeros_like(mean).index_add_(0, pair, x) / n_c.clamp_min(1.0)
-                m2_c = torch.zeros_like(m2).index_add_(0, pair, (x - mean_c[pair]) ** 2)
-                n_ab = count + n_c
-                delta = mean_c - mean
-                frac = n_c / n_ab.clamp_min(1.0)
-                mean = mean + delta * frac
-                m2 = m2 + m2_c + delta * delta * count * frac
-                count = n_ab
-                if bar is not None:
-                    bar.update(k.numel())
-        finally:
-            if bar is not None:
-                bar.close()
+        for start in range(0, total, batch_size):
+            k = torch.arange(start, min(start + batch_size, total), device=device)
+            pair = k % P  # sample-major: every chunk spreads over the pairs
+            x = tr.trace(pair, gen).to(torch.float64)
+            n_c = torch.zeros_like(count).index_add_(0, pair, torch.ones_like(x[:, :1]))
+            mean_c = torch.zeros_like(mean).index_add_(0, pair, x) / n_c.clamp_min(1.0)
+            m2_c = torch.zeros_like(m2).index_add_(0, pair, (x - mean_c[pair]) ** 2)
+            n_ab = count + n_c
+            delta = mean_c - mean
+            frac = n_c / n_ab.clamp_min(1.0)
+            mean = mean + delta * frac
+            m2 = m2 + m2_c + delta * delta * count * frac
+            count = n_ab
+            if progress is not None:
+                progress(start + k.numel())
         err = torch.sqrt(m2 / ((samples - 1) * samples))
         bad = _geometry.nan_rows(i, o).unsqueeze(-1)  # NaN directions: NaN estimates, not 0 (docs/conventions.md)
         mean, err = torch.where(bad, torch.nan, mean), torch.where(bad, torch.nan, err)

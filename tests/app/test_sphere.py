@@ -1,4 +1,4 @@
-"""Tests of torchirid.render.sphere: spectral sphere renders of Hirayama 2000 Fig. 8 / Table 1.
+"""Tests of torchirid.app.figures.spheres: spectral sphere renders of Hirayama 2000 Fig. 8 / Table 1.
 
 References: colour-science (the lamp's SPD, the CIE 1931 CMFs for an independent Y of a smooth
 sphere pixel, the Bradford adaptation taking the lamp white to D65), torchirid.multilayer
@@ -16,7 +16,8 @@ import pytest
 import torch
 
 import torchirid
-from torchirid.render import sphere as sp
+from torchirid.app.commands import render_sphere
+from torchirid.app.figures import spheres as sp
 
 SMALL = dict(size=24, wavelength_step=10.0)
 
@@ -125,7 +126,7 @@ def test_render_validation(kwargs, match):
 def _parser():
     parser = argparse.ArgumentParser(prog="torchirid")
     sub = parser.add_subparsers(dest="command", required=True)
-    sp.add_parser(sub)
+    render_sphere.add_parser(sub)
     return parser
 
 
@@ -156,14 +157,14 @@ def test_cli_errors(tmp_path, capsys):
 
 def test_presets_are_built_lazily_and_match_hirayama_stacks():
     """FIG8_ROWS / TABLE1_OBJECTS are built on first access (they load database pages), from hirayama_stacks()."""
-    stacks = torchirid.hirayama_stacks()
+    stacks = torchirid.optics.hirayama_stacks()
     rows = sp.fig8_rows()
     assert rows == sp.FIG8_ROWS and rows is not sp.fig8_rows()  # a new dict per call
     assert sp.FIG8_ROWS is sp.FIG8_ROWS  # the module attribute is built once
     assert sp.TABLE1_OBJECTS == sp.table1_objects()
     teapot = stacks["teapot"]
-    assert sp.TABLE1_OBJECTS["teapot (Al)"] == (teapot.substrate, [(m, float(t)) for m, t in teapot.layers])
-    assert sp.FIG8_ROWS["silicon / dielectric-Ag-dielectric (a-c)"][0] == stacks["fig8_abc_silicon_silver"].substrate
-    assert sorted(sp.PRESETS) == ["fig8", "table1"] and sp.PRESETS["table1"]() == sp.TABLE1_OBJECTS
+    assert sp.TABLE1_OBJECTS["teapot (Al)"] == (teapot.n_substrate, [(m, float(t)) for m, t in teapot.layers])
+    assert sp.FIG8_ROWS["silicon / dielectric-Ag-dielectric (a-c)"][0] == stacks["fig8_abc_silicon_silver"].n_substrate
+    assert sorted(render_sphere.PRESETS) == ["fig8", "table1"] and render_sphere.PRESETS["table1"]() == sp.TABLE1_OBJECTS
     with pytest.raises(AttributeError, match="NO_SUCH_PRESET"):
         sp.NO_SUCH_PRESET  # noqa: B018

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import os
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -29,10 +28,25 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from ..color import spectrum_to_xyz, xyz_to_srgb
-from ..optics import bragg_reflectance, thin_film_reflectance
-from ..spectral import bragg_xyz
-from .._io import atomic_write
+from ... import _checks
+from ..._io import atomic_write
+from ...color import spectrum_to_xyz, xyz_to_srgb
+from ...optics import bragg_reflectance, thin_film_reflectance
+from ...spectral import bragg_xyz
+
+__all__ = [
+    "CURVE_ANGLES",
+    "CURVE_COLORS",
+    "CURVE_WAVELENGTHS_NM",
+    "GRADIENT_ATLAS_STEPS",
+    "GRADIENT_METHODS",
+    "GradientAtlas",
+    "THIN_FILM_SAMPLES",
+    "gradient_atlas",
+    "plot_gradient_atlas",
+    "save_gradient_atlas_npz",
+    "save_gradient_atlas_png",
+]
 
 #: wavelengths (nm) of the reflectance curves: the peaks of the CIE 1931 x̄, ȳ, z̄ CMFs for
 #: red, green and blue. Fourneau et al.'s Fig. 4 caption prints {559, 556, 442} nm; 559 is a
@@ -62,7 +76,8 @@ class GradientAtlas:
         n1, n2: real indices of layers 1 and 2 (n1 is also the medium around mirror and film).
         cells: number N of cells of the mirrors.
         polarization: "s", "p" or "unpolarized".
-        lambdas_nm: (L,) periods Λ in nm (also the thin film's thicknesses).
+        periods: (L,) periods Λ = d1 + d2 in nm (also the thin film's thicknesses); the
+            ``.npz`` file and ``params`` keep their key ``lambdas_nm``.
         ratios: (R,) ratios d1/Λ in (0, 1).
         d1_nm, d2_nm: (L, R) layer thicknesses in nm, d1 = ratio · Λ and d2 = Λ − d1.
         theta_deg: (A,) strip angles θ in degrees, evenly spaced over [0, 90].
@@ -81,7 +96,7 @@ class GradientAtlas:
     n2: float
     cells: int
     polarization: str
-    lambdas_nm: np.ndarray
+    periods: np.ndarray
     ratios: np.ndarray
     d1_nm: np.ndarray
     d2_nm: np.ndarray
@@ -105,7 +120,7 @@ class GradientAtlas:
         arrays = dict(
             theta_deg=self.theta_deg,
             cos_theta=self.cos_theta,
-            lambdas_nm=self.lambdas_nm,
+            lambdas_nm=self.periods,
             ratios=self.ratios,
             d1_nm=self.d1_nm,
             d2_nm=self.d2_nm,
@@ -120,12 +135,13 @@ class GradientAtlas:
         return arrays
 
 
-def _check(lambdas_nm, ratios, n1, n2, cells, angles) -> None:
-    """Validate the atlas parameters before any work; errors name the parameter."""
-    if lambdas_nm.ndim != 1 or lambdas_nm.size == 0:
-        raise ValueError(f"lambdas_nm must be a non-empty sequence of periods in nm, got shape {lambdas_nm.shape}")
-    if not (np.isfinite(lambdas_nm).all() and (lambdas_nm > 0).all()):
-        raise ValueError(f"lambdas_nm must be finite and > 0 nm; got {lambdas_nm.tolist()}")
+def _check(periods, ratios, n1, n2, cells, angles) -> tuple[int, int]:
+    """Validate the atlas parameters before any work; errors name the parameter.
+    Returns ``(cells, angles)`` as ints."""
+    if periods.ndim != 1 or periods.size == 0:
+        raise ValueError(f"periods must be a non-empty sequence of periods Λ in nm, got shape {periods.shape}")
+    if not (np.isfinite(periods).all() and (periods > 0).all()):
+        raise ValueError(f"periods must be finite and > 0 nm; got {periods.tolist()}")
     if ratios.ndim != 1 or ratios.size == 0:
         raise ValueError(f"ratios must be a non-empty sequence of d1/Λ, got shape {ratios.shape}")
     if not ((ratios > 0).all() and (ratios < 1).all()):
@@ -137,14 +153,13 @@ def _check(lambdas_nm, ratios, n1, n2, cells, angles) -> None:
         # the piecewise strips model light propagating in layer 2 at every angle up to 90°
         raise ValueError(f"n1 ({n1:g}) must not exceed n2 ({n2:g}): the piecewise approximations need light "
                          "propagating in layer 2 (no total internal reflection) up to 90°")
-    if isinstance(cells, bool) or not isinstance(cells, numbers.Integral) or cells < 1:
-        raise ValueError(f"cells must be a whole number >= 1; got {cells!r}")
-    if isinstance(angles, bool) or not isinstance(angles, numbers.Integral) or angles < 2:
-        raise ValueError(f"angles must be a whole number >= 2 (a gradient needs two angles); got {angles!r}")
+    cells = _checks.check_int(cells, "cells", 1)
+    angles = _checks.check_int(angles, "angles (a gradient needs two)", 2)
+    return cells, angles
 
 
 def gradient_atlas(
-    lambdas_nm: Sequence[float] = (244.0, 500.0, 988.0),
+    periods: Sequence[float] = (244.0, 500.0, 988.0),
     ratios: Sequence[float] = (0.1, 0.3, 0.5, 0.7, 0.9),
     *,
     n1: float = 1.0,
@@ -162,7 +177,7 @@ def gradient_atlas(
     method covers the whole grid.
 
     Args:
-        lambdas_nm: (L,) periods Λ = d1 + d2 in nm, > 0 (one row each; also the thickness
+        periods: (L,) periods Λ = d1 + d2 in nm, > 0 (one row each; also the thickness
             of the thin film of that row).
         ratios: (R,) ratios d1/Λ strictly between 0 and 1 (one column each).
         n1: real index of layer 1 and of the medium around the mirror and the film, > 0.
@@ -187,10 +202,10 @@ def gradient_atlas(
     >>> atlas.srgb["reference"][0, 0, -1].round(3).tolist()  # grazing incidence: R = 1, white
     [1.0, 1.0, 1.0]
     """
-    lambdas = np.asarray(lambdas_nm, dtype=np.float64)
+    lambdas = np.asarray(periods, dtype=np.float64)
     ratios = np.asarray(ratios, dtype=np.float64)
     n1, n2 = float(n1), float(n2)
-    _check(lambdas, ratios, n1, n2, cells, angles)
+    cells, angles = _check(lambdas, ratios, n1, n2, cells, angles)
 
     dtype = torch.float64
     theta_deg = np.linspace(0.0, 90.0, angles)
@@ -240,7 +255,7 @@ def gradient_atlas(
     def srgb(x):
         return np.clip(xyz_to_srgb(torch.as_tensor(x)).numpy(), 0.0, 1.0)
 
-    from .. import __version__
+    from ... import __version__
 
     params = dict(
         figure="Fourneau et al. 2024, Fig. 4",
@@ -268,7 +283,7 @@ def gradient_atlas(
         n2=n2,
         cells=cells,
         polarization=polarization,
-        lambdas_nm=lambdas,
+        periods=lambdas,
         ratios=ratios,
         d1_nm=d1.squeeze(-1).numpy(),
         d2_nm=d2.squeeze(-1).numpy(),
@@ -296,7 +311,7 @@ def plot_gradient_atlas(atlas: GradientAtlas):
     from matplotlib.lines import Line2D
 
     theta_deg, curve_theta_deg = atlas.theta_deg, atlas.curve_theta_deg
-    lambdas, ratios, d1_nm, d2_nm = atlas.lambdas_nm, atlas.ratios, atlas.d1_nm, atlas.d2_nm
+    lambdas, ratios, d1_nm, d2_nm = atlas.periods, atlas.ratios, atlas.d1_nm, atlas.d2_nm
     strips, R_bragg, R_thin = atlas.srgb, atlas.reflectance_bragg, atlas.reflectance_thin_film
     rows, cols = len(lambdas), len(ratios)
     small, tiny = 7, 6

@@ -1,15 +1,13 @@
-"""``torchirid fit-film CUBE --out DIR``: film index and thickness map from a hyperspectral cube.
+"""``torchirid fit-film CUBE --out DIR``: film index and thickness map from a hyperspectral cube (Kobayashi et al.).
 
-The lead wires :func:`add_parser` into ``torchirid.cli``; :func:`run` does the work. Writes
-``<out>/thickness.png``, ``<out>/fit_error.png`` (per-pixel RMS residual), ``<out>/thickness_nm.npy``,
-``<out>/report.json`` (n, index parameters, thickness statistics, timings, settings) and, when
-the cube carries a ground truth (``thickness_nm`` in the .npz), ``<out>/thickness_error.png``
-and the Table-1 errors in the report.
+Writes ``<out>/thickness.png``, ``<out>/fit_error.png`` (per-pixel RMS residual),
+``<out>/thickness_nm.npy``, ``<out>/report.json`` (n, index parameters, thickness statistics,
+timings, settings) and, when the cube carries a ground truth (``thickness_nm`` in the .npz),
+``<out>/thickness_error.png`` and the Table-1 errors in the report.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
@@ -18,13 +16,21 @@ import warnings
 import numpy as np
 import torch
 
-__all__ = ["add_parser", "run"]
+from ...estimation import estimate_film
+from ...estimation.cube_io import read_cube
+from .. import _args
+from ..figures.film_maps import save_film_map_png
+
+NAME = "fit-film"
+
+__all__ = ["NAME", "add_parser", "run"]
 
 
-def add_parser(sub) -> argparse.ArgumentParser:
-    """Register the ``fit-film`` subcommand on an argparse subparsers object."""
-    p = sub.add_parser(
-        "fit-film",
+def add_parser(subparsers):
+    """Register ``fit-film`` on an argparse subparsers object (``func=run``); returns its parser."""
+    p = _args.add_command_parser(
+        subparsers,
+        NAME,
         help="film index n and thickness map from a hyperspectral cube (Kobayashi et al.) → PNGs + JSON",
         description=(
             "Estimate the refractive index (shared) and the per-pixel thickness of a thin film on a\n"
@@ -36,62 +42,42 @@ def add_parser(sub) -> argparse.ArgumentParser:
             "with --angles giving each file's angle in the same order:\n"
             "  torchirid fit-film a10.hdr a20.hdr a30.hdr a40.hdr a50.hdr --angles 10 20 30 40 50 --out fit/"
         ),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("cube", metavar="CUBE", nargs="+", help=".npz cube, ENVI .hdr cube, or one ENVI .hdr per angle")
-    p.add_argument("--angles", type=float, nargs="+", default=None, metavar="DEG",
+    p.add_argument("--angles", type=_args.number, nargs="+", default=None, metavar="DEG",
                    help="incidence angles in degrees: one per CUBE file, or one per block of bands of a single "
                         "ENVI file without an 'incidence angle' field")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    p.add_argument("--n-substrate", type=float, default=1.64, metavar="N", help="substrate index (PET: 1.64)")
-    p.add_argument("--polarization", choices=("s", "p", "unpolarized"), default="s")
-    p.add_argument("--bandwidth", type=float, default=None, metavar="NM",
+    p.add_argument("--n-substrate", type=_args.positive, default=1.64, metavar="N", help="substrate index (PET: 1.64)")
+    p.add_argument("--polarization", choices=_args.POLARIZATIONS, default="s",
+                   help="polarization seen by the camera (Kobayashi et al.: the s wave, through a polarizer)")
+    p.add_argument("--bandwidth", type=_args.positive, default=None, metavar="NM",
                    help="band width in nm (default: from the file, else 4)")
     p.add_argument("--passband", choices=("box", "gaussian"), default="box")
     p.add_argument("--index-model", choices=("auto", "constant", "cauchy", "cauchy3"), default="auto",
                    help="film index model: auto (default) fits constant, cauchy and cauchy3 on a pixel sample and "
                         "keeps the least BIC; cauchy3 for a dispersive film such as ZnS")
-    p.add_argument("--thickness-range", type=float, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
-    p.add_argument("--smoothness", type=float, default=0.0, help="spatial smoothness weight (reflectance²/nm²)")
-    p.add_argument("--threads", type=int, default=None, help="torch threads (default: torch's)")
+    p.add_argument("--thickness-range", type=_args.positive, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
+    p.add_argument("--smoothness", type=_args.nonnegative, default=0.0,
+                   help="spatial smoothness weight (reflectance²/nm²)")
+    p.add_argument("--threads", type=_args.count, default=None, help="torch threads (default: torch's)")
     p.add_argument("--seed", type=int, default=0)
     p.set_defaults(func=run, parser=p)
     return p
 
 
-def _png(path, img, title, label, cmap="viridis"):
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(5, 4.2), constrained_layout=True)
-    im = ax.imshow(np.asarray(img), cmap=cmap)
-    ax.set_title(title, fontsize=10)
-    ax.set_xticks([]), ax.set_yticks([])
-    fig.colorbar(im, ax=ax, label=label)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
-
-
+@_args.reports_bad_arguments(NAME)
 def run(args) -> int:
-    """Run ``fit-film`` with parsed ``args``; returns the exit status."""
-    from tqdm.auto import tqdm
-
-    from .cube_io import read_cube
-    from .estimate import estimate_film
-
+    """Estimate the film and write the maps and the report. Exit status: 0, 1 (write), 2 (bad argument or cube)."""
     if args.threads:
         torch.set_num_threads(args.threads)
     try:
         paths = args.cube if len(args.cube) > 1 else args.cube[0]
         cube = read_cube(paths, angles_deg=args.angles)
-    except (OSError, ValueError) as exc:
-        print(f"fit-film: {exc}", file=sys.stderr)
-        return 2
+    except OSError as exc:  # a missing or unreadable CUBE is a bad argument too
+        return _args.fail(NAME, exc)
     bw = args.bandwidth if args.bandwidth is not None else (cube.bandwidth if cube.bandwidth is not None else 4.0)
-    os.makedirs(args.out, exist_ok=True)
-    bar = tqdm(desc="torchirid fit-film", unit="step", delay=2.0, file=sys.stderr, leave=False)
+    bar = _args.progress_bar(f"torchirid {NAME}")
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
@@ -100,18 +86,12 @@ def run(args) -> int:
                                 polarization=args.polarization, thickness_range=tuple(args.thickness_range),
                                 smoothness=args.smoothness, seed=args.seed,
                                 progress=lambda name: (bar.set_postfix_str(name), bar.update(1)))
-    except ValueError as exc:
-        print(f"fit-film: {exc}", file=sys.stderr)
-        return 2
     finally:
         bar.close()
     notes = [str(w.message) for w in caught]
     for note in notes:
-        print(f"fit-film: warning: {note}", file=sys.stderr)
+        print(f"{_args.PROG} {NAME}: warning: {_args.one_line(note)}", file=sys.stderr)
     d = est.thickness
-    np.save(os.path.join(args.out, "thickness_nm.npy"), d.numpy())
-    _png(os.path.join(args.out, "thickness.png"), d, f"thickness, n = {est.n:.4f}", "d (nm)")
-    _png(os.path.join(args.out, "fit_error.png"), est.rms, "RMS residual per pixel", "reflectance", cmap="magma")
     report = {
         "cube": [os.fspath(c) for c in args.cube] if len(args.cube) > 1 else os.fspath(args.cube[0]),
         "angles_deg": cube.angles_deg.tolist(),
@@ -130,14 +110,22 @@ def run(args) -> int:
         "timings_s": est.timings,
         "settings": dict(est.settings, bandwidth=bw, thickness_range=list(args.thickness_range)),
     }
-    if cube.thickness is not None:
-        err = (d - cube.thickness).abs()
-        _png(os.path.join(args.out, "thickness_error.png"), err, "|d − d_true|", "nm", cmap="magma")
-        report["thickness_error_nm"] = {"mean": float(err.mean()), "max": float(err.max())}
-        if "n_true" in cube.meta:
-            report["n_error"] = abs(est.n - float(cube.meta["n_true"]))
-    with open(os.path.join(args.out, "report.json"), "w") as f:
-        json.dump(report, f, indent=1, default=float)
+    try:
+        os.makedirs(args.out, exist_ok=True)
+        np.save(os.path.join(args.out, "thickness_nm.npy"), d.numpy())
+        save_film_map_png(d, os.path.join(args.out, "thickness.png"), f"thickness, n = {est.n:.4f}", "d (nm)")
+        save_film_map_png(est.rms, os.path.join(args.out, "fit_error.png"), "RMS residual per pixel", "reflectance",
+                          cmap="magma")
+        if cube.thickness is not None:
+            err = (d - cube.thickness).abs()
+            save_film_map_png(err, os.path.join(args.out, "thickness_error.png"), "|d − d_true|", "nm", cmap="magma")
+            report["thickness_error_nm"] = {"mean": float(err.mean()), "max": float(err.max())}
+            if "n_true" in cube.meta:
+                report["n_error"] = abs(est.n - float(cube.meta["n_true"]))
+        with open(os.path.join(args.out, "report.json"), "w") as f:
+            json.dump(report, f, indent=1, default=float)
+    except OSError as e:
+        return _args.cannot_write(NAME, args.out, e)
     print(f"n = {est.n:.4f} ({est.index_model}), mean d = {float(d.mean()):.1f} nm, {est.timings['total']:.1f} s "
           f"→ {args.out}")
     return 0

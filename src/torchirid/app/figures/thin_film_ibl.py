@@ -27,21 +27,20 @@ from __future__ import annotations
 import json
 import math
 import os
-import sys
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import torch
 
-from .._io import atomic_write
-from ..color.convert import xyz_to_lab, xyz_to_linear_srgb, linear_srgb_to_srgb
-from ..color.difference import delta_e_2000
-from ..ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
-from ..ibl.fitted import fitted_thin_film_xyz
-from ..ibl.fourier import thin_film_xyz_fourier
-from ..ibl.uniform import path_difference_moments, uniform_light_moments, uniform_thin_film_xyz
+from ... import _checks
+from ..._io import atomic_write
+from ...color.convert import xyz_to_lab, xyz_to_linear_srgb, linear_srgb_to_srgb
+from ...color.difference import delta_e_2000
+from ...ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
+from ...ibl.fitted import fitted_thin_film_xyz
+from ...ibl.fourier import thin_film_xyz_fourier
+from ...ibl.uniform import path_difference_moments, uniform_light_moments, uniform_thin_film_xyz
 
 __all__ = [
     "THIN_FILM_IBL_METHODS",
@@ -138,8 +137,7 @@ def thin_film_ibl_comparison(panel: str = "roughness", *, resolution: int = 32, 
     """
     if panel not in THIN_FILM_IBL_PANELS:
         raise ValueError(f"panel must be one of {', '.join(map(repr, THIN_FILM_IBL_PANELS))}; got {panel!r}")
-    if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 2:
-        raise ValueError(f"resolution must be an integer >= 2; got {resolution!r}")
+    resolution = _checks.check_int(resolution, "resolution", 2)
     for name, v in (("thickness", thickness), ("alpha", alpha), ("max_thickness", max_thickness)):
         if not (isinstance(v, (int, float)) and v > 0 and math.isfinite(v)):
             raise ValueError(f"{name} must be a positive number; got {v!r}")
@@ -180,7 +178,7 @@ def thin_film_ibl_comparison(panel: str = "roughness", *, resolution: int = 32, 
     lab_ref = xyz_to_lab(xyz["reference"], illuminant=illuminant, observer=observer)
     de = {k: delta_e_2000(xyz_to_lab(xyz[k], illuminant=illuminant, observer=observer), lab_ref).numpy()
           for k, _ in THIN_FILM_IBL_METHODS}
-    from .. import __version__
+    from ... import __version__
     params = {"panel": panel, "resolution": resolution, "n_film": n_film, "n_incident": 1.0,
               "n_substrate": [float(complex(ns).real), float(complex(ns).imag)],
               "thickness_nm": None if panel == "thickness" else float(thickness),
@@ -255,88 +253,3 @@ def save_thin_film_ibl_npz(panel: ThinFilmIBLComparison, path: str | os.PathLike
     """Write :meth:`ThinFilmIBLComparison.arrays` atomically (readable with ``allow_pickle=False``)."""
     arrays = panel.arrays()
     return atomic_write(path, lambda f: np.savez(f, **arrays))
-
-
-# ---------------------------------------------------------------------------------------
-# the `torchirid thin-film` command
-# ---------------------------------------------------------------------------------------
-
-
-def add_parser(sub):
-    """Register ``thin-film`` on an argparse subparsers object (sets ``func=run``)."""
-    from ..cli import _HelpFormatter, _count, _index, _positive
-
-    sp = sub.add_parser(
-        "thin-film",
-        formatter_class=_HelpFormatter,
-        help="thin film on a rough surface under uniform light: Kneiphof et al. 2019 Fig. 7 comparison → .png + .npz + .json",
-        description=(
-            "Compare real-time approximations of a thin film on a rough GGX surface under\n"
-            "uniform illumination against the converged ground truth (Kneiphof et al. 2019,\n"
-            "Fig. 7): Belcour–Barla at the ideal reflection direction (the 'original'),\n"
-            "Kneiphof's filtered eq. 20–29 with the exact light moments, eq. 29 with the exact\n"
-            "path-difference moments, and torchirid's fitted light-mixture table.\n"
-            "Two panels: θo × √α at --thickness, and θo × d ∈ [0, --max-thickness] at --alpha.\n\n"
-            "Writes <out>/<name>.png (the image grid with ΔE2000 mean / p95 per method),\n"
-            "<out>/<name>_roughness.npz and <out>/<name>_thickness.npz (XYZ of every method,\n"
-            "ΔE2000 maps, albedo, axes, params) and <out>/<name>.json (the ΔE2000 table)."
-        ),
-        epilog=(
-            "examples:\n"
-            "  torchirid thin-film                                   # Fig. 7's material, 32 × 32 per panel\n"
-            "  torchirid thin-film --resolution 64 --n-film 1.5 --base 0.2+3j"
-        ),
-    )
-    sp.add_argument("--n-film", type=_positive, default=1.3, metavar="N", help="film index η2 (real, >= 1)")
-    sp.add_argument("--base", type=_index, default=complex(2.0, 0.5), metavar="N",
-                    help="base index η3 + iκ3, e.g. 2+0.5j (non-dispersive)")
-    sp.add_argument("--thickness", type=_positive, default=600.0, metavar="NM", help="film thickness of the roughness panel")
-    sp.add_argument("--alpha", type=_positive, default=0.25, metavar="A", help="GGX roughness of the thickness panel")
-    sp.add_argument("--max-thickness", type=_positive, default=1000.0, metavar="NM", help="end of the thickness axis")
-    sp.add_argument("--resolution", type=_count, default=32, metavar="CELLS", help="cells per axis of each panel")
-    sp.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
-    sp.add_argument("--name", default="thin_film", metavar="STEM", help="file stem")
-    sp.add_argument("--dpi", type=_count, default=150, metavar="DPI", help="resolution of the PNG")
-    sp.set_defaults(func=run, parser=sp)
-    return sp
-
-
-def run(args) -> int:
-    """The ``thin-film`` command: both Fig. 7 panels → PNG, two .npz and a JSON ΔE2000 table."""
-    from ..cli import PROG, _check_name
-
-    parser = args.parser
-    _check_name(parser, args.name)
-    if args.resolution < 2:
-        parser.error("--resolution must be >= 2")
-    if args.n_film < 1.0:
-        parser.error("--n-film must be >= 1 (the outer medium is air)")
-    from tqdm.auto import tqdm
-
-    panels = []
-    try:
-        for panel in tqdm(("roughness", "thickness"), desc="thin-film panels", disable=None):
-            panels.append(thin_film_ibl_comparison(panel, resolution=args.resolution, n_film=args.n_film,
-                                                   thickness=args.thickness, alpha=args.alpha,
-                                                   n_substrate=args.base, max_thickness=args.max_thickness))
-    except ValueError as e:
-        parser.error(str(e))
-    out = Path(args.out)
-    report = {p.panel: {"stats": p.stats(), "seconds": p.seconds, "params": p.params} for p in panels}
-    paths = [out / f"{args.name}.png", out / f"{args.name}_roughness.npz", out / f"{args.name}_thickness.npz",
-             out / f"{args.name}.json"]
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        save_thin_film_ibl_png(panels, paths[0], dpi=args.dpi)
-        save_thin_film_ibl_npz(panels[0], paths[1])
-        save_thin_film_ibl_npz(panels[1], paths[2])
-        atomic_write(paths[3], lambda f: f.write(json.dumps(report, indent=2, sort_keys=True).encode()))
-    except OSError as e:
-        print(f"{PROG}: error: cannot write to {out}: {e}", file=sys.stderr)
-        return 1
-    for p in panels:
-        for k, st in p.stats().items():
-            print(f"{p.panel:9s} {k:10s} ΔE2000 mean {st['mean']:6.2f}  p95 {st['p95']:6.2f}  max {st['max']:6.2f}")
-    for path in paths:
-        print(path)
-    return 0

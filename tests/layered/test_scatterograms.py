@@ -1,5 +1,5 @@
-"""torchirid.render.scatterogram: angular mapping, illuminations, symmetry, closed forms,
-gradients, drawing and the ``torchirid scatterogram`` command."""
+"""torchirid.layered.scatterograms, the scatterogram forward model: angular mapping,
+illuminations, symmetry, closed forms, gradients, precision."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid import cli, render
+from torchirid import layered
 from torchirid.color import xyz_weights
 from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
 from torchirid.layered.presets import jewel_beetle
-from torchirid.render.scatterogram import _white_profile, _brdf_kwargs
+from torchirid.layered.scatterograms import _brdf_kwargs, _white_profile
 
 F64 = torch.float64
 LAM = torch.tensor([450.0, 550.0, 650.0], dtype=F64)
@@ -22,16 +22,16 @@ FAST = dict(wavelength=LAM, lobe_nodes=(12, 8))
 NO_TAU = dict(transmissivity_angles=2)
 
 
-@pytest.mark.parametrize("projection", render.PROJECTIONS)
+@pytest.mark.parametrize("projection", layered.PROJECTIONS)
 def test_circles_geometry(projection):
     theta = torch.deg2rad(torch.tensor([0.0, 5.0, 30.0, 60.0, 90.0], dtype=F64))
-    rho = render.projection_radius(theta, projection)
+    rho = layered.projection_radius(theta, projection)
     assert rho[0] == 0 and abs(float(rho[-1]) - 1.0) < 1e-15 and bool((rho.diff() > 0).all())
-    torch.testing.assert_close(render.projection_theta(rho, projection), theta, atol=1e-12, rtol=0)
+    torch.testing.assert_close(layered.projection_theta(rho, projection), theta, atol=1e-12, rtol=0)
     expected = {"equidistant": 1 / 3, "orthographic": 0.5, "equal-area": math.sqrt(2) * math.sin(math.radians(15))}
     assert abs(float(rho[2]) - expected[projection]) < 1e-12
     # pixels whose centre lies on the 30° circle look at θ = 30°
-    d, mask = render.scatterogram_directions(201, projection=projection)
+    d, mask = layered.scatterogram_directions(201, projection=projection)
     c = (2 * torch.arange(201, dtype=F64) + 1) / 201 - 1
     y, x = torch.meshgrid(-c, c, indexing="ij")
     on = ((x * x + y * y).sqrt() - float(rho[2])).abs() < 0.5 / 201
@@ -42,7 +42,7 @@ def test_circles_geometry(projection):
 
 
 def test_directions_and_mask():
-    d, mask = render.scatterogram_directions(8)
+    d, mask = layered.scatterogram_directions(8)
     assert d.shape == (8, 8, 3) and mask.shape == (8, 8) and mask.dtype == torch.bool
     assert int(mask.sum()) == 52  # pixel centres within the unit disc on an 8 × 8 grid
     torch.testing.assert_close(torch.linalg.vector_norm(d[mask], dim=-1), torch.ones(52, dtype=F64))
@@ -52,8 +52,8 @@ def test_directions_and_mask():
 
 
 def test_shapes_mask_and_white_values():
-    sg = render.scatterogram(jewel_beetle("green"), resolution=8, **FAST)
-    assert sg.xyz.shape == (8, 8, 3) and sg.xyz.dtype == F64 and sg.incident is None
+    sg = layered.scatterogram(jewel_beetle("green"), resolution=8, **FAST)
+    assert sg.xyz.shape == (8, 8, 3) and sg.xyz.dtype == F64 and sg.incident_deg is None
     assert bool((sg.xyz[~sg.mask] == 0).all())
     inside = sg.xyz[sg.mask]
     assert bool(torch.isfinite(inside).all()) and bool((inside[:, 1] > 0).all()) and bool((inside[:, 1] < 1).all())
@@ -62,18 +62,18 @@ def test_shapes_mask_and_white_values():
 
 def test_bad_arguments():
     s = jewel_beetle("red")
-    for kw, word in [({"projection": "fisheye"}, "projection"), ({"incident": (95.0, 0.0)}, "incident"),
-                     ({"incident": 30.0}, "incident"), ({"resolution": 0}, "resolution"),
+    for kw, word in [({"projection": "fisheye"}, "projection"), ({"incident_deg": (95.0, 0.0)}, "incident_deg"),
+                     ({"incident_deg": 30.0}, "incident_deg"), ({"resolution": 0}, "resolution"),
                      ({"lobe_nodes": (0, 4)}, "lobe_nodes"), ({"profile_angles": 1}, "profile_angles")]:
         with pytest.raises(ValueError, match=word):
-            render.scatterogram(s, **kw)
+            layered.scatterogram(s, **kw)
     with pytest.raises(ValueError, match="structure"):
-        render.scatterogram("green")
+        layered.scatterogram("green")
 
 
 def test_normal_incidence_is_rotationally_symmetric():
     s = jewel_beetle("purple")
-    sg = render.scatterogram(s, incident=(0.0, 0.0), resolution=12, wavelength=LAM)
+    sg = layered.scatterogram(s, incident_deg=(0.0, 0.0), resolution=12, wavelength=LAM)
     img = sg.xyz
     for k in (1, 2, 3):
         torch.testing.assert_close(torch.rot90(img, k, dims=(0, 1)), img, rtol=1e-9, atol=1e-12)
@@ -85,20 +85,20 @@ def test_normal_incidence_is_rotationally_symmetric():
 
 
 def test_beam_peaks_at_the_mirror_direction():
-    sg = render.scatterogram(jewel_beetle("green"), incident=(30.0, 0.0), resolution=45, wavelength=LAM)
+    sg = layered.scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=45, wavelength=LAM)
     Y = sg.xyz[..., 1]
     peak = sg.directions.reshape(-1, 3)[int(Y.argmax())]
     mirror = torch.tensor([-math.sin(math.radians(30)), 0.0, math.cos(math.radians(30))], dtype=F64)
     assert math.degrees(math.acos(float((peak * mirror).sum()))) < 90.0 / 45 * 1.5  # within 1.5 pixels
     # φ_i = 90° rotates the image by 90° (the beam comes from +y; the spot is at −y)
-    sg90 = render.scatterogram(jewel_beetle("green"), incident=(30.0, 90.0), resolution=45, wavelength=LAM)
+    sg90 = layered.scatterogram(jewel_beetle("green"), incident_deg=(30.0, 90.0), resolution=45, wavelength=LAM)
     torch.testing.assert_close(torch.rot90(sg.xyz, 1, dims=(0, 1)), sg90.xyz, rtol=1e-8, atol=1e-10)
 
 
 def test_white_centre_matches_one_dimensional_integral():
     # at θo = 0 the integrand depends on θi only: L = 2π ∫ f_r(θi) cos θi sin θi dθi (dense trapezoid)
     s = jewel_beetle("red")
-    sg = render.scatterogram(s, resolution=7, wavelength=LAM)
+    sg = layered.scatterogram(s, resolution=7, wavelength=LAM)
     t = torch.linspace(0.0, math.pi / 2, 20001, dtype=F64)  # the GGX tail holds ~2.5 % beyond θi = 0.6
     wi = torch.stack([torch.sin(t), torch.zeros_like(t), torch.cos(t)], -1)
     f = single_reflection_brdf(LAM, wi, torch.tensor([0.0, 0.0, 1.0], dtype=F64), s, **NO_TAU)
@@ -132,7 +132,7 @@ def test_gradients_flow_to_every_layer_parameter():
 
     def white(n1, n2, d1, d2, alpha):
         s = LayeredBragg([RoughBraggLayer(n1, n2, d1, d2, 8, alpha, n_incident=1.0)])
-        return render.scatterogram(s, resolution=3, profile_angles=3, wavelength=LAM, lobe_nodes=(4, 4)).xyz
+        return layered.scatterogram(s, resolution=3, profile_angles=3, wavelength=LAM, lobe_nodes=(4, 4)).xyz
 
     out = white(**p)
     out.sum().backward()
@@ -149,49 +149,13 @@ def test_gradcheck_beam_in_thickness_and_incidence():
 
     def beam(d2, theta):
         s = LayeredBragg([RoughBraggLayer(1.59, 1.67, 78.4, d2, 8, 0.05, n_incident=1.0)])
-        return render.scatterogram(s, incident=(theta, 0.0), resolution=4, wavelength=LAM).xyz
+        return layered.scatterogram(s, incident_deg=(theta, 0.0), resolution=4, wavelength=LAM).xyz
 
     assert torch.autograd.gradcheck(beam, (d2, theta), eps=1e-6, atol=1e-6, rtol=1e-4)
 
 
 def test_float32_follows_the_wavelengths():
-    sg = render.scatterogram(jewel_beetle("green"), resolution=5, wavelength=LAM.float(), lobe_nodes=(12, 8))
-    ref = render.scatterogram(jewel_beetle("green"), resolution=5, **FAST)
+    sg = layered.scatterogram(jewel_beetle("green"), resolution=5, wavelength=LAM.float(), lobe_nodes=(12, 8))
+    ref = layered.scatterogram(jewel_beetle("green"), resolution=5, **FAST)
     assert sg.xyz.dtype == torch.float32
     torch.testing.assert_close(sg.xyz.double(), ref.xyz, rtol=1e-3, atol=1e-5)
-
-
-def test_png_npz_and_srgb(tmp_path):
-    rows = [[render.scatterogram(jewel_beetle(n), resolution=6, title=n, **FAST) for n in ("green", "red")],
-            [render.scatterogram(jewel_beetle(n), incident=(10.0, 0.0), resolution=6, wavelength=LAM)
-             for n in ("green", "red")]]
-    rgb = render.scatterogram_srgb(rows[1][0])
-    assert rgb.shape == (6, 6, 3) and rgb.min() >= 0 and rgb.max() <= 1 and np.all(rgb[~rows[1][0].mask.numpy()] == 0)
-    assert abs(rgb.max() - 1.0) < 1e-9  # auto exposure: the brightest pixel's Y → 1 saturates a channel
-    png = render.save_scatterograms_png(rows, tmp_path / "s.png", dpi=40, row_labels=["white", "beam"])
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    npz = render.save_scatterograms_npz(rows, tmp_path / "s.npz")
-    with np.load(npz, allow_pickle=False) as z:
-        assert z["xyz"].shape == (2, 2, 6, 6, 3) and z["titles"][0, 1] == "red"
-        np.testing.assert_allclose(z["xyz"][1, 0], rows[1][0].xyz.numpy())
-    with pytest.raises(ValueError, match="exposure"):
-        render.scatterogram_srgb(rows[0][0], exposure=-1.0)
-    with pytest.raises(ValueError, match="row_labels"):
-        render.plot_scatterograms(rows, row_labels=["one"])
-
-
-def test_cli_scatterogram(tmp_path, capsys):
-    rc = cli.main(["scatterogram", "--preset", "green", "custom", "--resolution", "6", "--wavelengths", "420", "680",
-                   "4", "--beam", "0", "0", "--beam", "30", "90", "--out", str(tmp_path), "--name", "sg", "--dpi", "40"])
-    assert rc == 0
-    assert (tmp_path / "sg.png").read_bytes()[:4] == b"\x89PNG"
-    with np.load(tmp_path / "sg.npz", allow_pickle=False) as z:
-        assert z["xyz"].shape == (3, 2, 6, 6, 3)
-    assert "sg.png" in capsys.readouterr().out
-    with pytest.raises(SystemExit) as e:
-        cli.main(["scatterogram", "--beam", "120", "0", "--out", str(tmp_path)])
-    assert e.value.code == 2
-    capsys.readouterr()
-    with pytest.raises(SystemExit) as e:
-        cli.main(["scatterogram", "--help"])
-    assert e.value.code == 0 and "scatterometer" in capsys.readouterr().out

@@ -1,6 +1,6 @@
 """Reflectance maps R(θ, λ) of a Bragg mirror or a thin film → ``.npz`` arrays and a PNG.
 
-The products of ``torchirid spectrum``: a grid of incidence angles θ evenly spaced from 0°
+The products of ``torchirid spectrum`` (:mod:`torchirid.app.commands.spectrum`): a grid of incidence angles θ evenly spaced from 0°
 to 90° (inclusive, in the incident medium) × evenly spaced wavelengths, the reflectance on
 it, and a figure (a colour map of R(θ, λ) beside a few spectra at fixed angles).
 
@@ -12,15 +12,25 @@ from __future__ import annotations
 
 import json
 import math
-import numbers
 import os
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
-from ..optics import bragg_reflectance, thin_film_reflectance
-from .._io import atomic_write
+from ... import _checks
+from ..._io import atomic_write
+from ...optics import bragg_reflectance, thin_film_reflectance
+
+__all__ = [
+    "DTYPES",
+    "ReflectanceMap",
+    "bragg_reflectance_map",
+    "plot_reflectance_map",
+    "save_reflectance_map_npz",
+    "save_reflectance_map_png",
+    "thin_film_reflectance_map",
+]
 
 #: precisions of the computation, by name
 DTYPES = ("float64", "float32")
@@ -65,19 +75,16 @@ def _grid(wavelengths, angles: int, dtype: str):
     """Check the grid and build it: numpy axes and the broadcasting tensors (1, W), (A, 1)."""
     lo, hi, count = wavelengths
     lo, hi = float(lo), float(hi)
-    if isinstance(count, bool) or not isinstance(count, numbers.Integral) or count < 1:
-        raise ValueError(f"wavelengths: COUNT must be a whole number >= 1, got {count!r}")
+    count = _checks.check_int(count, "wavelengths COUNT", 1)
     if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi < lo:
         raise ValueError(f"wavelengths: need 0 < MIN <= MAX (nm); got MIN={lo:g} MAX={hi:g}")
     if count > 1 and hi == lo:
         raise ValueError("wavelengths: MIN == MAX needs COUNT 1")
-    if isinstance(angles, bool) or not isinstance(angles, numbers.Integral) or angles < 1:
-        raise ValueError(f"angles must be a whole number >= 1, got {angles!r}")
+    angles = _checks.check_int(angles, "angles", 1)
     if dtype not in DTYPES:
         raise ValueError(f"dtype must be one of {', '.join(DTYPES)}; got {dtype!r}")
 
     real = getattr(torch, dtype)
-    count, angles = int(count), int(angles)
     wavelength_nm = np.linspace(lo, hi, count)
     theta_deg = np.linspace(0.0, 90.0, angles)
     # cos 90° is 6e-17, not 0; clip guards against any rounding outside [0, 1]
@@ -112,7 +119,7 @@ def _constants(dtype: str):
 
 
 def _finish(R, wavelength_nm, theta_deg, cos_t, polarization, title, params) -> ReflectanceMap:
-    from .. import __version__
+    from ... import __version__
 
     params = dict(params, polarization=polarization, torchirid_version=__version__)
     shape = (theta_deg.size, wavelength_nm.size)

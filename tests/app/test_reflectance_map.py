@@ -1,4 +1,4 @@
-"""torchirid.render.spectrum: reflectance maps R(θ, λ) as data, figure, PNG and npz, called directly."""
+"""torchirid.app.figures.reflectance_maps: reflectance maps R(θ, λ) as data, figure, PNG and npz, called directly."""
 
 from __future__ import annotations
 
@@ -9,13 +9,13 @@ import pytest
 import torch
 
 import torchirid
-from torchirid import render
+from torchirid.app import figures
 
 GRID = dict(wavelengths=(400.0, 700.0, 7), angles=4)
 
 
 def test_bragg_map_matches_library():
-    m = render.bragg_reflectance_map(1.0, 1.6, 100.0, 150.0, 7, n_incident=1.2, **GRID)
+    m = figures.bragg_reflectance_map(1.0, 1.6, 100.0, 150.0, 7, n_incident=1.2, **GRID)
     assert m.reflectance.shape == (4, 7) and m.reflectance.dtype == np.float64
     np.testing.assert_allclose(m.theta_deg, [0.0, 30.0, 60.0, 90.0])
     np.testing.assert_allclose(m.wavelength_nm[[0, -1]], [400.0, 700.0])
@@ -28,7 +28,7 @@ def test_bragg_map_matches_library():
 
 
 def test_thin_film_map_float32_complex_substrate():
-    m = render.thin_film_reflectance_map(1.33, 300.0, 0.2 + 3.5j, dtype="float32", **GRID)
+    m = figures.thin_film_reflectance_map(1.33, 300.0, 0.2 + 3.5j, dtype="float32", **GRID)
     assert m.reflectance.shape == (4, 7) and m.reflectance.dtype == np.float32
     assert m.cos_theta.dtype == np.float32
     assert np.isfinite(m.reflectance).all() and (m.reflectance >= 0).all() and (m.reflectance <= 1 + 1e-6).all()
@@ -37,10 +37,10 @@ def test_thin_film_map_float32_complex_substrate():
 
 
 def test_save_png_and_npz(tmp_path):
-    m = render.thin_film_reflectance_map(1.5, 375.0, 1.0, **GRID)
-    assert len(render.plot_reflectance_map(m).axes) == 3  # map, its colour bar, spectra
-    png = render.save_reflectance_map_png(m, tmp_path / "r.png", dpi=30)
-    npz = render.save_reflectance_map_npz(m, tmp_path / "r.npz")
+    m = figures.thin_film_reflectance_map(1.5, 375.0, 1.0, **GRID)
+    assert len(figures.plot_reflectance_map(m).axes) == 3  # map, its colour bar, spectra
+    png = figures.save_reflectance_map_png(m, tmp_path / "r.png", dpi=30)
+    npz = figures.save_reflectance_map_npz(m, tmp_path / "r.npz")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["r.npz", "r.png"]
     with np.load(npz, allow_pickle=False) as z:
@@ -61,4 +61,4 @@ def test_save_png_and_npz(tmp_path):
 def test_bad_arguments_raise(kwargs, name):
     args = dict(n_film=1.5, thickness=300.0, n_substrate=1.0, **GRID) | kwargs
     with pytest.raises(ValueError, match=name):
-        render.thin_film_reflectance_map(**args)
+        figures.thin_film_reflectance_map(**args)

@@ -6,10 +6,10 @@ images every reflected direction ``ω_o`` of a small sample onto one point of a 
 surface normal at the centre, the horizon (θ = 90°) on the rim. :func:`scatterogram` renders
 that disc for a layered Bragg structure under one of two illuminations:
 
-* **narrow beam** from ``incident = (θ_i, φ_i)`` (degrees): each pixel is the radiance
+* **narrow beam** from ``incident_deg = (θ_i, φ_i)`` (degrees): each pixel is the radiance
   reflected towards its direction per unit irradiance of a D65 beam,
   :math:`L_o(\omega_o) = f_r(\omega_i, \omega_o)\cos\theta_i` (sr⁻¹), as XYZ;
-* **white environment** (``incident=None``, Fig. 9: "a hemispherical sensor camera in a white
+* **white environment** (``incident_deg=None``, Fig. 9: "a hemispherical sensor camera in a white
   environment"): uniform D65 radiance 1 from every direction, each pixel
   :math:`L_o(\omega_o) = \int_{\Omega^+} f_r(\omega_i, \omega_o)\cos\theta_i\,d\omega_i` — the
   directional albedo, so a perfect white Lambertian reflector has Y = 1 everywhere.
@@ -36,41 +36,36 @@ layers (``n1, n2, d1, d2, alpha`` as 0-dim tensors with ``requires_grad``), of t
 angles and of the wavelengths — pixels, quadrature nodes and colour conversion are all torch
 operations, without thresholds that depend on them.
 
-Drawing: :func:`plot_scatterograms` lays out a grid of scatterograms (sRGB, an exposure, the
-5°, 30°, 60° and 90° circles in red as in Fig. 9, no colour bar), :func:`save_scatterograms_png`
-writes it; :func:`save_scatterograms_npz` writes the XYZ arrays.
+Display: :func:`scatterogram_srgb` turns one into an sRGB image (numpy, an exposure). The
+figures (the grid of panels with the 5°, 30°, 60° and 90° circles of Fig. 9) and the PNG /
+``.npz`` writers are in the application, :mod:`torchirid.app.figures.scatterograms`.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import numbers
-import os
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 import torch
 
 from .. import _checks
-from .._io import atomic_write
 from .._quadrature import gauss_legendre01
 from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
-from ..layered.single_reflection import coating_reflectance, refract_into_host, single_reflection_brdf
-from ..layered.structure import LayeredBragg, RoughBraggLayer
 from ..microfacet.ggx import ggx_vndf_pdf, sample_ggx_vndf
+from .single_reflection import coating_reflectance, refract_into_host, single_reflection_brdf
+from .structure import LayeredBragg, RoughBraggLayer
 
 __all__ = [
-    "CIRCLES_DEG",
+    "COSINE_NODES",
+    "DEFAULT_WAVELENGTHS",
+    "LOBE_NODES",
     "PROJECTIONS",
     "Scatterogram",
-    "plot_scatterograms",
     "projection_radius",
     "projection_theta",
-    "save_scatterograms_npz",
-    "save_scatterograms_png",
     "scatterogram",
     "scatterogram_directions",
     "scatterogram_srgb",
@@ -78,8 +73,6 @@ __all__ = [
 
 #: angular mappings of the hemisphere onto the unit disc (see the module docstring)
 PROJECTIONS = ("equidistant", "orthographic", "equal-area")
-#: the circles of Fig. 9 (reflection angles θ_o in degrees)
-CIRCLES_DEG = (5.0, 30.0, 60.0, 90.0)
 #: default wavelength grid: 380–780 nm in 5 nm steps
 DEFAULT_WAVELENGTHS = (380.0, 780.0, 81)
 #: white environment, specular lobe of each layer: (Gauss–Legendre nodes in v, u₁ = 1 − (1 − v)⁴,
@@ -100,11 +93,11 @@ def _check_projection(projection) -> None:
         raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
 
 
-def projection_radius(theta, projection: str = "equidistant") -> torch.Tensor:
-    r"""Distance ρ ∈ [0, 1] from the disc's centre of the direction at polar angle ``theta``.
+def projection_radius(theta_rad, projection: str = "equidistant") -> torch.Tensor:
+    r"""Distance ρ ∈ [0, 1] from the disc's centre of the direction at polar angle ``theta_rad``.
 
     Args:
-        theta: polar angles θ in radians, [0, π/2] (tensor or number; float64 for numbers).
+        theta_rad: polar angles θ in radians, [0, π/2] (tensor or number; float64 for numbers).
         projection: one of :data:`PROJECTIONS`.
 
     >>> round(float(projection_radius(math.radians(30.0))), 12)  # equidistant: 30°/90°
@@ -113,7 +106,7 @@ def projection_radius(theta, projection: str = "equidistant") -> torch.Tensor:
     0.5
     """
     _check_projection(projection)
-    t = torch.as_tensor(theta, dtype=theta.dtype if isinstance(theta, torch.Tensor) else torch.float64)
+    t = torch.as_tensor(theta_rad, dtype=theta_rad.dtype if isinstance(theta_rad, torch.Tensor) else torch.float64)
     if projection == "equidistant":
         return t / (math.pi / 2)
     if projection == "orthographic":
@@ -153,8 +146,7 @@ def scatterogram_directions(resolution: int, *, projection: str = "equidistant",
     >>> int(m.sum()), [round(v, 4) for v in d[1, 2].tolist()]
     (12, [0.3728, 0.3728, 0.8497])
     """
-    if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1:
-        raise ValueError(f"resolution must be an integer >= 1 (pixels per side); got {resolution!r}")
+    resolution = _checks.check_int(resolution, "resolution", 1)
     _check_projection(projection)
     c = (2.0 * torch.arange(resolution, dtype=dtype, device=device) + 1.0) / resolution - 1.0
     y, x = torch.meshgrid(-c, c, indexing="ij")
@@ -182,16 +174,17 @@ class Scatterogram:
         mask: ``(H, W)`` bool, True on the disc (θ_o ≤ 90°).
         directions: ``(H, W, 3)`` the reflected direction of each pixel (NaN outside).
         projection: the angular mapping (one of :data:`PROJECTIONS`).
-        incident: ``(θ_i, φ_i)`` in degrees for a narrow beam, None for the white environment.
+        incident_deg: ``(θ_i, φ_i)`` in degrees for a narrow beam, None for the white environment.
         wavelength: ``(W,)`` the wavelengths (nm) of the spectral computation.
         title: a short label for figures.
+        params: the parameters of the render, JSON-ready.
     """
 
     xyz: torch.Tensor
     mask: torch.Tensor
     directions: torch.Tensor
     projection: str
-    incident: tuple | None
+    incident_deg: tuple | None
     wavelength: torch.Tensor
     title: str = ""
     params: dict = field(default_factory=dict, repr=False)
@@ -230,7 +223,7 @@ def _wavelengths(wavelength, dtype, device) -> torch.Tensor:
 
 def _nodes(name, value) -> tuple[int, int]:
     ok = (isinstance(value, (tuple, list)) and len(value) == 2
-          and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in value))
+          and all(isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1 for v in value))
     if not ok:
         raise ValueError(f"{name} must be a pair of integers >= 1; got {value!r}")
     return int(value[0]), int(value[1])
@@ -368,7 +361,7 @@ def _interp_profile(values, theta_nodes, theta):
 def scatterogram(
     structure,
     *,
-    incident=None,
+    incident_deg=None,
     resolution: int = 256,
     wavelength=None,
     projection: str = "equidistant",
@@ -385,9 +378,9 @@ def scatterogram(
         structure: a :class:`~torchirid.layered.structure.LayeredBragg` (or one
             :class:`~torchirid.layered.structure.RoughBraggLayer`); its layer parameters may be
             0-dim tensors with ``requires_grad``.
-        incident: ``(θ_i, φ_i)`` in degrees (numbers or 0-dim tensors; θ_i ∈ [0, 90]) for a
-            narrow D65 beam from that direction; ``None`` (default) for the uniform white (D65)
-            environment of Fig. 9.
+        incident_deg: ``(θ_i, φ_i)`` in degrees (numbers or 0-dim tensors; θ_i ∈ [0, 90]) for
+            a narrow D65 beam from that direction; ``None`` (default) for the uniform white
+            (D65) environment of Fig. 9.
         resolution: pixels per side of the square image.
         wavelength: ``(W,)`` increasing wavelengths in nm (default 380–780 nm, 5 nm steps);
             its dtype (or the layer tensors') sets the precision, float64 otherwise.
@@ -417,14 +410,13 @@ def scatterogram(
 
     Example (the green jewel-beetle area, normal incidence: the specular peak is green):
         >>> from torchirid.layered.presets import jewel_beetle
-        >>> sg = scatterogram(jewel_beetle("green"), incident=(0.0, 0.0), resolution=9)
+        >>> sg = scatterogram(jewel_beetle("green"), incident_deg=(0.0, 0.0), resolution=9)
         >>> x, y, z = sg.xyz[4, 4].tolist()
         >>> [round(v, 2) for v in (x, y, z)], y > max(x, z)
         ([2.44, 4.7, 2.45], True)
     """
     structure = _structure(structure)
-    if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1:
-        raise ValueError(f"resolution must be an integer >= 1 (pixels per side); got {resolution!r}")
+    resolution = _checks.check_int(resolution, "resolution", 1)
     _check_projection(projection)
     if not isinstance(lut, bool):
         raise ValueError(f"lut must be a bool; got {lut!r}")
@@ -432,19 +424,19 @@ def scatterogram(
     cosine_nodes = _nodes("cosine_nodes", cosine_nodes)
     if profile_angles is None:
         profile_angles = min(resolution + 1, 181)
-    if isinstance(profile_angles, bool) or not isinstance(profile_angles, int) or profile_angles < 2:
-        raise ValueError(f"profile_angles must be an integer >= 2; got {profile_angles!r}")
-    if incident is not None:
-        if not isinstance(incident, (tuple, list)) or len(incident) != 2:
-            raise ValueError(f"incident must be None (white environment) or (theta_deg, phi_deg); got {incident!r}")
-    dtype, device = _dtype_device(structure, wavelength, *(incident or ()))
+    profile_angles = _checks.check_int(profile_angles, "profile_angles", 2)
+    if incident_deg is not None:
+        if not isinstance(incident_deg, (tuple, list)) or len(incident_deg) != 2:
+            raise ValueError(f"incident_deg must be None (white environment) or (theta_deg, phi_deg); "
+                             f"got {incident_deg!r}")
+    dtype, device = _dtype_device(structure, wavelength, *(incident_deg or ()))
     lam = _wavelengths(wavelength, dtype, device)
     weights = xyz_weights(lam)  # validates the wavelengths: (W, 3), white Y = 1
     kw = _brdf_kwargs(structure, lut, transmissivity_angles)
     directions, mask = scatterogram_directions(resolution, projection=projection, dtype=dtype, device=device)
     wo = directions[mask]  # (K, 3)
 
-    if incident is None:
+    if incident_deg is None:
         theta_nodes = torch.linspace(0.0, math.pi / 2, profile_angles, dtype=dtype, device=device)
         # guard: the visible-normal map needs cos θ_o > 0; the last node sits 1e-6 rad inside the rim
         theta_eval = theta_nodes.clamp(max=math.pi / 2 - 1e-6)
@@ -453,13 +445,13 @@ def scatterogram(
         values = _interp_profile(profile, theta_nodes, theta_o)
         params_incident = None
     else:
-        th = _checks.as_real(incident[0], "incident theta", dtype, device)
-        ph = _checks.as_real(incident[1], "incident phi", dtype, device)
+        th = _checks.as_real(incident_deg[0], "incident_deg theta", dtype, device)
+        ph = _checks.as_real(incident_deg[1], "incident_deg phi", dtype, device)
         if th.dim() != 0 or ph.dim() != 0:
-            raise ValueError("incident must hold two scalars (theta_deg, phi_deg)")
+            raise ValueError("incident_deg must hold two scalars (theta_deg, phi_deg)")
         with torch.no_grad():
             if not bool((th >= 0) & (th <= 90)):
-                raise ValueError(f"incident theta must lie in [0, 90] degrees; got {float(th):g}")
+                raise ValueError(f"incident_deg theta must lie in [0, 90] degrees; got {float(th):g}")
         t, p = torch.deg2rad(th), torch.deg2rad(ph)
         wi = torch.stack([torch.sin(t) * torch.cos(p), torch.sin(t) * torch.sin(p), torch.cos(t)])
         spectrum = _brdf(structure, wi, wo, lam, kw) * wi[2]
@@ -470,7 +462,7 @@ def scatterogram(
     idx = mask.reshape(-1).nonzero().squeeze(-1)
     xyz = flat.index_copy(0, idx, values).reshape(resolution, resolution, 3)
     params = {
-        "illumination": "white" if incident is None else "beam",
+        "illumination": "white" if incident_deg is None else "beam",
         "incident_deg": params_incident,
         "projection": projection,
         "resolution": resolution,
@@ -479,7 +471,7 @@ def scatterogram(
         "base_albedo": float(structure.base_albedo),
         "layers": [layer.numbers() | {"n2": _json_index(layer.numbers()["n2"])} for layer in structure.layers],
     }
-    if incident is None:
+    if incident_deg is None:
         params.update(profile_angles=profile_angles, lobe_nodes=list(lobe_nodes), cosine_nodes=list(cosine_nodes))
     return Scatterogram(xyz, mask, directions, projection, params_incident, lam, title, params)
 
@@ -489,7 +481,7 @@ def _json_index(n):
 
 
 # ----------------------------------------------------------------------------------------
-# display
+# display image (the figures and the files are in torchirid.app.figures.scatterograms)
 # ----------------------------------------------------------------------------------------
 def _exposure_of(sg: Scatterogram, exposure) -> float:
     if isinstance(exposure, str):
@@ -509,89 +501,3 @@ def scatterogram_srgb(sg: Scatterogram, exposure="auto") -> np.ndarray:
     rgb = xyz_to_srgb(sg.xyz.detach().to(torch.float64) * e).clamp(0.0, 1.0)
     rgb = torch.where(sg.mask.unsqueeze(-1), rgb, torch.zeros_like(rgb))
     return rgb.cpu().numpy()
-
-
-def _grid(scatterograms) -> list[list[Scatterogram]]:
-    if isinstance(scatterograms, Scatterogram):
-        return [[scatterograms]]
-    rows = list(scatterograms)
-    if rows and all(isinstance(s, Scatterogram) for s in rows):
-        return [rows]
-    rows = [list(r) for r in rows]
-    if not rows or not all(r and all(isinstance(s, Scatterogram) for s in r) for r in rows):
-        raise ValueError("scatterograms must be a Scatterogram, a sequence of them, or a sequence of rows of them")
-    return rows
-
-
-def plot_scatterograms(scatterograms, *, exposure="auto", row_labels: Sequence[str] | None = None,
-                       circles: Sequence[float] = CIRCLES_DEG, panel_inches: float = 2.2):
-    """Draw scatterograms side by side: one panel each (sRGB, black outside the disc), the
-    reflection-angle ``circles`` in red with their labels (as in Fig. 9), each panel's title
-    above it, optional row labels on the left; no axes, no colour bar.
-
-    Args:
-        scatterograms: a :class:`Scatterogram`, a sequence (one row) or a sequence of rows.
-        exposure: a number > 0 multiplying every XYZ, or ``"auto"`` (each panel's brightest Y → 1).
-        row_labels: one label per row (e.g. the illumination).
-
-    Returns a ``matplotlib.figure.Figure`` built without pyplot (no backend change, no closing).
-    """
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Circle
-
-    rows = _grid(scatterograms)
-    ncols = max(len(r) for r in rows)
-    if row_labels is not None and len(row_labels) != len(rows):
-        raise ValueError(f"row_labels must have one label per row ({len(rows)}); got {len(row_labels)}")
-    left = 0.35 if row_labels else 0.05
-    fig = Figure(figsize=(left + panel_inches * ncols, 0.15 + (panel_inches + 0.3) * len(rows)))
-    fig.patch.set_facecolor("white")
-    gs = fig.add_gridspec(len(rows), ncols, left=left / fig.get_figwidth(), right=0.995, bottom=0.01,
-                          top=1 - 0.3 / fig.get_figheight(), wspace=0.04, hspace=0.14)
-    for i, row in enumerate(rows):
-        for j, sg in enumerate(row):
-            ax = fig.add_subplot(gs[i, j])
-            ax.imshow(scatterogram_srgb(sg, exposure), extent=(-1, 1, -1, 1), origin="upper",
-                      interpolation="nearest")
-            for deg in circles:
-                r = float(projection_radius(math.radians(deg), sg.projection))
-                ax.add_patch(Circle((0, 0), r, fill=False, ec="red", lw=0.6, alpha=0.9))
-                ax.text(r * math.cos(math.radians(40)) + 0.015, r * math.sin(math.radians(40)) + 0.015,
-                        f"{deg:g}°", color="red", fontsize=5.5, ha="left", va="bottom")
-            ax.set_xlim(-1.04, 1.04)
-            ax.set_ylim(-1.04, 1.04)
-            ax.set_aspect("equal")
-            ax.axis("off")
-            if sg.title:
-                ax.set_title(sg.title, fontsize=7, pad=2)
-            if row_labels and j == 0:
-                ax.text(-1.12, 0.0, row_labels[i], rotation=90, ha="right", va="center", fontsize=7,
-                        transform=ax.transData)
-    return fig
-
-
-def save_scatterograms_png(scatterograms, path: str | os.PathLike, *, dpi: int = 150, **plot_kwargs):
-    """Draw :func:`plot_scatterograms` and write it atomically to ``path`` as a PNG.
-
-    The directory must exist; ``OSError`` propagates. Returns ``path`` as a ``Path``.
-    """
-    fig = plot_scatterograms(scatterograms, **plot_kwargs)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi, facecolor="white"))
-
-
-def save_scatterograms_npz(scatterograms, path: str | os.PathLike):
-    """Write the scatterograms' arrays atomically to ``path`` (readable with ``allow_pickle=False``):
-    ``xyz`` (R, C, H, W, 3) float64, ``mask`` (H, W), ``wavelength_nm`` (W,), ``titles`` (R, C) and
-    ``params`` (a JSON string: one dict per panel). All panels must share the resolution."""
-    rows = _grid(scatterograms)
-    if len({len(r) for r in rows}) != 1 or len({tuple(s.xyz.shape) for r in rows for s in r}) != 1:
-        raise ValueError("save_scatterograms_npz needs a full grid of scatterograms of one resolution")
-    xyz = np.stack([np.stack([s.xyz.detach().cpu().to(torch.float64).numpy() for s in r]) for r in rows])
-    arrays = dict(
-        xyz=xyz,
-        mask=rows[0][0].mask.cpu().numpy(),
-        wavelength_nm=rows[0][0].wavelength.detach().cpu().to(torch.float64).numpy(),
-        titles=np.array([[s.title for s in r] for r in rows]),
-        params=np.array(json.dumps([[s.params | {"title": s.title} for s in r] for r in rows], sort_keys=True)),
-    )
-    return atomic_write(path, lambda f: np.savez(f, **arrays))

@@ -1,0 +1,199 @@
+"""What every subcommand of ``torchirid`` shares: the parser class and its one error style,
+the help formatter, the number parsers, the checks of names and grids, progress bars.
+
+One error style: a bad argument — an argparse error, or a ``ValueError`` raised by a command
+or by the library about an argument — prints exactly one line on stderr,
+``torchirid <subcommand>: error: <message>``, and ends with exit status 2 (no usage dump,
+no traceback). A file that cannot be written prints the same kind of line and exits 1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import math
+import os
+import sys
+
+PROG = "torchirid"
+#: exit status of a bad argument (argparse's own), and of a failed write
+USAGE_ERROR = 2
+WRITE_ERROR = 1
+POLARIZATIONS = ("s", "p", "unpolarized")
+
+__all__ = [
+    "ArgumentParser",
+    "HelpFormatter",
+    "POLARIZATIONS",
+    "PROG",
+    "USAGE_ERROR",
+    "WRITE_ERROR",
+    "add_command_parser",
+    "cannot_write",
+    "check_name",
+    "count",
+    "fail",
+    "index",
+    "nonnegative",
+    "number",
+    "one_line",
+    "parse_wavelengths",
+    "positive",
+    "progress_bar",
+    "reports_bad_arguments",
+]
+
+
+def one_line(message) -> str:
+    """``message`` on one line: newlines and runs of blanks become single spaces."""
+    return " ".join(str(message).split())
+
+
+def fail(command: str, message, status: int = USAGE_ERROR) -> int:
+    """Print ``torchirid <command>: error: <message>`` (one line) on stderr; return ``status``."""
+    prefix = f"{PROG} {command}" if command else PROG
+    print(f"{prefix}: error: {one_line(message)}", file=sys.stderr)
+    return status
+
+
+def cannot_write(command: str, directory, exc: OSError) -> int:
+    """The one-line error of a failed write; returns the exit status 1."""
+    return fail(command, f"cannot write to {directory}: {exc}", WRITE_ERROR)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An argparse parser whose usage errors are one line, ``<prog>: error: <message>``, and
+    exit status 2 (argparse's default prints the usage first)."""
+
+    def error(self, message):  # noqa: D102 (argparse API)
+        self.exit(USAGE_ERROR, f"{self.prog}: error: {one_line(message)}\n")
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Show defaults and keep the hand-made line breaks of descriptions and epilogs."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is argparse.SUPPRESS or not action.option_strings:
+            return action.help
+        if isinstance(action.default, (list, tuple)):
+            return f"{action.help} (default: {' '.join(map(str, action.default))})"
+        return super()._get_help_string(action)
+
+
+def add_command_parser(subparsers, name: str, **kwargs) -> argparse.ArgumentParser:
+    """``subparsers.add_parser(name, ...)`` with the program name ``torchirid <name>`` (the
+    prefix of its error lines) and the help formatter.
+
+    The subparser has its parent's class: :class:`ArgumentParser` under :func:`build_parser
+    <torchirid.app.cli.build_parser>` (one-line errors); a plain argparse parent (a test
+    registering one command) keeps argparse's behaviour.
+    """
+    kwargs.setdefault("prog", f"{PROG} {name}")
+    kwargs.setdefault("formatter_class", HelpFormatter)
+    return subparsers.add_parser(name, **kwargs)
+
+
+def reports_bad_arguments(command: str):
+    """Decorator of a command's ``run(args) -> int``: a ``ValueError`` raised inside (a bad
+    argument, named by the command or the library) becomes the one-line error and status 2."""
+
+    def wrap(run):
+        @functools.wraps(run)
+        def checked(args) -> int:
+            try:
+                return run(args)
+            except ValueError as exc:
+                return fail(command, exc)
+
+        return checked
+
+    return wrap
+
+
+# ----------------------------------------------------------------------------- numbers
+def number(text: str) -> float:
+    """A finite real number (the library checks its range and names the parameter)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def positive(text: str) -> float:
+    """A finite number > 0."""
+    value = number(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def nonnegative(text: str) -> float:
+    """A finite number >= 0."""
+    value = number(text)
+    if not value >= 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def count(text: str) -> int:
+    """A whole number >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
+    return value
+
+
+def index(text: str):
+    """A refractive index n or n + iκ from the command line: ``1.5``, ``1.5+0.02j`` (finite;
+    the library checks κ >= 0)."""
+    try:
+        z = complex(text.replace(" ", "").replace("i", "j"))
+    except ValueError:
+        z = None
+    if z is None or not (math.isfinite(z.real) and math.isfinite(z.imag)):
+        raise argparse.ArgumentTypeError(
+            f"expected a refractive index such as 1.5 or 1.5+0.02j (n + iκ), got {text!r}"
+        )
+    return z.real if z.imag == 0 else z
+
+
+# ----------------------------------------------------------------------------- checks
+def parse_wavelengths(raw) -> tuple[float, float, int]:
+    """``--wavelengths MIN MAX COUNT`` (strings) → ``(min_nm, max_nm, count)``; ValueError if bad."""
+    lo, hi, n = raw
+    try:
+        lo, hi = float(lo), float(hi)
+    except ValueError:
+        raise ValueError(f"--wavelengths: MIN and MAX must be numbers (nm); got {raw[0]!r} {raw[1]!r}") from None
+    try:
+        n = count(n)
+    except argparse.ArgumentTypeError as e:
+        raise ValueError(f"--wavelengths COUNT: {e}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo <= 0 or hi < lo:
+        raise ValueError(f"--wavelengths: need 0 < MIN <= MAX (nm); got MIN={lo:g} MAX={hi:g}")
+    if n > 1 and hi == lo:
+        raise ValueError("--wavelengths: MIN == MAX needs COUNT 1")
+    return lo, hi, n
+
+
+def check_name(name: str, option: str = "--name") -> None:
+    """A file stem: not empty, no directory separator; ValueError otherwise."""
+    if not name or os.sep in name or (os.altsep and os.altsep in name):
+        raise ValueError(f"{option} must be a plain file stem, got {name!r}")
+
+
+# ----------------------------------------------------------------------------- progress
+def progress_bar(desc: str, total: int | None = None, unit: str = "step", **kwargs):
+    """A tqdm bar on stderr that appears only after 2 s and vanishes when closed."""
+    from tqdm.auto import tqdm
+
+    kwargs.setdefault("delay", 2.0)
+    kwargs.setdefault("leave", False)
+    kwargs.setdefault("file", sys.stderr)
+    return tqdm(total=total, desc=desc, unit=unit, **kwargs)

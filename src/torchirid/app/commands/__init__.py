@@ -1,0 +1,12 @@
+"""The subcommands of ``torchirid``, one module each.
+
+Every module has ``NAME`` (the subcommand), ``add_parser(subparsers)`` (registers it on an
+argparse subparsers object, with ``func=run`` and ``parser`` as defaults, and returns its
+parser) and ``run(args) -> int`` (does the work; exit status 0, 1 for a failed write, 2 for a
+bad argument after printing the one-line error). The registry is
+:data:`torchirid.app.cli.COMMANDS`.
+"""
+
+from . import film_table, fit_film, gradients, render_sphere, scatterogram, spectrum, thin_film
+
+__all__ = ["film_table", "fit_film", "gradients", "render_sphere", "scatterogram", "spectrum", "thin_film"]

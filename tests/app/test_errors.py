@@ -1,0 +1,101 @@
+"""One error style for every subcommand: a bad argument → exit status 2 and exactly one line on
+stderr, ``torchirid <subcommand>: error: <message>`` (no usage dump, no traceback)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import torchirid
+from torchirid.app import cli
+
+
+def _run(capsys, argv):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    captured = capsys.readouterr()
+    return exc.value.code, captured.out, captured.err
+
+
+def _check_one_line(code, err, command):
+    assert code == 2
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    prefix = f"torchirid {command}: error: " if command else "torchirid: error: "
+    assert lines[0].startswith(prefix), err
+    assert "Traceback" not in err and "usage:" not in err
+
+
+#: one bad argument per subcommand that argparse itself rejects (non-numeric or NaN values)
+PARSE_ERRORS = {
+    "spectrum": ["--d1", "nan"],
+    "gradients": ["--lambdas", "nan"],
+    "scatterogram": ["--alpha", "nan"],
+    "film-table": ["--angles", "many"],
+    "render-sphere": ["--tau", "nan"],
+    "thin-film": ["--alpha", "nan"],
+    "fit-film": ["cube.npz", "--bandwidth", "nan"],
+}
+
+#: one bad argument per subcommand that parses and is refused afterwards (by the command or the
+#: library, as a ValueError naming the parameter)
+LATE_ERRORS = {
+    "spectrum": (["--cells", "0"], "cells"),
+    "gradients": (["--n1", "2"], "n1"),
+    "scatterogram": (["--beam", "120", "0"], "THETA"),
+    "film-table": (["--wavelengths", "700", "400", "5"], "wavelengths"),
+    "render-sphere": (["--preset", "custom", "--substrate", "1.5", "--size", "4"], "size"),
+    "thin-film": (["--n-film", "0.5"], "n-film"),
+    "fit-film": (["missing-cube.npz"], "missing-cube"),
+}
+
+
+def test_every_subcommand_is_covered():
+    names = {command.NAME for command in cli.COMMANDS}
+    assert set(PARSE_ERRORS) == names and set(LATE_ERRORS) == names
+
+
+@pytest.mark.parametrize("command", sorted(PARSE_ERRORS))
+def test_parse_error_is_one_line_and_status_2(tmp_path, capsys, command):
+    code, out, err = _run(capsys, [command, "--out", str(tmp_path / "out"), *PARSE_ERRORS[command]])
+    _check_one_line(code, err, command)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("command", sorted(LATE_ERRORS))
+def test_late_error_is_one_line_and_status_2(tmp_path, capsys, command):
+    extra, word = LATE_ERRORS[command]
+    out_dir = tmp_path if command == "render-sphere" else tmp_path / "out"  # render-sphere needs an existing --out
+    code, out, err = _run(capsys, [command, "--out", str(out_dir), *extra])
+    _check_one_line(code, err, command)
+    assert word in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_unrecognized_argument_names_the_subcommand(capsys):
+    code, _, err = _run(capsys, ["spectrum", "--bogus", "1"])
+    _check_one_line(code, err, "spectrum")
+    assert "--bogus" in err
+
+
+def test_no_or_unknown_subcommand(capsys):
+    code, _, err = _run(capsys, [])
+    _check_one_line(code, err, None)
+    code, _, err = _run(capsys, ["paint"])
+    _check_one_line(code, err, None)
+    assert "paint" in err
+
+
+def test_the_console_process(tmp_path):
+    """The same through ``python -m torchirid`` in a fresh process: status 2, one stderr line."""
+    src = str(Path(torchirid.__file__).resolve().parents[1])
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([src, os.environ.get("PYTHONPATH", "")]), MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, "-m", "torchirid", "spectrum", "--thickness", "abc", "--out",
+                           str(tmp_path)], capture_output=True, text=True, env=env, timeout=300)
+    assert proc.returncode == 2
+    assert proc.stderr.splitlines() == [proc.stderr.strip()] and proc.stderr.startswith("torchirid spectrum: error: ")
+    assert proc.stdout == ""

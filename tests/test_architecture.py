@@ -1,0 +1,293 @@
+"""The package's layering rules (docs/architecture.md), checked on the source and at run time.
+
+- the library never imports the application (``torchirid.app``), argparse, matplotlib or tqdm;
+- a library layer imports only lower layers (the ranks below) and its own subpackage;
+- no import cycle between modules (lazy imports inside functions count too);
+- no ``_private`` name crosses a subpackage boundary;
+- no module is shadowed by a function of its package; every subpackage has an explicit
+  ``__all__``;
+- the public signatures speak one vocabulary (docs/conventions.md).
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib
+import inspect
+import pkgutil
+import re
+from pathlib import Path
+
+import pytest
+
+import torchirid
+
+SRC = Path(torchirid.__file__).resolve().parent
+
+#: Layer of each top-level part of the package: a module may import only from a lower rank (or
+#: from its own subpackage). ``<root>`` is ``torchirid/__init__.py``.
+RANKS = {
+    # shared internals: the version and the cache registry below the rest
+    "_version": 0, "_cache": 0,
+    "_checks": 0.5, "_compile": 0.5, "_quadrature": 0.5, "_io": 0.5, "_lut_file": 0.5,
+    # tables, materials, colorimetry: no optics inside
+    "lut": 1, "materials": 1, "color": 1,
+    # exact optics and microfacets
+    "optics": 2, "microfacet": 2,
+    # geometry and the colour of structures
+    "layered": 3, "spectral": 3,
+    # products
+    "ibl": 4, "estimation": 4, "export": 4,
+    "fitting": 5,
+    # the curated public API
+    "<root>": 6,
+    # the application
+    "app": 7, "__main__": 8,
+}
+APPLICATION = ("app", "__main__")
+FORBIDDEN_IN_LIBRARY = ("argparse", "matplotlib", "tqdm")
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(SRC.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(SRC.rglob("*.py"))}
+
+
+def _part(module: str) -> str:
+    """Top-level part of a module name: ``torchirid.optics.bragg`` → ``optics``."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else "<root>"
+
+
+def _imports(module: str):
+    """(line, imported module, imported name or None) for every import in ``module``."""
+    path = MODULES[module]
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield node.lineno, alias.name, None
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - (node.level - 1)]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            for alias in node.names:
+                full = f"{target}.{alias.name}"
+                if full in MODULES:  # `from . import x` of a submodule
+                    yield node.lineno, full, None
+                else:
+                    yield node.lineno, target, alias.name
+
+
+def _graph() -> dict[str, set[str]]:
+    graph = {m: set() for m in MODULES}
+    for m in MODULES:
+        for _, target, _ in _imports(m):
+            if target in MODULES and target != m:
+                graph[m].add(target)
+    return graph
+
+
+def test_every_part_has_a_rank():
+    assert {_part(m) for m in MODULES} <= set(RANKS), {_part(m) for m in MODULES} - set(RANKS)
+
+
+def test_library_does_not_import_the_application_or_its_tools():
+    bad = []
+    for m in MODULES:
+        if _part(m) in APPLICATION:
+            continue
+        for line, target, _ in _imports(m):
+            if target.split(".")[0] in FORBIDDEN_IN_LIBRARY or _part(target) in APPLICATION and target.startswith(
+                    "torchirid"):
+                bad.append(f"{m}:{line} imports {target}")
+    assert not bad, "\n".join(bad)
+
+
+def test_imports_point_downwards():
+    bad = []
+    for m in MODULES:
+        for line, target, _ in _imports(m):
+            if not target.startswith("torchirid") or target not in MODULES and _part(target) not in RANKS:
+                continue
+            src, dst = _part(m), _part(target)
+            if src != dst and RANKS[dst] >= RANKS[src]:
+                bad.append(f"{m}:{line} ({src}, rank {RANKS[src]}) imports {target} ({dst}, rank {RANKS[dst]})")
+    assert not bad, "\n".join(bad)
+
+
+def test_no_import_cycles():
+    graph = _graph()
+    index, low, stack, on_stack, cycles = {}, {}, [], set(), []
+
+    def visit(v):  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                cycles.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    assert not cycles, cycles
+
+
+def test_the_cycle_check_can_fail():
+    """The graph builder sees lazy imports inside functions (they make cycles too)."""
+    graph = _graph()
+    assert "torchirid._checks" in graph["torchirid.optics.bragg"]
+    assert all(isinstance(v, set) for v in graph.values())
+
+
+def test_no_private_name_crosses_a_subpackage():
+    bad = []
+    for m in MODULES:
+        for line, target, name in _imports(m):
+            if not target.startswith("torchirid"):
+                continue
+            src, dst = _part(m), _part(target)
+            if src == dst or dst.startswith("_"):  # own subpackage, or the shared internals
+                continue
+            private_module = any(p.startswith("_") and not p.startswith("__") for p in target.split(".")[2:])
+            private_name = name is not None and name.startswith("_") and not name.startswith("__")
+            if private_module or private_name:
+                bad.append(f"{m}:{line} imports {target}{'.' + name if name else ''}")
+    assert not bad, "\n".join(bad)
+
+
+def _packages():
+    yield torchirid
+    for info in pkgutil.walk_packages(torchirid.__path__, "torchirid."):
+        if info.ispkg:
+            yield importlib.import_module(info.name)
+
+
+def test_no_module_is_shadowed_by_a_function():
+    bad = []
+    for package in _packages():
+        for info in pkgutil.iter_modules(package.__path__):
+            module = importlib.import_module(f"{package.__name__}.{info.name}")
+            attribute = getattr(package, info.name, module)
+            if attribute is not module:
+                bad.append(f"{package.__name__}.{info.name} is {attribute!r}")
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("package", [p.__name__ for p in _packages()])
+def test_every_package_has_an_explicit_all(package):
+    path = MODULES[package]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    assigned = [n for n in tree.body if isinstance(n, ast.Assign)
+                and any(isinstance(t, ast.Name) and t.id == "__all__" for t in n.targets)]
+    assert len(assigned) == 1, f"{package}: no single __all__ assignment"
+    value = assigned[0].value
+    assert isinstance(value, (ast.List, ast.Tuple)) and all(
+        isinstance(e, ast.Constant) and isinstance(e.value, str) for e in value.elts), \
+        f"{package}.__all__ must be a literal list of names"
+    module = importlib.import_module(package)
+    missing = [n for n in module.__all__ if not hasattr(module, n)]
+    assert not missing, f"{package}.__all__ names missing attributes: {missing}"
+    assert len(set(module.__all__)) == len(module.__all__), f"{package}.__all__ has duplicates"
+
+
+# ------------------------------------------------------------------------------ vocabulary
+#: parameter names replaced by the vocabulary of docs/conventions.md (old name → new name)
+FORBIDDEN_PARAMETERS = {
+    "n_outer": "n_incident", "n_host": "n_incident", "n_medium": "n_incident", "incident_medium": "n_incident",
+    "host": "n_incident", "n_inner": "n_substrate", "n_exit": "n_substrate", "n_base": "n_substrate",
+    "substrate": "n_substrate", "cos_in": "cos_theta_i", "cos_out": "cos_theta_o", "cos_light": "cos_theta_i",
+    "cos_view": "cos_theta_o", "lambdas_nm": "periods", "thickness_nm": "thickness",
+}
+_COUNT_SUFFIXES = ("_nodes", "_cells", "_samples", "_bins", "_steps")
+
+
+def _vocabulary_problem(name: str) -> str | None:
+    if name in FORBIDDEN_PARAMETERS:
+        return f"use {FORBIDDEN_PARAMETERS[name]!r}"
+    if name.startswith("cos_") and not re.match(r"cos_(theta|phi)(_\w+)?$", name) and name != "cos_range":
+        return "cosines are cos_theta[_suffix] or cos_phi"
+    if re.search(r"theta|phi", name) and not name.startswith("cos_") \
+            and not name.endswith(("_deg", "_rad")) and not name.endswith(_COUNT_SUFFIXES):
+        return "a raw angle needs a _deg or _rad suffix (or pass its cosine)"
+    return None
+
+
+def _public_callables():
+    seen = set()
+    for package in _packages():
+        if package.__name__.startswith("torchirid.app"):
+            continue
+        for name in getattr(package, "__all__", []):
+            obj = getattr(package, name)
+            candidates = []
+            if inspect.isfunction(obj):
+                candidates.append((f"{package.__name__}.{name}", obj))
+            elif inspect.isclass(obj):
+                candidates.append((f"{package.__name__}.{name}", obj.__init__))
+                for attr, value in vars(obj).items():
+                    if inspect.isfunction(value) and (not attr.startswith("_") or attr == "__call__"):
+                        candidates.append((f"{package.__name__}.{name}.{attr}", value))
+            for qual, fn in candidates:
+                if fn in seen:
+                    continue
+                seen.add(fn)
+                yield qual, fn
+
+
+def test_public_signatures_use_the_vocabulary():
+    bad = []
+    count = 0
+    for qual, fn in _public_callables():
+        try:
+            parameters = inspect.signature(fn).parameters
+        except (TypeError, ValueError):
+            continue
+        for p in parameters:
+            count += 1
+            problem = _vocabulary_problem(p)
+            if problem:
+                bad.append(f"{qual}({p}): {problem}")
+    assert count > 300  # the walk saw the API
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("name, ok", [("n_incident", True), ("n_outer", False), ("cos_theta_o", True),
+                                      ("cos_in", False), ("theta_i", False), ("theta_i_rad", True),
+                                      ("rotation_deg", True), ("theta_nodes", True), ("substrate", False)])
+def test_the_vocabulary_rule_itself(name, ok):
+    assert (_vocabulary_problem(name) is None) == ok
+
+
+def test_reflectance_functions_take_wavelength_then_geometry():
+    """Reflectance-like functions: ``(wavelength, cos_theta | directions, <structure…>)``."""
+    from torchirid import layered, optics
+
+    for fn in (optics.bragg_reflectance, optics.thin_film_reflectance, optics.multilayer, optics.film_reflectance,
+               optics.rough_multilayer_reflectance, optics.bragg_dispersion, optics.bragg_envelope,
+               layered.integrated_transmissivity, layered.layer_reflection_probabilities):
+        assert list(inspect.signature(fn).parameters)[:2] == ["wavelength", "cos_theta"], fn.__name__
+    for fn in (layered.single_reflection_brdf, layered.single_reflection_pdf, layered.montecarlo_brdf):
+        assert list(inspect.signature(fn).parameters)[:4] == ["wavelength", "wi", "wo", "structure"], fn.__name__
