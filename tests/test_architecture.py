@@ -218,7 +218,7 @@ def test_every_package_has_an_explicit_all(package):
 FORBIDDEN_PARAMETERS = {
     "n_outer": "n_incident", "n_host": "n_incident", "n_medium": "n_incident", "incident_medium": "n_incident",
     "host": "n_incident", "n_inner": "n_substrate", "n_exit": "n_substrate", "n_base": "n_substrate",
-    "substrate": "n_substrate", "cos_in": "cos_theta_i", "cos_out": "cos_theta_o", "cos_light": "cos_theta_i",
+    "substrate": "n_substrate", "incident": "n_incident (a medium) or incident_deg (a beam)", "cos_in": "cos_theta_i", "cos_out": "cos_theta_o", "cos_light": "cos_theta_i",
     "cos_view": "cos_theta_o", "lambdas_nm": "periods", "thickness_nm": "thickness",
 }
 _COUNT_SUFFIXES = ("_nodes", "_cells", "_samples", "_bins", "_steps")

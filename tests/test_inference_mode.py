@@ -40,7 +40,7 @@ def test_scatterogram_match_inside_inference_mode():
         lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
         incs = [(0.0, 0.0), (40.0, 0.0)]
         target = render_targets(jewel_beetle("green"), incs, resolution=12, wavelength=lam)
-        kw = dict(incident=incs, n1=1.59, cells=(8,), period_range=None, wavelength=lam,
+        kw = dict(incident_deg=incs, n1=1.59, cells=(8,), period_range=None, wavelength=lam,
                   init={"period": 166.0, "delta": 0.51, "dn": 0.08, "alpha": 0.07}, short_iter=4, max_iter=6)
         ref = match_scatterogram(target, **kw)
         with torch.inference_mode():

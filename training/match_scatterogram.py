@@ -69,7 +69,7 @@ def run_preset(name, args, generator):
     noise = 1.0 + args.noise * torch.randn(clean.shape, generator=generator, dtype=F64)
     target = exposure * clean * noise
     t0 = time.perf_counter()
-    fit = match_scatterogram(target, incident=incs, n1=row["n1"], wavelength=lam, max_iter=args.max_iter,
+    fit = match_scatterogram(target, incident_deg=incs, n1=row["n1"], wavelength=lam, max_iter=args.max_iter,
                              short_iter=args.short_iter, starts=args.starts,
                              log=(lambda s: print(f"  [{name}] {s}", file=sys.stderr)) if args.verbose else None)
     seconds = time.perf_counter() - t0

@@ -14,9 +14,8 @@ def _parse(argv):
     return parser.parse_args(argv)
 
 
-# The cubes are rendered as Kobayashi et al.'s camera sees them (the s wave, through a polarizer):
-# the setup that ``fit-film --polarization`` defaults to (the library's synthetic_cube defaults to
-# unpolarized light).
+# The cubes are rendered as Kobayashi et al.'s camera sees them (the s wave, through a polarizer),
+# so the fits pass ``--polarization s`` (the command, like the library, defaults to unpolarized).
 
 
 def test_fit_film_on_a_tiny_cube(tmp_path, capsys):
@@ -24,7 +23,7 @@ def test_fit_film_on_a_tiny_cube(tmp_path, capsys):
     p = tmp_path / "cube.npz"
     write_npz(p, c.cube, c.wavelength, c.angles_deg, bandwidth=4.0, thickness=c.thickness, meta={"n_true": 1.37})
     out = tmp_path / "out"
-    args = _parse(["fit-film", str(p), "--out", str(out), "--threads", "1"])
+    args = _parse(["fit-film", "--polarization", "s", str(p), "--out", str(out), "--threads", "1"])
     assert args.func is cli.run
     assert args.func(args) == 0
     for f in ("thickness.png", "fit_error.png", "thickness_error.png", "report.json", "thickness_nm.npy"):
@@ -36,7 +35,7 @@ def test_fit_film_on_a_tiny_cube(tmp_path, capsys):
 
 
 def test_fit_film_bad_file(tmp_path, capsys):
-    args = _parse(["fit-film", str(tmp_path / "nope.txt"), "--out", str(tmp_path / "o")])
+    args = _parse(["fit-film", "--polarization", "s", str(tmp_path / "nope.txt"), "--out", str(tmp_path / "o")])
     assert args.func(args) == 2
     assert "fit-film" in capsys.readouterr().err
 
@@ -64,7 +63,7 @@ def test_fit_film_on_envi_files_one_per_angle(tmp_path, capsys):
     out = tmp_path / "out"
     # angles given in file order; the files need not be in increasing angle order
     order = [2, 0, 4, 1, 3]
-    args = _parse(["fit-film", *[paths[i] for i in order], "--angles",
+    args = _parse(["fit-film", "--polarization", "s", *[paths[i] for i in order], "--angles",
                    *[str(c.angles_deg[i].item()) for i in order], "--index-model", "constant", "--out", str(out),
                    "--threads", "1"])
     assert args.func(args) == 0
@@ -84,11 +83,11 @@ def test_fit_film_envi_angle_errors(tmp_path, capsys):
                        (["--angles", "10", "30"], "3 angle(s), one per ENVI file"),
                        (["--angles", "10", "30", "95"], "[0, 90)"),
                        (["--angles", "10", "30", "30"], "distinct")]:
-        args = _parse(["fit-film", *paths, "--out", str(tmp_path / "o"), *extra])
+        args = _parse(["fit-film", "--polarization", "s", *paths, "--out", str(tmp_path / "o"), *extra])
         assert args.func(args) == 2
         assert msg in capsys.readouterr().err
     # a single camera file without an 'incidence angle' field needs --angles
-    args = _parse(["fit-film", paths[0], "--out", str(tmp_path / "o")])
+    args = _parse(["fit-film", "--polarization", "s", paths[0], "--out", str(tmp_path / "o")])
     assert args.func(args) == 2
     assert "incidence angle" in capsys.readouterr().err
 
@@ -97,13 +96,14 @@ def test_fit_film_default_auto_index_on_zns(tmp_path, capsys):
     c = synthetic_cube("zns_500", height=12, width=12, seed=0, polarization="s")
     p = tmp_path / "zns.npz"
     write_npz(p, c.cube, c.wavelength, c.angles_deg, bandwidth=4.0, thickness=c.thickness, meta={"n_true": 2.367})
-    args = _parse(["fit-film", str(p), "--out", str(tmp_path / "auto"), "--threads", "1"])
+    args = _parse(["fit-film", "--polarization", "s", str(p), "--out", str(tmp_path / "auto"), "--threads", "1"])
     assert args.index_model == "auto" and args.func(args) == 0
     rep = json.loads((tmp_path / "auto" / "report.json").read_text())
     assert rep["index_model"] in ("cauchy", "cauchy3") and rep["warnings"] == []
     assert rep["n_error"] < 0.01 and rep["thickness_error_nm"]["mean"] < 5
     assert set(rep["index_selection"]) == {"constant", "cauchy", "cauchy3"}
     capsys.readouterr()
-    args = _parse(["fit-film", str(p), "--out", str(tmp_path / "const"), "--index-model", "constant"])
+    args = _parse(["fit-film", "--polarization", "s", str(p), "--out", str(tmp_path / "const"),
+                   "--index-model", "constant"])
     assert args.func(args) == 0
     assert "warning" in capsys.readouterr().err and "noise level" in (tmp_path / "const" / "report.json").read_text()

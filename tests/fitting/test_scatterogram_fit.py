@@ -77,7 +77,7 @@ def test_loss_gradients_finite(green_target):
 def test_recovers_period_from_nearby_start(green_target):
     noisy = 2.7 * green_target * (1 + 0.01 * torch.randn(green_target.shape, dtype=F64,
                                                          generator=torch.Generator().manual_seed(0)))
-    fit = match_scatterogram(noisy, incident=INCS, n1=1.59, cells=(8,), period_range=None, wavelength=LAM,
+    fit = match_scatterogram(noisy, incident_deg=INCS, n1=1.59, cells=(8,), period_range=None, wavelength=LAM,
                              init={"period": 166.0, "delta": 0.51, "dn": 0.08, "alpha": 0.07},
                              short_iter=8, max_iter=25)
     assert isinstance(fit, ScatterogramFit)
@@ -90,15 +90,15 @@ def test_recovers_period_from_nearby_start(green_target):
 
 def test_grid_stage_finds_the_basin(green_target):
     """From a generic start, the Λ grid alone lands within a few nm (the refinement does the rest)."""
-    fit = match_scatterogram(green_target, incident=INCS, n1=1.59, cells=(8,), period_range=(120.0, 260.0),
+    fit = match_scatterogram(green_target, incident_deg=INCS, n1=1.59, cells=(8,), period_range=(120.0, 260.0),
                              period_step=4.0, starts=1, short_iter=1, max_iter=0, wavelength=LAM)
     assert abs(fit.stages["grid"]["minima"][0][0] - 160.0) <= 8.0
 
 
 def test_match_value_errors(green_target):
-    ok = dict(incident=INCS, wavelength=LAM)
+    ok = dict(incident_deg=INCS, wavelength=LAM)
     with pytest.raises(ValueError, match="incident"):
-        match_scatterogram(green_target, incident=[(0.0, 0.0)])
+        match_scatterogram(green_target, incident_deg=[(0.0, 0.0)])
     with pytest.raises(ValueError, match="target_xyz"):
         match_scatterogram(green_target[..., :2], **ok)
     with pytest.raises(ValueError, match="cells"):

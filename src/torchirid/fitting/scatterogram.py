@@ -87,27 +87,27 @@ def bragg_structure(period, delta, n1, n2, cells: int, alpha, *, n_incident: flo
     return LayeredBragg([layer], base_albedo=base_albedo)
 
 
-def _check_incident(incident) -> list:
-    """``incident``: one illumination (None or (θ, φ)) or a list of them → list."""
-    if incident is None or (isinstance(incident, (tuple, list)) and len(incident) == 2
-                            and all(isinstance(v, numbers.Real) for v in incident)):
-        return [incident]
-    if not isinstance(incident, (tuple, list)) or not incident:
-        raise ValueError(f"incident must be None, (theta_deg, phi_deg) or a non-empty list of them; got {incident!r}")
+def _check_incident(incident_deg) -> list:
+    """``incident_deg``: one illumination (None or (θ, φ)) or a list of them → list."""
+    if incident_deg is None or (isinstance(incident_deg, (tuple, list)) and len(incident_deg) == 2
+                            and all(isinstance(v, numbers.Real) for v in incident_deg)):
+        return [incident_deg]
+    if not isinstance(incident_deg, (tuple, list)) or not incident_deg:
+        raise ValueError(f"incident_deg must be None, (theta_deg, phi_deg) or a non-empty list of them; got {incident_deg!r}")
     out = []
-    for inc in incident:
+    for inc in incident_deg:
         if inc is not None and not (isinstance(inc, (tuple, list)) and len(inc) == 2
                                     and all(isinstance(v, numbers.Real) for v in inc)):
-            raise ValueError(f"incident must be None, (theta_deg, phi_deg) or a list of them; got item {inc!r}")
+            raise ValueError(f"incident_deg must be None, (theta_deg, phi_deg) or a list of them; got item {inc!r}")
         out.append(None if inc is None else (float(inc[0]), float(inc[1])))
     return out
 
 
-def render_targets(structure, incident, *, resolution: int, wavelength=None, projection: str = "equidistant",
+def render_targets(structure, incident_deg, *, resolution: int, wavelength=None, projection: str = "equidistant",
                    lut: bool = False) -> torch.Tensor:
-    """The scatterograms of ``structure`` under each illumination of ``incident`` stacked:
+    """The scatterograms of ``structure`` under each illumination of ``incident_deg`` stacked:
     ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.layered.scatterograms.scatterogram`)."""
-    incs = _check_incident(incident)
+    incs = _check_incident(incident_deg)
     return torch.stack([scatterogram(structure, incident_deg=inc, resolution=resolution, wavelength=wavelength,
                                      projection=projection, lut=lut).xyz for inc in incs])
 
@@ -288,7 +288,7 @@ def match_scatterogram(
     target_xyz,
     mask=None,
     *,
-    incident=(0.0, 0.0),
+    incident_deg=(0.0, 0.0),
     n1: float = DEFAULT_INIT["n1"],
     fit_n1: bool = False,
     cells=DEFAULT_CELLS,
@@ -309,7 +309,7 @@ def match_scatterogram(
     r"""Recover (Λ, δ, n2 − n1, N, α) of one rough Bragg layer from a target scatterogram.
 
     The target is what :func:`~torchirid.layered.scatterograms.scatterogram` renders (or
-    :func:`load_scatterogram` reads) for each illumination of ``incident``, at any unknown
+    :func:`load_scatterogram` reads) for each illumination of ``incident_deg``, at any unknown
     exposure; the strategy (Λ grid → multi-start L-BFGS → N enumeration → polish) and the
     loss are described in the module docstring.
 
@@ -319,7 +319,7 @@ def match_scatterogram(
         mask: ``(H, W)`` bool, the pixels to compare (default: the disc of
             :func:`~torchirid.layered.scatterograms.scatterogram_directions`); False for
             saturated or missing pixels of a measurement.
-        incident: the K illuminations, each ``(θ_i, φ_i)`` in degrees or ``None`` (white
+        incident_deg: the K illuminations, each ``(θ_i, φ_i)`` in degrees or ``None`` (white
             environment); one illumination alone may be given bare.
         n1: the low index (fixed unless ``fit_n1``; then the start value).
         fit_n1: also fit n1 (weakly identifiable: the period absorbs most of it).
@@ -350,14 +350,14 @@ def match_scatterogram(
         >>> from torchirid.layered.presets import jewel_beetle
         >>> t = render_targets(jewel_beetle("green"), [(0.0, 0.0), (40.0, 0.0)], resolution=12,
         ...                    wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))
-        >>> fit = match_scatterogram(2.5 * t, incident=[(0.0, 0.0), (40.0, 0.0)], n1=1.59, cells=(8,),
+        >>> fit = match_scatterogram(2.5 * t, incident_deg=[(0.0, 0.0), (40.0, 0.0)], n1=1.59, cells=(8,),
         ...                          period_range=None, init={"period": 166.0, "delta": 0.51, "dn": 0.08,
         ...                          "alpha": 0.05}, short_iter=5, max_iter=20)
         >>> abs(fit.period - 160.0) < 0.5
         True
     """
     t_start = time.perf_counter()
-    incs = _check_incident(incident)
+    incs = _check_incident(incident_deg)
     target = torch.as_tensor(target_xyz)
     if not target.is_floating_point():
         raise ValueError(f"target_xyz must be a floating tensor; got dtype {target.dtype}")
@@ -367,7 +367,7 @@ def match_scatterogram(
         raise ValueError("target_xyz must have shape (K, H, H, 3) or (H, H, 3); got "
                          f"{tuple(torch.as_tensor(target_xyz).shape)}")
     if target.shape[0] != len(incs):
-        raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident names {len(incs)} "
+        raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident_deg names {len(incs)} "
                          "illuminations")
     if projection not in PROJECTIONS:
         raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")

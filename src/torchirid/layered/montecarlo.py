@@ -83,6 +83,7 @@ from typing import Callable
 import torch
 
 from .. import _checks
+from .._cache import cache_dict
 from . import _geometry
 from ..microfacet.brdf import microfacet_brdf
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
@@ -116,7 +117,7 @@ def _coating_r_inside(cos_inner: torch.Tensor, n1: float) -> torch.Tensor:
 # ----------------------------------------------------------------------------------------
 #: τ tables of recent calls, keyed by (layer, wavelengths, dtype, device, angles, cells):
 #: repeated calls on the same structure (image loops, tests) skip the table build
-_TABLES: dict = {}
+_TABLES: dict = cache_dict()
 _TABLES_MAX = 32
 
 

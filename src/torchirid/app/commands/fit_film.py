@@ -49,8 +49,9 @@ def add_parser(subparsers):
                         "ENVI file without an 'incidence angle' field")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--n-substrate", type=_args.positive, default=1.64, metavar="N", help="substrate index (PET: 1.64)")
-    p.add_argument("--polarization", choices=_args.POLARIZATIONS, default="s",
-                   help="polarization seen by the camera (Kobayashi et al.: the s wave, through a polarizer)")
+    p.add_argument("--polarization", choices=_args.POLARIZATIONS, default="unpolarized",
+                   help="polarization seen by the camera (default: unpolarized, as everywhere in torchirid; "
+                        "Kobayashi et al. measure the s wave through a polarizer: --polarization s)")
     p.add_argument("--bandwidth", type=_args.positive, default=None, metavar="NM",
                    help="band width in nm (default: from the file, else 4)")
     p.add_argument("--passband", choices=("box", "gaussian"), default="box")
