@@ -224,8 +224,8 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     if center is not None and not (isinstance(center, (tuple, list)) and len(center) == 2
                                    and all(isinstance(v, numbers.Real) and math.isfinite(v) for v in center)):
         raise ValueError(f"center must be None or (x, y) in pixels; got {center!r}")
-    if resolution is not None and (isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1):
-        raise ValueError(f"resolution must be None or an integer >= 1; got {resolution!r}")
+    if resolution is not None:
+        _checks.check_int(resolution, "resolution", 1)
 
     f64 = torch.float64
     if is_exr:

@@ -55,6 +55,7 @@ from .._quadrature import gauss_legendre01
 from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import ggx_vndf_pdf, sample_ggx_vndf
+from . import _geometry
 from .single_reflection import coating_reflectance, refract_into_host, single_reflection_brdf
 from .structure import LayeredBragg, RoughBraggLayer
 
@@ -272,15 +273,6 @@ def _unit_square(nodes, dtype, device, warp: int = 1):
     return u, w
 
 
-def _refract_out(w_host, n_incident):
-    """Host direction (z > 0) → outer direction through the smooth coating; (direction, exits)."""
-    t = w_host[..., :2] * n_incident
-    s2 = (t * t).sum(-1)
-    exits = s2 < 1.0
-    z = torch.sqrt((1.0 - s2).clamp_min(0.0))  # guard: total internal reflection lanes are masked
-    return torch.cat([t, z.unsqueeze(-1)], -1), exits
-
-
 def _lobe_density(o_h, i, i_h, alphas, n_incident, coated):
     """Σ_l of the density (per outer solid angle of ω_i) of each layer's lobe rule at ``i``."""
     h = i_h + o_h
@@ -321,7 +313,7 @@ def _white_profile(structure, theta_o, lam, kw, lobe_nodes, cosine_nodes) -> tor
         ok = i_h[..., 2] > 0
         i = i_h
         if coated:
-            i, exits = _refract_out(i_h, n)
+            i, exits = _geometry.refract_out(i_h, n)
             ok = ok & exits
         # guard: directions below the horizon (or trapped by TIR) get weight 0; feed a safe normal
         safe = torch.zeros_like(i)

@@ -93,7 +93,6 @@ def refract_into_host(w: torch.Tensor, n_incident: float) -> torch.Tensor:
     return _geometry.refract_in(w, n_incident)[0]
 
 
-_refract_out = _geometry.refract_out
 coating_transmittance = _geometry.coating_transmittance
 
 
@@ -523,7 +522,7 @@ def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_ang
     cands.append(_cosine_hemisphere(u[..., 1:3]))
     cands = torch.stack(cands, dim=-2)
     wo_h = torch.gather(cands, -2, choice[..., None, None].expand(*choice.shape, 1, 3)).squeeze(-2)
-    wo, exits = _refract_out(wo_h, n)
+    wo, exits = _geometry.refract_out(wo_h, n)
     valid = exits & (wo_h[..., 2] > 0)
     wo = torch.where(valid.unsqueeze(-1), wo, torch.zeros_like(wo))
     pdf = torch.where(valid, _pdf(structure, tables, wi, wo, probs), 0.0)

@@ -28,7 +28,6 @@ default ``FL10`` is the CIE 5000 K tri-band lamp; any ``FL1``–``FL12``/``FL3.x
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os
@@ -39,6 +38,7 @@ import numpy as np
 import torch
 
 from ... import _checks
+from ..._cache import cached
 from ..._io import atomic_write
 from ...optics.film_stack import hirayama_stacks
 from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
@@ -125,7 +125,7 @@ DEFAULT_LIGHT = (-0.45, 0.55, 0.70)  # towards the light: upper left, in front (
 # ---------------------------------------------------------------------------------------
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _lamp_numpy(name: str, wl: tuple) -> np.ndarray:
     import colour
 
@@ -162,7 +162,7 @@ def lamp_spd(wavelength, name: str = "FL10") -> torch.Tensor:
     return S / spectrum_to_xyz(S, w, illuminant="E")[1]
 
 
-@functools.lru_cache(maxsize=None)
+@cached(maxsize=None)
 def _adaptation_numpy(name: str, wl: tuple) -> np.ndarray:
     """Bradford matrix (colour-science) from the lamp white (on this grid) to D65, XYZ columns."""
     import colour
