@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import argparse
 
-from .. import __version__
+from .._version import __version__
 from . import _args
 from .commands import film_table, fit_film, gradients, render_sphere, scatterogram, spectrum, thin_film
 

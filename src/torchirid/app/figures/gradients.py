@@ -33,6 +33,7 @@ from ..._io import atomic_write
 from ...color import spectrum_to_xyz, xyz_to_srgb
 from ...optics import bragg_reflectance, thin_film_reflectance
 from ...spectral import bragg_xyz
+from ..._version import __version__
 
 __all__ = [
     "CURVE_ANGLES",
@@ -255,7 +256,6 @@ def gradient_atlas(
     def srgb(x):
         return np.clip(xyz_to_srgb(torch.as_tensor(x)).numpy(), 0.0, 1.0)
 
-    from ... import __version__
 
     params = dict(
         figure="Fourneau et al. 2024, Fig. 4",

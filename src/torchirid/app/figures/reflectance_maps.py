@@ -21,6 +21,7 @@ import torch
 from ... import _checks
 from ..._io import atomic_write
 from ...optics import bragg_reflectance, thin_film_reflectance
+from ..._version import __version__
 
 __all__ = [
     "DTYPES",
@@ -119,7 +120,6 @@ def _constants(dtype: str):
 
 
 def _finish(R, wavelength_nm, theta_deg, cos_t, polarization, title, params) -> ReflectanceMap:
-    from ... import __version__
 
     params = dict(params, polarization=polarization, torchirid_version=__version__)
     shape = (theta_deg.size, wavelength_nm.size)

@@ -42,6 +42,7 @@ from ..._cache import cached
 from ..._io import atomic_write
 from ...optics.film_stack import hirayama_stacks
 from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
+from ..._version import __version__
 
 __all__ = [
     "FIG8_ROWS",
@@ -379,7 +380,6 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **
         >>> p.images.shape, p.chroma.shape
         ((1, 1, 2, 8, 8, 3), (1, 1, 2, 2))
     """
-    from ... import __version__
 
     rows = list(stacks)
     images, chroma, light = [], [], []

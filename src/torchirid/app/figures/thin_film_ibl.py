@@ -41,6 +41,7 @@ from ...ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
 from ...ibl.fitted import fitted_thin_film_xyz
 from ...ibl.fourier import thin_film_xyz_fourier
 from ...ibl.uniform import path_difference_moments, uniform_light_moments, uniform_thin_film_xyz
+from ..._version import __version__
 
 __all__ = [
     "THIN_FILM_IBL_METHODS",
@@ -178,7 +179,6 @@ def thin_film_ibl_comparison(panel: str = "roughness", *, resolution: int = 32, 
     lab_ref = xyz_to_lab(xyz["reference"], illuminant=illuminant, observer=observer)
     de = {k: delta_e_2000(xyz_to_lab(xyz[k], illuminant=illuminant, observer=observer), lab_ref).numpy()
           for k, _ in THIN_FILM_IBL_METHODS}
-    from ... import __version__
     params = {"panel": panel, "resolution": resolution, "n_film": n_film, "n_incident": 1.0,
               "n_substrate": [float(complex(ns).real), float(complex(ns).imag)],
               "thickness_nm": None if panel == "thickness" else float(thickness),
