@@ -75,8 +75,9 @@ import torch
 
 from .. import _checks
 from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
+from .transfer import check_stack_shape
 from .he_torrance import _check_cos_phi, _check_roughness, _effective_roughness, _g, _he_dd, _shadowing
-# the He–Torrance functions of one rough interface, also importable from here (their module since 2026-12)
+# the He–Torrance functions of one rough interface, also importable from here
 from .he_torrance import (coherent_attenuation, effective_roughness, he_directional_diffuse,  # noqa: F401
                           he_shadowing, roughness_factor)
 
@@ -100,13 +101,7 @@ def _prepare(wavelength, cosines: dict, indices, thicknesses, sigma, tau, polari
     d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
     s = _checks.as_real(sigma, "sigma", dtype, device)
     t = _checks.as_real(tau, "tau", dtype, device)
-    _checks.check_last_dim(n, "indices", at_least=2)
-    _checks.check_last_dim(d, "thicknesses")
-    if n.shape[-1] != d.shape[-1] + 2:
-        raise ValueError(
-            f"indices must have len(thicknesses) + 2 entries on the last axis (incident medium, "
-            f"{d.shape[-1]} films, substrate); got {n.shape[-1]}"
-        )
+    check_stack_shape(n, d)
     _checks.check_positive(lam, "wavelength")
     for k, v in cos.items():
         _checks.check_cosine(v, k)

@@ -77,6 +77,17 @@ def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transm
     return gamma, tau
 
 
+def check_stack_shape(n: torch.Tensor, d: torch.Tensor) -> None:
+    """ValueError unless ``indices`` (``n``) has ``len(thicknesses) + 2`` entries on its last axis."""
+    _checks.check_last_dim(n, "indices", at_least=2)
+    _checks.check_last_dim(d, "thicknesses")
+    if n.shape[-1] != d.shape[-1] + 2:
+        raise ValueError(
+            f"indices must have len(thicknesses) + 2 entries on the last axis (incident medium, "
+            f"{d.shape[-1]} films, exit medium); got {n.shape[-1]}"
+        )
+
+
 def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str = "unpolarized"):
     r"""Reflectance and transmittance of a smooth multilayer film (Hirayama 2000, eq. 1–6).
 
@@ -107,13 +118,7 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     n = _checks.as_index(indices, "indices", dtype, device)
     d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
-    _checks.check_last_dim(n, "indices", at_least=2)
-    _checks.check_last_dim(d, "thicknesses")
-    if n.shape[-1] != d.shape[-1] + 2:
-        raise ValueError(
-            f"indices must have len(thicknesses) + 2 entries on the last axis (incident medium, "
-            f"{d.shape[-1]} films, exit medium); got {n.shape[-1]}"
-        )
+    check_stack_shape(n, d)
     _checks.check_positive(lam, "wavelength")
     _checks.check_cosine(c)
     _checks.check_nonnegative(d, "thicknesses")
