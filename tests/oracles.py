@@ -10,9 +10,9 @@ Conventions (the same as torchirid's, see docs/conventions.md):
 * angles given as ``cos_theta``, the cosine of the incidence angle in the incident medium;
 * complex refractive index ``n + iκ`` with ``κ ≥ 0`` meaning absorption;
 * the incident medium must be real (lossless);
-* ``T`` is the power transmitted into a *real* exit medium, and ``0`` for an absorbing exit
-  medium (in an absorbing half-space "transmitted power" is not defined far from the
-  interface) and for total internal reflection (evanescent exit wave);
+* ``T`` is the power that crosses the last interface into the exit medium (the Poynting flux
+  just inside it, also for an absorbing exit medium: tmm's definition), and ``0`` for total
+  internal reflection (evanescent exit wave);
 * polarization is one of ``"s"``, ``"p"``, ``"unpolarized"`` (mean of s and p).
 
 Contents
@@ -38,8 +38,7 @@ tmm quirks (measured with tmm 0.2.0; see ``tmm_coh`` for details)
   medium must be real for a real ``th_0`` (AssertionError "Error in n0 or th0!"); media with
   gain (``n.real * n.imag < 0``) raise AssertionError.
 * Absorbing exit medium: tmm's ``T`` is the power flux just *inside* the absorbing exit
-  medium (for a lossless stack it equals ``1 - R``). Our convention is ``T = 0``;
-  ``tmm_RT`` applies it.
+  medium (for lossless films it equals ``1 - R``); torchirid returns the same quantity.
 * Total internal reflection / grazing: tmm receives an *angle*, so ``cos(arccos(c))`` is
   only accurate to ~1e-16 absolute. At TIR its ``T`` comes out as ~1e-16 instead of 0 and
   ``R`` as 1 - 4e-16; at grazing incidence (``cos_theta = 0``) ``R = 1`` and ``T`` ~ 1e-16.
@@ -162,8 +161,8 @@ def tmm_RT(wavelength_nm: float, cos_theta: float, indices: Sequence[complex],
 
     Returns
     -------
-    (R, T) : floats. ``T`` is 0 for an absorbing exit medium (tmm itself would report the
-    power entering it) and exactly 0 for total internal reflection into the exit medium.
+    (R, T) : floats. ``T`` is the power entering the exit medium (absorbing or not) and
+    exactly 0 for total internal reflection into the exit medium.
 
     >>> R, T = tmm_RT(500.0, 1.0, [1.0, 1.5], [], "s")
     >>> round(R, 6), round(T, 6)
@@ -179,9 +178,7 @@ def tmm_RT(wavelength_nm: float, cos_theta: float, indices: Sequence[complex],
     T = float(res["T"])
     n0 = complex(indices[0]).real
     n_substrate = complex(indices[-1])
-    if n_substrate.imag > 0.0:  # our convention: nothing is "transmitted" into an absorber
-        T = 0.0
-    elif _tir_into_exit(n0, float(cos_theta), n_substrate):  # tmm leaves ~1e-16 from arccos
+    if n_substrate.imag == 0.0 and _tir_into_exit(n0, float(cos_theta), n_substrate):  # tmm: ~1e-16
         T = 0.0
     return R, T
 
@@ -411,7 +408,7 @@ def hirayama_stack(entry: dict, wavelength_nm) -> tuple[list, list]:
 # the stack matrix is the product from the incident side, [B, C]ᵀ = M [1, η_exit]ᵀ and
 #
 #     r = (η_0 B - C) / (η_0 B + C),  R = |r|²,
-#     T = 4 η_0 Re(η_exit) / |η_0 B + C|²  (real exit medium; 0 if absorbing),
+#     T = 4 η_0 Re(η_exit) / |η_0 B + C|²  (the power entering the exit medium, absorbing or not),
 #
 # Each interface's exact Fresnel coefficient is r_ij = (η_i - η_j)/(η_i + η_j) in this
 # formulation (equal to tmm's up to the sign convention of r_p, which does not enter R).
@@ -470,10 +467,7 @@ def _r_t_from_matrix(M, eta0, eta_exit, n_substrate):
     denom = eta0 * B + C
     r = (eta0 * B - C) / denom
     R = abs(r) ** 2
-    if mpmath.im(n_substrate) > 0:  # convention: no transmitted power into an absorber
-        T = mpmath.mpf(0)
-    else:
-        T = 4 * mpmath.re(eta0) * mpmath.re(eta_exit) / abs(denom) ** 2
+    T = 4 * mpmath.re(eta0) * mpmath.re(eta_exit) / abs(denom) ** 2  # also into an absorber
     return R, T
 
 
@@ -544,7 +538,7 @@ def mpmath_bragg_RT(wavelength, cos_theta, n1, n2, d1, d2, cells, n_incident=Non
     exponentiation (~2 log2(cells) products: cells = 10**6 takes milliseconds), then the
     host admittance closes the stack (this *is* the host → n2 interface, so n_incident ≠ n1
     needs nothing extra). Real or complex n1, n2 (κ ≥ 0). ``T`` follows the module
-    convention (0 for absorbing n1, 0 for TIR).
+    convention (the power entering n1, absorbing or not; 0 for TIR).
 
     Accuracy: the products are exact to ~10**-dps relative per operation; with det M = 1
     the error grows at most ~cells × 10**-dps in pass bands, so dps = 50 is ample up to

@@ -45,7 +45,9 @@ def test_hirayama_stacks_vs_tmm(entry):
         kr, kt = film_reflectance(t64(WL), t64(COS)[:, None], stack, polarization=pol)
         assert kr.shape == (len(COS), len(WL))
         np.testing.assert_allclose(kr.numpy(), R_ref, rtol=0, atol=1e-10)
-        np.testing.assert_allclose(kt.numpy(), T_ref, rtol=0, atol=1e-10)
+        # k_t: what comes back out through the substrate — nothing from these opaque bases,
+        # although tmm's T (the power entering the metal / silicon) is not 0
+        assert (kt == 0).all() and T_ref.max() > 0
 
 
 def test_presets_describe_the_paper():

@@ -42,7 +42,7 @@ def test_multilayer_module_complex_buffer():
     R, T = m(t64(550.0), t64(1.0))
     Rf, Tf = ti.multilayer(t64(550.0), t64(1.0), torch.tensor([1.0, 1.5, 0.2 + 3.0j], dtype=torch.complex128),
                            t64([80.0]))
-    assert torch.allclose(R, Rf, atol=1e-15) and T.item() == 0.0
+    assert torch.allclose(R, Rf, atol=1e-15) and torch.allclose(T, Tf, atol=1e-15) and T.item() > 0
     R.backward()
     assert m.thicknesses.grad is not None and torch.isfinite(m.thicknesses.grad).all()
 

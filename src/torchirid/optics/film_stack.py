@@ -179,8 +179,10 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
 
     Returns:
         ``(k_r, k_t)``, real tensors of the broadcast shape in the inputs' dtype.
-        ``k_t = 0`` for an absorbing substrate (eq. 6) and for total internal reflection;
-        ``k_r + k_t = 1`` for a lossless stack.
+        ``k_t`` is Hirayama's transmitted fraction: the light that comes back *out* through
+        the substrate, so ``k_t = 0`` for an absorbing (opaque, semi-infinite) substrate —
+        unlike :func:`~torchirid.optics.multilayer`'s ``T``, the power that enters it — and
+        for total internal reflection; ``k_r + k_t = 1`` for a lossless stack.
 
     Example (Hirayama's Table 1 cylinder, silicon substrate, normal incidence):
         >>> import torch
@@ -201,7 +203,10 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
         if d.ndim == 0 or d.shape[-1] != len(stack.layers):
             raise ValueError(f"thicknesses must have {len(stack.layers)} entries on its last axis (one per layer)")
     n = stack_indices(stack, lam)  # (*, N+2); ValueError here names the material and its range
-    return multilayer(lam, cos_theta, n, d, polarization=polarization)
+    k_r, T = multilayer(lam, cos_theta, n, d, polarization=polarization)
+    # an absorbing substrate keeps what enters it: nothing comes back out through it (eq. 6)
+    opaque = n[..., -1].imag > 0
+    return k_r, torch.where(opaque, torch.zeros_like(T), T)
 
 
 def smooth_directions(normal, view, n_incident, n_substrate):

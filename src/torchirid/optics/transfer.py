@@ -100,10 +100,15 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
         polarization: ``"s"``, ``"p"`` or ``"unpolarized"`` (mean of s and p).
 
     Returns:
-        ``(R, T)``: reflectance and the power transmitted into the exit medium (eq. 5–6),
-        broadcast batch shape, real dtype of the inputs.  ``T = 0`` when the exit medium
-        is absorbing (κ > 0) or the transmitted wave is evanescent; ``R + T = 1`` for a
-        lossless stack.
+        ``(R, T)``: reflectance and transmittance, broadcast batch shape, real dtype of the
+        inputs. ``T`` is the power that crosses the last interface into the exit medium (the
+        Poynting flux just inside it, :math:`T = \mathrm{Re}(η_B)\,|τ|^2/η_A`, eq. 6), as the
+        ``tmm`` package and colour-science define it — also when the exit medium absorbs
+        (κ > 0), where that power is then absorbed in the substrate. ``1 − R − T`` is the power
+        absorbed in the films; ``R + T = 1`` when the films are lossless. ``T = 0`` for an
+        evanescent exit wave (total internal reflection) and at grazing incidence. (Models that
+        need the light coming back *out* of an opaque base, Hirayama's ``k_t``, use
+        :func:`~torchirid.optics.film_stack.film_reflectance`.)
 
     Example (quarter-wave layer of index 1.5 on glass 2.25: R = 0 at 600 nm):
         >>> import torch, torchirid
@@ -146,15 +151,13 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     gamma, tau = recursion(eta, e1, e2)
     R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp
 
-    # eq. 6: T = Re(η_B)/η_A |τ|^2 into a real exit medium, 0 for an absorbing one
+    # eq. 6: T = Re(η_B)/η_A |τ|^2, the Poynting flux just inside the exit medium (τ is the
+    # tangential-field amplitude of the admittance form, so this holds for complex η_B too)
     eta0 = eta[..., 0].real
     grazing = eta0 == 0  # (a NaN input is not grazing: it propagates)
     safe0 = torch.where(grazing, torch.ones_like(eta0), eta0)
     T = (tau.real ** 2 + tau.imag ** 2) * eta[..., -1].real / safe0
     T = torch.where(grazing, torch.zeros_like(T), T)  # grazing incidence carries no power in
-    if n.is_complex():
-        absorbing_exit = n[..., -1].imag > 0
-        T = torch.where(absorbing_exit, torch.zeros_like(T), T)
     T = T.mean(0).clamp(0, 1)
     R, T = torch.broadcast_tensors(R, T)
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
