@@ -349,3 +349,17 @@ def test_finite_gradients_at_normal_incidence_and_grazing():
     m = sample_ggx_vndf(wi, a, u)
     (m.sum() + ggx_vndf_pdf(wi, m.detach(), a).sum()).backward()
     assert torch.isfinite(wi.grad).all() and torch.isfinite(a.grad).all()
+
+
+def test_smith_lambda_at_grazing_is_the_limit_with_a_finite_gradient():
+    """Λ → +∞ as cos θ → 0 (G1 → 0): the limit at cos θ = 0, with finite (zero) gradients
+    instead of the NaN of 0/0; next to grazing it still grows like α/(2 cos θ)."""
+    c = torch.tensor([0.0, 1e-9, 0.5], dtype=F64, requires_grad=True)
+    a = torch.tensor(0.3, dtype=F64, requires_grad=True)
+    lam = smith_lambda(c, a)
+    assert math.isinf(lam[0].item()) and lam[0].item() > 0
+    assert abs(lam[1].item() - 0.5 * (0.3 / 1e-9 - 1)) / lam[1].item() < 1e-6
+    lam[0].backward()
+    assert c.grad.isfinite().all() and a.grad.isfinite().all() and c.grad[0] == 0 and a.grad == 0
+    nan = smith_lambda(torch.tensor([float("nan"), 0.5], dtype=F64), 0.3)
+    assert nan[0].isnan() and nan[1].isfinite()

@@ -67,15 +67,22 @@ def ggx_d(cos_theta_m, alpha) -> torch.Tensor:
 
 def smith_lambda(cos_theta, alpha) -> torch.Tensor:
     r"""Smith's Λ for GGX: :math:`\Lambda = (\sqrt{1+\alpha^2\tan^2\theta} - 1)/2`, so
-    :math:`G_1 = 1/(1+\Lambda)`. Infinite at grazing (``cos_theta = 0``).
+    :math:`G_1 = 1/(1+\Lambda)`. At grazing (``cos_theta = 0``) Λ takes its limit ``+inf``
+    (G1 = 0) with a zero gradient (the library's convention for a one-sided infinite slope),
+    not the NaN of 0/0 in backward.
 
     >>> round(float(smith_lambda(0.5, 0.5)), 6)
     0.161438
+    >>> smith_lambda(0.0, 0.3)
+    tensor(inf)
     """
     c, a = _prepare(cos_theta, alpha, "cos_theta")
     c = c.abs()
-    root = torch.sqrt(c * c + a * a * (1.0 - c * c))
-    return 0.5 * (root - c) / c
+    grazing = c == 0  # guard: 0/0 in backward; Λ → +∞ there (a NaN c is not grazing: it propagates)
+    c_safe = torch.where(grazing, torch.ones_like(c), c)
+    root = torch.sqrt(c_safe * c_safe + a * a * (1.0 - c_safe * c_safe))
+    lam = 0.5 * (root - c_safe) / c_safe
+    return torch.where(grazing, torch.full_like(lam, math.inf), lam)
 
 
 def smith_g1(cos_theta, alpha) -> torch.Tensor:
