@@ -196,6 +196,52 @@ def check_positive(t: torch.Tensor, name: str, unit: str = "nm") -> None:
             raise ValueError(f"{name} must be > 0 {unit}; got min {t.min().item():g}")
 
 
+#: The wavelengths torchirid accepts, in nm: from soft X-rays to millimetre waves. Values outside
+#: are almost always a unit mistake (5e-7 is 500 nm written in metres).
+MIN_WAVELENGTH_NM = 1.0
+MAX_WAVELENGTH_NM = 1.0e6
+
+
+def check_wavelength(t: torch.Tensor, name: str = "wavelength") -> None:
+    """ValueError unless every (non-NaN) value lies in [MIN_WAVELENGTH_NM, MAX_WAVELENGTH_NM] nm.
+
+    >>> check_wavelength(torch.tensor([380.0, 780.0]))
+    >>> check_wavelength(torch.tensor(5e-7))
+    Traceback (most recent call last):
+    ...
+    ValueError: wavelength must be in nm, between 1 and 1e+06 nm; got 5e-07 (metres or micrometres? 500 nm is 500.0, not 5e-7 or 0.5)
+    """
+    v = _scalar(t)
+    if v is not None:
+        if not (v < MIN_WAVELENGTH_NM or v > MAX_WAVELENGTH_NM):  # (NaN passes: it propagates)
+            return
+        bad = v
+    else:
+        with torch.no_grad():
+            outside = (t < MIN_WAVELENGTH_NM) | (t > MAX_WAVELENGTH_NM)  # one pass, NaN is False
+            if not bool(outside.any()):
+                return
+            bad = t[outside].flatten()[0].item()
+    raise ValueError(f"{name} must be in nm, between {MIN_WAVELENGTH_NM:g} and {MAX_WAVELENGTH_NM:g} nm; "
+                     f"got {bad:g} (metres or micrometres? 500 nm is 500.0, not 5e-7 or 0.5)")
+
+
+def check_wavelength_range(wavelength_range, name: str = "wavelength_range") -> tuple[float, float]:
+    """``(lo, hi)`` as floats with MIN_WAVELENGTH_NM ≤ lo < hi ≤ MAX_WAVELENGTH_NM nm, else ValueError.
+
+    >>> check_wavelength_range((380, 780))
+    (380.0, 780.0)
+    """
+    try:
+        lo, hi = (float(x) for x in wavelength_range)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a (λ_min, λ_max) pair in nm; got {wavelength_range!r}") from None
+    if not (MIN_WAVELENGTH_NM <= lo < hi <= MAX_WAVELENGTH_NM):
+        raise ValueError(f"{name} must be (λ_min, λ_max) in nm with {MIN_WAVELENGTH_NM:g} ≤ λ_min < λ_max ≤ "
+                         f"{MAX_WAVELENGTH_NM:g} nm; got {wavelength_range!r}")
+    return lo, hi
+
+
 def check_nonnegative(t: torch.Tensor, name: str, unit: str = "nm") -> None:
     v = _scalar(t)
     if v is not None:

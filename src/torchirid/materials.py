@@ -378,7 +378,7 @@ def refractive_index(material, wavelength) -> torch.Tensor:
     spec = _resolve(material)  # validate the material before any work
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     cdt = _checks.complex_dtype(dtype)
     if spec[0] == "constant":
         z = spec[1]

@@ -199,7 +199,7 @@ def test_spectrum_broadcasting_nan_and_dtype():
         (torch.ones(1), [500.0], "wavelength must have at least 2"),
         (torch.ones(4), torch.ones(2, 2), "wavelength must be a 1-D"),
         (torch.ones(2), [400.0, float("nan")], "wavelength must be finite"),
-        (torch.ones(2), [-5.0, 500.0], "wavelength must be > 0"),
+        (torch.ones(2), [-5.0, 500.0], "wavelength must be in nm"),
         (torch.ones(2), [900.0, 1000.0], "wavelength must have a sample inside .*360–830"),
         (torch.ones(2), [300.0, 900.0], "wavelength must have a sample inside"),  # straddles, no sample in
         (torch.ones(4), [400.0, 500.0, 600.0], "spectrum must have 3 samples"),

@@ -71,7 +71,7 @@ def _check_channels(t: torch.Tensor, name: str, channels: str) -> None:
 
 
 def _as_wavelength(wavelength, dtype, device) -> torch.Tensor:
-    """1-D, ≥ 2 samples, finite, > 0 nm and strictly increasing; cast to ``dtype``."""
+    """1-D, ≥ 2 samples, finite, in nm (1 nm – 1 mm) and strictly increasing; cast to ``dtype``."""
     w = _checks.as_real(wavelength, "wavelength", dtype, device)
     if w.ndim != 1:
         raise ValueError(f"wavelength must be a 1-D tensor (W,) in nm; got shape {tuple(w.shape)}")
@@ -80,10 +80,9 @@ def _as_wavelength(wavelength, dtype, device) -> torch.Tensor:
     with torch.no_grad():
         if not bool(torch.isfinite(w).all()):
             raise ValueError("wavelength must be finite (no NaN or inf)")
-        if bool((w <= 0).any()):
-            raise ValueError(f"wavelength must be > 0 nm; got min {w.min().item():g}")
         if bool((w[1:] <= w[:-1]).any()):
             raise ValueError("wavelength must be strictly increasing")
+    _checks.check_wavelength(w)
     return w
 
 

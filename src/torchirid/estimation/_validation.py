@@ -99,6 +99,6 @@ def cube_axes(cube, wavelength, cos_theta, *, pixel_axes: int = 0):
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device).reshape(-1)
     if lam.shape != (B,) or c.shape != (A,):
         raise ValueError(f"wavelength must have {B} values and cos_theta {A} for a cube of shape {tuple(y.shape)}")
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     _checks.check_cosine(c)
     return y, lam, c

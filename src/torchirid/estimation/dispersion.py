@@ -86,7 +86,7 @@ def index_model(wavelength, params, model: str = "constant") -> torch.Tensor:
     k = INDEX_MODELS[model]
     if p.ndim == 0 or p.shape[-1] != k:
         raise ValueError(f"params must have shape (*, {k}) for the {model!r} model; got {tuple(p.shape)}")
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     if k == 1:
         return p[..., 0] + torch.zeros_like(lam)
     inv2 = (1000.0 / lam) ** 2  # 1/λ² with λ in µm
@@ -118,7 +118,7 @@ def sellmeier_index(wavelength, a, b, c) -> torch.Tensor:
         raise ValueError(f"b and c must have the same length; got {len(b)} and {len(c)}")
     dtype, device = _checks.resolve_dtype_device(wavelength)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     l2 = (lam / 1000.0) ** 2
     n2 = torch.as_tensor(float(a), dtype=dtype, device=device) + torch.zeros_like(l2)
     for bi, ci in zip(b, c):
@@ -153,7 +153,7 @@ def fit_index_model(wavelength, n, model: str = "cauchy3") -> torch.Tensor:
     dtype, device = _checks.resolve_dtype_device(wavelength, n)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device).reshape(-1)
     nn_ = _checks.as_real(n, "n", dtype, device).reshape(-1)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     inv2 = (1000.0 / lam) ** 2
     cols = [torch.ones_like(lam), inv2, inv2 * inv2][: INDEX_MODELS[model]]
     X = torch.stack(cols, dim=-1)

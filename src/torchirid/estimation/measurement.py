@@ -126,7 +126,7 @@ def band_reflectance(
         wavelength, cos_theta, thickness, *(x for x in (n_film, n_substrate) if not callable(x))
     )
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     off, wts = band_nodes(bandwidth, nodes, passband, dtype=dtype, device=device)
     if bool((lam.detach().min() - off.abs().max()) <= 0):
         raise ValueError("wavelength - bandwidth/2 must stay > 0 nm")
@@ -235,7 +235,7 @@ def band_terms(wavelength, cos_theta, n_film, n_substrate, *, bandwidth: float =
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, *(x for x in (n_film, n_substrate) if not callable(x)))
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     var = band_variance(bandwidth, passband)
 
     def terms(l):

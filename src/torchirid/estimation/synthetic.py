@@ -206,7 +206,7 @@ def synthetic_cube(
         lam = default_wavelengths(dtype)
     else:
         lam = _checks.as_real(wavelength, "wavelength", dtype, device).reshape(-1)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     gen = torch.Generator(device=_CPU).manual_seed(int(seed))  # (the same cube on every device)
     d = sample.thickness * (1 + thickness_variation * smooth_field(height, width, gen, dtype=dtype).to(device))
     cos_t = torch.cos(torch.deg2rad(ang))

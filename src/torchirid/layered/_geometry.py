@@ -39,7 +39,7 @@ def wavelengths(wavelength, dtype, device) -> torch.Tensor:
     if not bool(torch.isfinite(lam).all()):
         raise ValueError("wavelength must be finite (one spectral grid shared by all samples); got "
                          f"{int((~torch.isfinite(lam)).sum())} non-finite value(s)")
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     return lam
 
 

@@ -138,7 +138,7 @@ def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFA
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
     _checks.check_cosine(c)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     try:
         _checks.broadcast_shapes(c.shape, lam.shape)
     except RuntimeError:

@@ -102,7 +102,7 @@ def _prepare(wavelength, cosines: dict, indices, thicknesses, sigma, tau, polari
     s = _checks.as_real(sigma, "sigma", dtype, device)
     t = _checks.as_real(tau, "tau", dtype, device)
     check_stack_shape(n, d)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     for k, v in cos.items():
         _checks.check_cosine(v, k)
     _checks.check_nonnegative(d, "thicknesses")

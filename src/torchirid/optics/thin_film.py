@@ -65,7 +65,7 @@ def thin_film_reflectance(
     d = _checks.as_real(thickness, "thickness", dtype, device)
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
     n0 = _checks.as_index(n_incident, "n_incident", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     _checks.check_cosine(c)
     _checks.check_nonnegative(d, "thickness")
     _checks.check_index(nf, "n_film")

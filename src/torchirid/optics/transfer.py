@@ -124,7 +124,7 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     n = _checks.as_index(indices, "indices", dtype, device)
     d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
     check_stack_shape(n, d)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     _checks.check_cosine(c)
     _checks.check_nonnegative(d, "thicknesses")
     _checks.check_index(n, "indices")

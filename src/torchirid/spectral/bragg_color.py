@@ -123,9 +123,7 @@ def bragg_xyz(
     if method not in BRAGG_XYZ_METHODS:
         raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")
     _checks.check_numbers(cos_theta=cos_theta, n1=n1, n2=n2, d1=d1, d2=d2, n_incident=n_incident)
-    lo, hi = (float(v) for v in wavelength_range)
-    if not (0 < lo < hi):
-        raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
+    lo, hi = _checks.check_wavelength_range(wavelength_range)
     if method == "auto":
         from .auto import choose_bragg_method
 

@@ -90,16 +90,7 @@ _TWO_PI = 2.0 * math.pi
 
 
 def _check_range(wavelength_range) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in wavelength_range)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"wavelength_range must be (λ_min, λ_max) in nm; got {wavelength_range!r}") from None
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
-        raise ValueError(
-            f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm, finite; "
-            f"got {wavelength_range!r}")
-    return lo, hi
+    return _checks.check_wavelength_range(wavelength_range)
 
 
 def _check_nodes(nodes) -> None:

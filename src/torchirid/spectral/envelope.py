@@ -113,7 +113,7 @@ def fringe_averaged_reflectance(wavelength, cos_theta, n1, n2, d1, d2, cells, *,
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_positive(lam, "wavelength")
+    _checks.check_wavelength(lam)
     c, n1, n2, d1, d2 = (_checks.as_real(v, name, dtype, device) for v, name in
                          ((cos_theta, "cos_theta"), (n1, "n1"), (n2, "n2"), (d1, "d1"), (d2, "d2")))
     mirror = _embedded_mirror(c, n1, n2, d1, d2, cells, polarization, (1.0, 2.0), "envelope")
@@ -147,9 +147,7 @@ def envelope_weights(samples: int, *, observer: str = "CIE 1931 2", illuminant: 
         (torch.Size([64, 3]), 1.0)
     """
     _checks.check_int(samples, "samples", 2)
-    lo, hi = (float(v) for v in wavelength_range)
-    if not (0 < lo < hi):
-        raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
+    lo, hi = _checks.check_wavelength_range(wavelength_range)
     return _hat_weights(samples, observer, illuminant, lo, hi, dtype, torch.device(device)).clone()  # cache stays intact
 
 

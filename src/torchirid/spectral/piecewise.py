@@ -141,9 +141,7 @@ def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_
     _checks.check_index(n2, "n2")
     _checks.check_nonnegative(d1, "d1")
     _checks.check_nonnegative(d2, "d2")
-    lo, hi = (float(v) for v in wavelength_range)
-    if not (0 < lo < hi):
-        raise ValueError(f"wavelength_range must be (λ_min, λ_max) with 0 < λ_min < λ_max nm; got {wavelength_range}")
+    lo, hi = _checks.check_wavelength_range(wavelength_range)
     s2 = n1 * n1 * (1 - c * c)
     if bool((n2 * n2 - s2 < 0).any()):
         raise ValueError(f"the {method} method needs light propagating in n2 (no total internal reflection); "
