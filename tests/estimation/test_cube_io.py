@@ -103,3 +103,24 @@ def test_envi_per_angle_mismatches(tmp_path):
         read_cube([tmp_path / "a.hdr", tmp_path / "missing.hdr"], angles_deg=[10, 20])
     with pytest.raises(ValueError, match="ENVI .hdr"):
         read_cube([tmp_path / "a.hdr", tmp_path / "c.npz"], angles_deg=[10, 20])
+
+
+def test_envi_in_micrometres_converts_wavelengths_and_fwhm(tmp_path):
+    """A header in micrometres: both the wavelengths and the band widths (fwhm) become nm."""
+    import re
+
+    c = synthetic_cube("zns_500", height=3, width=2, seed=0, angles_deg=(10.0, 20.0))
+    write_envi(tmp_path / "c.hdr", c.cube, c.wavelength, c.angles_deg, bandwidth=4.0)
+    hdr = (tmp_path / "c.hdr").read_text()
+
+    def to_um(m):
+        values = ", ".join(f"{float(v) / 1000.0:.9g}" for v in m.group(2).split(","))
+        return f"{m.group(1)}{{{values}}}"
+
+    hdr = re.sub(r"(wavelength = )\{([^}]*)\}", to_um, hdr)
+    hdr = re.sub(r"(fwhm = )\{([^}]*)\}", to_um, hdr)
+    hdr = re.sub(r"wavelength units = \w+", "wavelength units = micrometers", hdr)
+    (tmp_path / "c.hdr").write_text(hdr)
+    r = read_cube(tmp_path / "c.hdr")
+    assert abs(r.bandwidth - 4.0) < 1e-9  # not 0.004 nm
+    assert torch.allclose(r.wavelength, c.wavelength, atol=1e-6)

@@ -143,7 +143,8 @@ def _read_envi_one(path):
     ang = md.get("incidence angle")
     fwhm = md.get("fwhm")
     return data, wl, (None if ang is None else np.asarray([float(v) for v in ang])), (
-        None if not fwhm else float(np.median([float(v) for v in fwhm])))
+        None if not fwhm else float(np.median([float(v) for v in fwhm])) * _WAVELENGTH_UNITS[units])
+    # (fwhm is in the header's wavelength units too: micrometres → nm like the wavelengths)
 
 
 def read_cube(path, *, angles_deg=None) -> Cube:
