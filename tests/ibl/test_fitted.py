@@ -107,3 +107,15 @@ def test_film_batches_broadcast_against_scalar_lobe_arguments():
     sub = torch.tensor([1.5, 2.0 + 0.5j], dtype=torch.complex128)
     both = fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], sub)
     assert torch.allclose(both[1], fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j), rtol=1e-12, atol=0)
+
+
+def test_alpha_above_the_table_raises_instead_of_clamping():
+    """α > 1 is outside the fitted table: a ValueError, not a silent α = 1 (the uniform-light
+    reference computes α = 2 and differs)."""
+    from torchirid.ibl import fitted_thin_film_xyz, uniform_thin_film_xyz
+
+    c = torch.tensor(0.8, dtype=torch.float64)
+    with pytest.raises(ValueError, match="alpha must be <= 1"):
+        fitted_thin_film_xyz(c, 2.0, 1.3, 600.0, 1.5)
+    assert torch.isfinite(fitted_thin_film_xyz(c, 1.0, 1.3, 600.0, 1.5)).all()
+    assert torch.isfinite(uniform_thin_film_xyz(c, 2.0, 1.3, 600.0, 1.5, nodes=16)).all()

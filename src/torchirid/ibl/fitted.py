@@ -162,7 +162,8 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
 
     Args:
-        cos_theta_o: cos θo in [0, 1]; alpha: GGX roughness in [0, 1] (clamped to the table).
+        cos_theta_o: cos θo in [0, 1]; alpha: GGX roughness in [0, 1] (the table's range; α > 1
+            raises, where :func:`~torchirid.ibl.uniform_thin_film_xyz` computes any α).
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
         n_incident: real outer index η₁ (default 1).
         table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut`; default
@@ -190,6 +191,10 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     a = _checks.as_real(alpha, "alpha", dtype, device)
     _checks.check_cosine(c, "cos_theta_o")
     _checks.check_nonnegative(a, "alpha", "(GGX roughness)")
+    with torch.no_grad():  # the table covers α ≤ 1: refuse rather than clamp (uniform_thin_film_xyz takes any α)
+        if bool((a > 1).any()):
+            raise ValueError(f"alpha must be <= 1 (GGX roughness covered by the fitted table); got max "
+                             f"{a.max().item():g} — use uniform_thin_film_xyz for rougher surfaces")
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
