@@ -20,7 +20,6 @@ every ~20 nm), so both are offered and the measurement decides.
 from __future__ import annotations
 
 import math
-import numbers
 import time
 
 import torch

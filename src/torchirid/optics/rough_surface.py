@@ -74,8 +74,8 @@ import math
 import torch
 
 from .. import _checks
-from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
-from .transfer import check_stack_shape
+from .fresnel import admittance, interface
+from .transfer import check_stack_shape, stack_wavenumbers
 from .he_torrance import _check_cos_phi, _check_roughness, _effective_roughness, _g, _he_dd, _shadowing
 # the He–Torrance functions of one rough interface, also importable from here
 from .he_torrance import (coherent_attenuation, effective_roughness, he_directional_diffuse,  # noqa: F401
@@ -119,20 +119,7 @@ def _prepare(wavelength, cosines: dict, indices, thicknesses, sigma, tau, polari
 def _stack_state(lam, c, n, d, polarization):
     """Snell cosines, phases and admittances of the stack for incidence cosine ``c`` (as in
     :func:`torchirid.multilayer`): returns q [..., L+2], e1, e2 [..., L], eta [P, ..., L+2]."""
-    c = _checks.flush_grazing(c)
-    cdt = _checks.complex_dtype(lam.dtype)
-    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
-    s2 = n0 * n0 * (1 - c * c)
-    nc = n.to(cdt)
-    q0 = (n0 * c).to(cdt)
-    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None], n0[..., None], q0[..., None])
-    q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
-    films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
-    q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
-    phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
-    e1 = torch.exp(1j * phi)
-    e2 = e1 * e1
-    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    q, e1, e2, nc_b = stack_wavenumbers(lam, _checks.flush_grazing(c), n, d)
     pols = _checks.polarization_terms(polarization)
     batch = _checks.broadcast_shapes(q.shape[:-1], e2.shape[:-1])
 

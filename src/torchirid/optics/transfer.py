@@ -77,6 +77,27 @@ def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transm
     return gamma, tau
 
 
+def stack_wavenumbers(lam, c, n, d):
+    """Normal wavenumbers ``q = n cos θ`` of every medium ``[..., L+2]`` (Im q ≥ 0; critical
+    films nudged), the film phase factors ``e1 = exp(iφ_j)``, ``e2 = e1²`` ``[..., L]`` and the
+    indices broadcast to ``q``'s shape, for validated real ``lam``, cosine ``c`` (grazing
+    flushed), indices ``n`` and thicknesses ``d``. Shared by the smooth and rough multilayers."""
+    cdt = _checks.complex_dtype(lam.dtype)
+    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
+    s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
+    nc = n.to(cdt)
+    q0 = (n0 * c).to(cdt)  # incident medium: exact, no sqrt (gradient-safe at grazing)
+    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None], n0[..., None], q0[..., None])
+    q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
+    films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
+    q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
+    # phase φ_j = 2π q_j d_j / λ of the films; only decaying exponentials are formed
+    phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
+    e1 = torch.exp(1j * phi)
+    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    return q, e1, e1 * e1, nc_b
+
+
 def check_stack_shape(n: torch.Tensor, d: torch.Tensor) -> None:
     """ValueError unless ``indices`` (``n``) has ``len(thicknesses) + 2`` entries on its last axis."""
     _checks.check_last_dim(n, "indices", at_least=2)
@@ -129,24 +150,7 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     _checks.check_nonnegative(d, "thicknesses")
     _checks.check_index(n, "indices")
     _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
-    c = _checks.flush_grazing(c)
-
-    cdt = _checks.complex_dtype(dtype)
-    n0 = n[..., 0].real if n.is_complex() else n[..., 0]
-    s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
-    nc = n.to(cdt)
-    q0 = (n0 * c).to(cdt)  # incident medium: exact, no sqrt (gradient-safe at grazing)
-    q_inner = normal_wavenumber(nc[..., 1:], s2[..., None], n0[..., None], q0[..., None])
-    q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
-    films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
-    q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
-
-    # phase φ_j = 2π q_j d_j / λ of the films; only decaying exponentials are formed
-    phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
-    e1 = torch.exp(1j * phi)
-    e2 = e1 * e1
-
-    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    q, e1, e2, nc_b = stack_wavenumbers(lam, _checks.flush_grazing(c), n, d)
     eta = align_polarization_axis(stack_admittances(q, nc_b, polarization), e2.shape[:-1])
     gamma, tau = recursion(eta, e1, e2)
     R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp

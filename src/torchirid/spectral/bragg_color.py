@@ -46,7 +46,7 @@ from ..color.convert import xyz_weights
 from ..optics.bragg import bragg_reflectance
 from .envelope import bragg_xyz_envelope
 from .piecewise import bragg_xyz_piecewise
-from .sampling import max_fringes, spectral_samples
+from .sampling import spectral_samples
 
 __all__ = ["BRAGG_XYZ_METHODS", "bragg_xyz"]
 

@@ -96,6 +96,7 @@ __all__ = [
     "save_panels_png",
     "save_reflectance_map_npz",
     "save_reflectance_map_png",
+    "thin_film_reflectance_map",
     "save_scatterograms_npz",
     "save_scatterograms_png",
     "save_thin_film_ibl_npz",
