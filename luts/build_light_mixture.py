@@ -1,8 +1,11 @@
-"""Build the shipped light-mixture table of torchirid.ibl.fitted (K = 5, 48 θo × 48 √α nodes).
+"""Build the shipped light-mixture tables of torchirid.ibl.fitted (K = 5, 48 θo × 48 √α nodes).
 
-    PYTHONPATH=src python luts/build_light_mixture.py [--out PATH]
+    PYTHONPATH=src python luts/build_light_mixture.py                                   # both tables
+    PYTHONPATH=src python luts/build_light_mixture.py --masking height-correlated [--out PATH]
 
-Writes src/torchirid/data/thin_film_ibl/light_mixture.npz (float32, ~110 KB); ~10 s.
+Writes src/torchirid/data/thin_film_ibl/light_mixture.npz (separable Smith G) and
+light_mixture_height_correlated.npz (height-correlated Smith G, Kneiphof's Smith-joint term),
+float32, ~140 KB each; ~10 s each.
 """
 
 from __future__ import annotations
@@ -11,22 +14,30 @@ import argparse
 import time
 from pathlib import Path
 
-import torch
+import torch  # noqa: F401  (the LUT holds torch tensors)
 
-from torchirid.ibl.fitted import _SHIPPED, light_mixture_lut
+from torchirid.ibl.fitted import _DATA, _SHIPPED, light_mixture_lut
+from torchirid.ibl.uniform import MASKING_MODES
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=ROOT / "src/torchirid/data/thin_film_ibl/light_mixture.npz")
+    ap.add_argument("--masking", choices=MASKING_MODES, action="append",
+                    help="build only this table (repeatable; default: all)")
+    ap.add_argument("--out", type=Path, default=None, help="output path (only with one --masking)")
     args = ap.parse_args(argv)
-    t = time.perf_counter()
-    lut = light_mixture_lut(**_SHIPPED)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    lut.save(args.out)
-    print(f"wrote {args.out} ({args.out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")
+    maskings = args.masking or list(MASKING_MODES)
+    if args.out is not None and len(maskings) != 1:
+        ap.error("--out needs exactly one --masking")
+    for masking in maskings:
+        out = args.out or ROOT.joinpath("src", "torchirid", *_DATA[masking])
+        t = time.perf_counter()
+        lut = light_mixture_lut(**_SHIPPED, masking=masking)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        lut.save(out)
+        print(f"wrote {out} ({out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")
     return 0
 
 

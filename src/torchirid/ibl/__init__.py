@@ -28,6 +28,7 @@ from .fitted import (
     shipped_light_mixture_lut,
 )
 from .uniform import (
+    MASKING_MODES,
     cos_theta1_distribution,
     path_difference_moments,
     uniform_light_moments,
@@ -52,6 +53,7 @@ __all__ = [
     "DFG_SHIPPED",
     "FOURIER_SENSITIVITY_BUILDER",
     "LIGHT_MIXTURE_BUILDER",
+    "MASKING_MODES",
     "MOMENT_CHANNELS",
     "PREFILTERED_ENVIRONMENT_BUILDER",
     "PREFILTERED_SENSITIVITY_BUILDER",

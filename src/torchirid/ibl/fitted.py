@@ -21,8 +21,13 @@ the linearisation of eq. 25–26 applied per component (narrow pieces: small err
 depends only on the geometry, not on the film: one table serves every thickness, film index
 and base (dielectric or conductor) — 15 numbers per node for K = 5. The table is stored in the
 LUT container (axes ``cos_theta_o`` (nodes uniform in θo) and ``sqrt_alpha``; channels
-``(K, 3)`` = (w, c̄, s²)) and interpolated multilinearly; the shipped one is
-``data/thin_film_ibl/light_mixture.npz`` (built by ``luts/build_light_mixture.py``).
+``(K, 3)`` = (w, c̄, s²)) and interpolated multilinearly; the shipped ones are
+``data/thin_film_ibl/light_mixture.npz`` (separable Smith G, the default) and
+``data/thin_film_ibl/light_mixture_height_correlated.npz`` (``masking="height-correlated"``:
+Kneiphof's Smith-joint G, :math:`G_2 = 1/(1 + Λ(ω_i) + Λ(ω_o))`; see :mod:`torchirid.ibl.uniform`),
+both built by ``luts/build_light_mixture.py`` (140 KB each). Use the table of the G that
+the BRDF being matched uses: the two distributions of cos θ1 differ most at grazing and
+high roughness.
 
 It models uniform light (Fig. 7, or an environment that is smooth over the lobe); for a
 structured environment Kneiphof's moment channels remain the way to see the light.
@@ -39,7 +44,7 @@ from .. import _checks
 from ..lut import LUT
 from .filtered import _check_sensitivity, _series_xyz
 from .fourier import _check_names, thin_film_fourier_terms
-from .uniform import cos_theta1_distribution
+from .uniform import _check_masking, cos_theta1_distribution
 from .._cache import cached
 
 __all__ = [
@@ -56,7 +61,8 @@ LIGHT_MIXTURE_BUILDER = "torchirid.ibl.fitted:light_mixture_lut"
 DEFAULT_QUANTILES = (0.05, 0.3, 0.7, 0.95)
 _ALPHA_MIN = 1e-4  # the √α = 0 node is evaluated here (GGX needs α > 0; a mirror to ≲ 1e-5)
 _THETA_MAX_DEG = 89.5  # the θo = 90° node is evaluated here (a view above the horizon)
-_DATA = ("data", "thin_film_ibl", "light_mixture.npz")
+_DATA = {"separable": ("data", "thin_film_ibl", "light_mixture.npz"),
+         "height-correlated": ("data", "thin_film_ibl", "light_mixture_height_correlated.npz")}
 _SHIPPED = {"quantiles": list(DEFAULT_QUANTILES), "theta_nodes": 48, "alpha_nodes": 48,
             "bins": 2048, "nodes": 64}
 
@@ -79,13 +85,16 @@ def _quantile_pieces(grid, w, quantiles):
     return torch.stack(out, -2)  # (*, K, 3)
 
 
-def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int = 2048, nodes: int = 64):
+def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int = 2048, nodes: int = 64,
+                  masking: str = "separable"):
     r"""The K-component mixture of cos θ1 for given geometry, computed directly (no table).
 
     Args:
         cos_theta_o: cos θo in (0, 1]; alpha: GGX roughness > 0 (broadcast).
         quantiles: increasing cut points in (0, 1); K = len(quantiles) + 1 components.
         bins, nodes: resolution of :func:`~torchirid.ibl.cos_theta1_distribution`.
+        masking: the lobe's G: ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
+            Smith-joint G; :func:`~torchirid.ibl.uniform_lobe_quadrature`).
 
     Returns:
         ``(*, K, 3)``: per component (mass w_k, mean c̄_k, variance s_k²); Σ w_k = 1.
@@ -99,16 +108,18 @@ def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int 
     q = [float(x) for x in quantiles]
     if not q or any(not (0.0 < x < 1.0) for x in q) or any(b <= a for a, b in zip(q[:-1], q[1:])):
         raise ValueError(f"quantiles must be increasing values in (0, 1); got {quantiles!r}")
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
+    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
     return _quantile_pieces(grid, w, q)
 
 
 def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alpha_nodes: int = 48,
-                              bins: int = 2048, nodes: int = 64, dtype: torch.dtype = torch.float32) -> LUT:
+                      bins: int = 2048, nodes: int = 64, masking: str = "separable",
+                      dtype: torch.dtype = torch.float32) -> LUT:
     r"""Tabulate :func:`light_mixture` over (cos θo, √α) (module docstring).
 
     Args:
-        quantiles, bins, nodes: as :func:`light_mixture`.
+        quantiles, bins, nodes, masking: as :func:`light_mixture` (``masking`` is stored in
+            ``parameters["masking"]``).
         theta_nodes: nodes uniform in θo ∈ [0°, 90°] (90° evaluated at 89.5°), stored as an
             increasing ``cos_theta_o`` axis.
         alpha_nodes: nodes uniform in √α ∈ [0, 1] (α = 0 evaluated at 1e-4).
@@ -119,6 +130,7 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
     """
     for name, v in (("theta_nodes", theta_nodes), ("alpha_nodes", alpha_nodes)):
         _checks.check_int(v, name, 2)
+    _check_masking(masking)
     f64 = torch.float64
     theta = torch.linspace(90.0, 0.0, theta_nodes, dtype=f64)  # decreasing θ = increasing cos
     cos_axis = torch.cos(torch.deg2rad(theta))
@@ -126,39 +138,53 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
     cos_eval = torch.cos(torch.deg2rad(theta.clamp(max=_THETA_MAX_DEG)))
     sa = torch.linspace(0.0, 1.0, alpha_nodes, dtype=f64)
     alpha = (sa * sa).clamp_min(_ALPHA_MIN)
-    mix = light_mixture(cos_eval[:, None], alpha[None, :], quantiles=quantiles, bins=bins, nodes=nodes)
+    mix = light_mixture(cos_eval[:, None], alpha[None, :], quantiles=quantiles, bins=bins, nodes=nodes,
+                        masking=masking)
     params = {"quantiles": [float(x) for x in quantiles], "theta_nodes": theta_nodes,
-              "alpha_nodes": alpha_nodes, "bins": bins, "nodes": nodes}
+              "alpha_nodes": alpha_nodes, "bins": bins, "nodes": nodes, "masking": masking}
     return LUT(mix.to(dtype), {"cos_theta_o": cos_axis.to(dtype), "sqrt_alpha": sa.to(dtype)},
                builder=LIGHT_MIXTURE_BUILDER, parameters=params,
                units={"cos_theta_o": "1", "sqrt_alpha": "1", "values": "1 (mass, mean cos θ1, variance)"})
 
 
-def light_mixture_path():
-    """Path of the shipped table (``src/torchirid/data/thin_film_ibl/light_mixture.npz``)."""
-    return importlib.resources.files("torchirid").joinpath(*_DATA)
+def light_mixture_path(masking: str = "separable"):
+    """Path of the shipped table: ``src/torchirid/data/thin_film_ibl/light_mixture.npz`` (separable
+    Smith G) or ``light_mixture_height_correlated.npz`` (``masking="height-correlated"``)."""
+    return importlib.resources.files("torchirid").joinpath(*_DATA[_check_masking(masking)])
+
+
+def _table_masking(lut: LUT) -> str:
+    """The G a mixture table was built with (tables from before the option: separable)."""
+    return lut.parameters.get("masking", "separable")
 
 
 @cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
-def _shipped(dtype, device) -> LUT:
-    path = light_mixture_path()
+def _shipped(masking, dtype, device) -> LUT:
+    path = light_mixture_path(masking)
     with importlib.resources.as_file(path) as p:
         if p.exists():
             lut = LUT.load(p, builder=LIGHT_MIXTURE_BUILDER, parameters=_SHIPPED)
-        else:  # a source tree without the data file: build it (≈ 5 s) rather than fail
-            lut = light_mixture_lut(**_SHIPPED)
+            if _table_masking(lut) != masking:
+                raise ValueError(f"{p} holds a masking={_table_masking(lut)!r} table, not {masking!r}; "
+                                 "rebuild it with luts/build_light_mixture.py")
+        else:  # a source tree without the data file: build it (≈ 10 s) rather than fail
+            lut = light_mixture_lut(**_SHIPPED, masking=masking)
     return lut.to(dtype=dtype, device=device)
 
 
-def shipped_light_mixture_lut(*, dtype: torch.dtype = torch.float64, device=None) -> LUT:
-    """The shipped K = 5 mixture table (48 θo × 48 √α nodes), cached per dtype/device."""
-    return _shipped(dtype, torch.device("cpu") if device is None else torch.device(device))
+def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype = torch.float64,
+                              device=None) -> LUT:
+    """The shipped K = 5 mixture table (48 θo × 48 √α nodes) for ``masking`` (``"separable"``, the
+    default, or ``"height-correlated"``), cached per masking/dtype/device."""
+    _check_masking(masking)
+    return _shipped(masking, dtype, torch.device("cpu") if device is None else torch.device(device))
 
 
 def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
                          terms: int = 2, observer: str = "CIE 1931 2", illuminant: str = "D65",
-                         polarization: str = "unpolarized", sensitivity: str = "exact") -> torch.Tensor:
+                         polarization: str = "unpolarized", sensitivity: str = "exact",
+                         masking: str = "separable") -> torch.Tensor:
     r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
 
     Args:
@@ -166,11 +192,13 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
             raises, where :func:`~torchirid.ibl.uniform_thin_film_xyz` computes any α).
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
         n_incident: real outer index η₁ (default 1).
-        table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut`; default
-            the shipped one.
+        table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut` built with the same
+            ``masking``; default the shipped one for ``masking``.
         terms, observer, illuminant, polarization, sensitivity: as
             :func:`~torchirid.ibl.filtered_thin_film_xyz` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
             what a shader reads).
+        masking: the lobe's G, ``"separable"`` (default; the library's microfacet BRDF and DFG
+            table) or ``"height-correlated"`` (Kneiphof's Smith-joint G) — module docstring.
 
     Returns:
         ``(*, 3)`` XYZ of the reflectance term (white Y = 1); multiply by the albedo (DFG) for
@@ -186,6 +214,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     _check_names(observer, illuminant)
     _check_sensitivity(sensitivity)
     _checks.check_polarization(polarization)
+    _check_masking(masking)
     dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_incident)
     c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
     a = _checks.as_real(alpha, "alpha", dtype, device)
@@ -202,9 +231,12 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     _checks.check_positive(n0, "n_incident", "")
     _checks.check_nonnegative(d, "thickness")
     if table is None:
-        table = shipped_light_mixture_lut(dtype=dtype, device=device)
+        table = shipped_light_mixture_lut(masking=masking, dtype=dtype, device=device)
     elif not isinstance(table, LUT) or table.builder != LIGHT_MIXTURE_BUILDER:
         raise ValueError("table must be a LUT built by light_mixture_lut")
+    elif _table_masking(table) != masking:
+        raise ValueError(f"table was built with masking={_table_masking(table)!r}; got masking={masking!r} "
+                         "(pass the same masking, or table=None for the shipped one)")
     else:
         table = table.to(dtype=dtype, device=device)
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first

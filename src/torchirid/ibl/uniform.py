@@ -16,7 +16,7 @@ of the path difference D, all by one deterministic quadrature:
 **Lobe quadrature.** The microfacet normal h is drawn from GGX's D·cos density,
 :math:`\tan^2θ_h = α^2 u/(1-u)` with u uniform, φ_h uniform, and ω_i = reflect(ω_o, h); the weight
 of :math:`\tilde ρ⟨n,ω_i⟩` per unit (u, φ/2π) is then :math:`G(ω_i,ω_o)⟨ω_o,h⟩/(\cos θ_o\cos θ_h)`
-(separable Smith G, 0 below the horizon or on back-facing facets). u = sin²(πs/2) removes the
+(0 below the horizon or on back-facing facets: the χ⁺ factors). u = sin²(πs/2) removes the
 square roots at both ends (Gauss–Legendre in s) and φ is integrated by the periodic trapezoid
 rule: ``nodes`` × 2·``nodes`` points. The integrand is continuous but has a kink where ω_i
 crosses the horizon, so the error falls as nodes⁻²: the albedo at normal view and α = 1
@@ -33,6 +33,23 @@ uniform grid of ``bins`` cells in cos θ1 and the film's exact XYZ (spectral Air
 grid nodes: the sum is then the exact integral of the piecewise-linear interpolant of
 XYZ[R](cos θ1), which errs by ≤ h²/8·max|XYZ''| (≈ 1e-6 for d ≤ 1 µm at 2048 bins).
 Independent of Belcour–Barla's Fourier series, so it is a reference for it.
+
+**Masking–shadowing** (``masking=``, every function here). With Smith's GGX
+:math:`Λ(ω) = (\sqrt{1 + α^2\tan^2θ} - 1)/2` and :math:`G_1 = 1/(1 + Λ)`:
+
+* ``"separable"`` (default): :math:`G = G_1(ω_i)\,G_1(ω_o)`, the library's microfacet BRDF
+  (:func:`~torchirid.microfacet.smith_g`, :func:`~torchirid.microfacet.microfacet_brdf`) and its
+  DFG table (:func:`~torchirid.ibl.dfg_lut`), so the albedo here is that table's;
+* ``"height-correlated"``: Smith's height-correlated (Smith-joint) form
+  :math:`G_2 = 1/(1 + Λ(ω_i) + Λ(ω_o))` (Heitz 2014, height-correlated masking and shadowing),
+  the "Smith-Joint geometry term" of Kneiphof et al. 2019 (§6: their Unity HDRP BRDF). Computed
+  as the equal :math:`G_1(ω_i)G_1(ω_o)/(G_1(ω_i) + G_1(ω_o) - G_1(ω_i)G_1(ω_o))` (no Λ = ∞ at
+  grazing; 0 there). :math:`G_2 ≥ G_1G_1` (equal at normal view, where Λ(ω_o) = 0), so its
+  albedo is larger, most at grazing view and high roughness: α = 1 gives 0.4091 → 0.4507 at
+  θo = 60° and 0.5845 → 0.8478 at cos θo = 0.05.
+
+The reflectance term's colour moves little between the two (they reweight the same lobe):
+ΔE2000 ≤ 0.5 on the grid of ``benchmarks/fitted_terms_error.py``.
 """
 
 from __future__ import annotations
@@ -48,6 +65,7 @@ from ..microfacet.ggx import smith_g1_kernel, reflect
 from ..optics.thin_film import thin_film_reflectance
 
 __all__ = [
+    "MASKING_MODES",
     "uniform_lobe_quadrature",
     "uniform_light_moments",
     "cos_theta1_distribution",
@@ -55,7 +73,16 @@ __all__ = [
     "uniform_thin_film_xyz",
 ]
 
+#: ``masking=`` values of the uniform-light functions and the fitted table (module docstring).
+MASKING_MODES = ("separable", "height-correlated")
 _CHUNK_POINTS = 1 << 21  # geometry nodes × quadrature points per batch (~50 MiB per float64 (…, 3))
+
+
+def _check_masking(masking) -> str:
+    """Validate ``masking`` (one of :data:`MASKING_MODES`) and return it."""
+    if not isinstance(masking, str) or masking not in MASKING_MODES:
+        raise ValueError(f"masking must be one of {_checks.names(MASKING_MODES)}; got {masking!r}")
+    return masking
 
 
 def _geometry(cos_theta_o, alpha):
@@ -105,13 +132,15 @@ def _lobe_rule(nodes, dtype, device):
     return uu, pp, (wu[:, None] / nphi).expand(nodes, nphi).reshape(-1)
 
 
-def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
+def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str = "separable"):
     r"""Quadrature of :math:`∫\tilde ρ(ω_i,ω_o)⟨n,ω_i⟩ f(ω_i)\,dω_i` over a GGX lobe (module docstring).
 
     Args:
         cos_theta_o: cos θo in (0, 1]; ω_o = (sin θo, 0, cos θo), normal +z. Shape ``(*)``.
         alpha: GGX roughness > 0, broadcast with ``cos_theta_o``.
         nodes: Gauss–Legendre nodes in the polar variable (≥ 2); 2·nodes azimuths.
+        masking: the G of ρ̃: ``"separable"`` (default, G₁(ω_i)G₁(ω_o)) or ``"height-correlated"``
+            (1/(1 + Λ(ω_i) + Λ(ω_o)), Kneiphof's Smith-joint G); module docstring.
 
     Returns:
         ``(wi, h, weight)``: light directions ``(*, Q, 3)``, the microfacet normals ``(*, Q, 3)``
@@ -123,8 +152,12 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
         >>> wi, h, w = uniform_lobe_quadrature(torch.tensor(1.0, dtype=torch.float64), 1e-6)
         >>> round(float(w.sum()), 6), round(float((w * wi[..., 2]).sum()), 4)  # a near-mirror: A = 1, ω_i ≈ n
         (1.0, 1.0)
+        >>> c = torch.tensor(0.5, dtype=torch.float64)  # θo = 60°, α = 1: the joint G's albedo is larger
+        >>> [round(float(uniform_lobe_quadrature(c, 1.0, masking=m)[2].sum()), 4) for m in MASKING_MODES]
+        [0.4091, 0.4507]
     """
     _checks.check_int(nodes, "nodes", 2)
+    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     u, phi, wq = _lobe_rule(nodes, dtype, device)
     a_ = a[..., None]
@@ -140,7 +173,11 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64):
     ok = (z > 0) & (vh > 0) & (cos_h > 0)
     zs = torch.where(ok, z, torch.ones_like(z))
     # ρ̃⟨n,ωi⟩ / p(ωi) = G(ωi, ωo)⟨ωo,h⟩ / (cos θo cos θh), p(ωi) = D cos θh / (4⟨ωo,h⟩)
-    g = smith_g1_kernel(zs, a_) * smith_g1_kernel(c, a)[..., None]
+    gi, go = smith_g1_kernel(zs, a_), smith_g1_kernel(c, a)[..., None]
+    if masking == "separable":
+        g = gi * go
+    else:  # 1/(1 + Λi + Λo) with 1 + Λ = 1/G1; the denominator ≥ max(G1i, G1o) > 0 (G1o > 0: θo < 90°)
+        g = gi * go / (gi + go - gi * go)
     wgt = g * vh / (c[..., None] * torch.where(ok, cos_h, torch.ones_like(cos_h)))
     wgt = torch.where(ok, wgt, torch.zeros_like(wgt))
     return wi, h, torch.where(torch.isnan(z + vh), torch.nan, wgt) * wq  # (NaN geometry: NaN weights)
@@ -152,14 +189,14 @@ def _chunks(shape, nodes):
     return n, per
 
 
-def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64):
+def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str = "separable"):
     r"""Albedo, mean and covariance of the light directions p_R ∝ ρ̃⟨n,ω_i⟩ under uniform light.
 
     These are the "ground-truth μ_ωi and Σ_ωi" of Kneiphof et al. 2019, Fig. 7 (b, f): the exact
     moments, where a renderer reads approximations from the nine prefiltered moment channels.
 
     Args:
-        cos_theta_o, alpha, nodes: as :func:`uniform_lobe_quadrature`.
+        cos_theta_o, alpha, nodes, masking: as :func:`uniform_lobe_quadrature`.
 
     Returns:
         ``(albedo (*), mean (*, 3), cov (*, 3, 3))`` in the frame n = +z, ω_o = (sin θo, 0, cos θo).
@@ -171,13 +208,14 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64):
         (0.856, [-0.399, 0.0, 0.7063])
     """
     _checks.check_int(nodes, "nodes", 2)
+    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     n, per = _chunks(shape, nodes)
     cf, af = c.reshape(-1), a.reshape(-1)
     alb, means, covs = [], [], []
     for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
-        wi, _, w = uniform_lobe_quadrature(cf[s:s + per], af[s:s + per], nodes=nodes)
+        wi, _, w = uniform_lobe_quadrature(cf[s:s + per], af[s:s + per], nodes=nodes, masking=masking)
         A = w.sum(-1)
         p = w / A[..., None]
         mu = (p[..., None] * wi).sum(-2)
@@ -189,11 +227,12 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64):
             torch.cat(covs).reshape(*shape, 3, 3))
 
 
-def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int = 64):
+def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int = 64,
+                            masking: str = "separable"):
     r"""The distribution of :math:`\cos θ_1 = ⟨h, ω_i⟩` under p_R, as linear-splat weights on a grid.
 
     Args:
-        cos_theta_o, alpha, nodes: as :func:`uniform_lobe_quadrature`.
+        cos_theta_o, alpha, nodes, masking: as :func:`uniform_lobe_quadrature`.
         bins: cells of the uniform grid on cos θ1 ∈ [0, 1] (≥ 1; bins + 1 nodes).
 
     Returns:
@@ -209,6 +248,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     """
     _checks.check_int(bins, "bins", 1)
     _checks.check_int(nodes, "nodes", 2)
+    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     n, per = _chunks(shape, nodes)
@@ -217,7 +257,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     out, alb = [], []
     for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
         cc, aa = cf[s:s + per], af[s:s + per]
-        _, h, w = uniform_lobe_quadrature(cc, aa, nodes=nodes)
+        _, h, w = uniform_lobe_quadrature(cc, aa, nodes=nodes, masking=masking)
         c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
         x = c1 * bins
         i0 = x.nan_to_num(0.0).floor().clamp(max=bins - 1)  # (NaN: any bin; its NaN weight t marks it)
@@ -236,7 +276,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
 
 
 def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident=1.0, bins: int = 2048,
-                            nodes: int = 64):
+                            nodes: int = 64, masking: str = "separable"):
     r"""Exact mean and variance of the path difference D = 2η₂d cos θ₂ under p_R (uniform light).
 
     The "ground-truth μ_D and σ²_D" of Kneiphof et al. 2019, Fig. 7 (c, g): the moments of
@@ -248,6 +288,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; both broadcast with ``(*G)``.
         n_incident: real outer index η₁.
         bins, nodes: resolution (see :func:`cos_theta1_distribution`).
+        masking: ``"separable"`` (default) or ``"height-correlated"`` (see :func:`uniform_lobe_quadrature`).
 
     Returns:
         ``(mean_D, var_D, mean_cos2, var_cos2)``, broadcast shape, nm / nm² / 1 / 1.
@@ -259,7 +300,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
         1560.0
     """
     cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
+    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
@@ -279,7 +320,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
 def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", bins: int = 2048, nodes: int = 64,
-                          wavelength=None):
+                          wavelength=None, masking: str = "separable"):
     r"""Reference XYZ of the reflectance term of a rough thin-film surface under uniform light.
 
     :math:`∫ p_R(ω_i)\,\mathrm{XYZ}[R(⟨h, ω_i⟩)]\,dω_i` (module docstring): what Kneiphof's eq. 29,
@@ -296,6 +337,8 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         bins, nodes: cos θ1 grid cells and lobe quadrature nodes per axis.
         wavelength: ``(W,)`` nm for the spectral integration; default 360–830 nm at 1 nm.
+        masking: the lobe's G, ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
+            Smith-joint G; see :func:`uniform_lobe_quadrature`).
 
     Returns:
         ``(*, 3)`` XYZ (white Y = 1).
@@ -307,7 +350,7 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         [0.0647, 0.067, 0.1077]
     """
     cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes)
+    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
     if wavelength is None:
         wavelength = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
     lam = _checks.as_real(wavelength, "wavelength", dtype, device)
