@@ -423,3 +423,18 @@ def broadcast_shapes(*shapes) -> torch.Size:
             else:
                 raise RuntimeError(f"Shape mismatch: objects cannot be broadcast to a single shape: {[tuple(x) for x in shapes]}")
     return torch.Size(out)
+
+
+def warn_caller(message: str, category=RuntimeWarning) -> None:
+    """``warnings.warn`` attributed to the first stack frame outside the torchirid package (the
+    user's call), however deep inside the library the warning is raised."""
+    import os
+    import sys
+    import warnings
+
+    root = os.path.dirname(os.path.abspath(__file__))
+    level, frame = 2, sys._getframe(1)  # stacklevel 1 is this function, 2 its caller
+    while frame is not None and os.path.abspath(frame.f_code.co_filename).startswith(root + os.sep):
+        frame = frame.f_back
+        level += 1
+    warnings.warn(message, category, stacklevel=level)

@@ -23,6 +23,7 @@ def _errors(seed, count, **kw):
     return torch.cat(out).numpy()
 
 
+@pytest.mark.filterwarnings(r"ignore:bragg_xyz\(method=.*fewer than:RuntimeWarning")  # paper grids, out-of-domain colours included
 def test_default_piecewise_meets_the_bar():
     """Mirrors in n1, cells 10–50, Λ 150–1000 nm, 0–89°: median ΔE2000 ≤ 2, 95th pct ≤ 6
     (measured on this set: median 0.42, p95 1.5 with s = 8 and fringe-averaged weights)."""
@@ -30,6 +31,7 @@ def test_default_piecewise_meets_the_bar():
     assert np.median(d) <= 2 and np.percentile(d, 95) <= 6
 
 
+@pytest.mark.filterwarnings(r"ignore:bragg_xyz\(method=.*fewer than:RuntimeWarning")  # paper grids, out-of-domain colours included
 def test_published_weights_fall_short_of_the_bar():
     """The paper's weights (w̃·R^e, app. B) with its s = 3: measured median ~2.6, p95 ~5.9 —
     above the median bar; this is why the default uses fringe-averaged weights and s = 8."""

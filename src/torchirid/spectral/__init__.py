@@ -2,7 +2,7 @@
 converged) or from piecewise-constant spectra on spectral landmarks (Fourneau et al. 2024 §3.2)."""
 
 from .bragg_color import BRAGG_XYZ_METHODS, bragg_xyz
-from .sampling import max_fringes, spectral_samples
+from .sampling import fringe_count, max_fringes, spectral_samples
 from .correction import (
     PAPER_COEFFICIENTS,
     angular_correction,
@@ -32,6 +32,7 @@ __all__ = [
     "envelope_weights",
     "fitted_coefficients",
     "fringe_averaged_reflectance",
+    "fringe_count",
     "max_fringes",
     "spectral_samples",
 ]

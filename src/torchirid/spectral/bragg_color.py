@@ -30,8 +30,23 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     (default 64) nodes uniform in ω and integrated exactly as a piecewise-linear function (no
     landmarks: :mod:`torchirid.spectral.envelope`); same scope as ``"piecewise"``.
 
-``"auto"`` — the cheapest of the above that meets ``tolerance`` (ΔE2000, 95th percentile),
-    chosen from measured error/cost tables (:mod:`torchirid.spectral.auto`).
+``"auto"`` — the cheapest of the above that meets ``tolerance`` (ΔE2000, 95th percentile)
+    at this call's batch size, chosen from measured error/cost tables
+    (:mod:`torchirid.spectral.auto`).
+
+Domains of validity (measured; docs/performance.md, ``benchmarks/bragg_color_domain.py``):
+
+* ``"spectral"``: every mirror (absorbing layers, any incident medium, total internal
+  reflection); within ~0.03 ΔE2000 of 2× its sampling; it warns when ``max_samples`` caps it.
+* ``"sampled"``: every mirror; its error grows with the fringes per sample (K ≥ ~10 samples per
+  fringe for p95 ≤ 1), so large-N mirrors alias.
+* ``"piecewise"``, ``"envelope"``: lossless mirrors embedded in n1 without total internal
+  reflection, with at least :data:`~torchirid.spectral.piecewise.MIN_FRINGES` = 8 fringes in the
+  range (:func:`~torchirid.spectral.fringe_count`): there p95 ΔE2000 ≤ 2.2 (envelope K = 64:
+  ≤ 2.4); below it (Λ ≲ 80 nm, or N ≈ 5) they are off by 7–30 and emit a RuntimeWarning.
+  ``"envelope"`` is the library's fast default: on the speed-vs-error Pareto front at every Λ of
+  Fourneau's Fig. 4 grid, while the paper's landmark method ties sampled integration (K = 128)
+  at Λ = 244 nm on small batches (810 colours per call) on our hardware.
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ import torch
 from .. import _checks
 from ..optics.bragg import yeh_reflectance_kernel
 from .cumulative import shipped_cumulative_cmf_lut
-from .piecewise import _embedded_mirror, _envelope, _fringe_mean, _parts
+from .piecewise import _check_domain, _embedded_mirror, _envelope, _fringe_mean, _parts
 from .._cache import cached
 
 __all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectance"]
@@ -178,6 +178,7 @@ def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, *, polarization: str = 
     _checks.check_polarization(polarization)
     _checks.check_int(samples, "samples", 2)
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "envelope")
+    _check_domain(mirror, "envelope")
     lo, hi = mirror["range"]
     A, B, delta, C_coef, N = mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], mirror["N"]
     dtype, device = A.dtype, A.device

@@ -84,6 +84,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
     if weights not in ("averaged", "paper"):
         raise ValueError(f"weights must be 'averaged' or 'paper'; got {weights!r}")
     mirror = _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_range, "piecewise")
+    _check_domain(mirror, "piecewise")
     invalid = _non_finite_mirrors(mirror)  # NaN in, NaN out (the landmark counts need finite mirrors)
     lo, hi = mirror["range"]
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
@@ -103,6 +104,32 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
     if not bool(grazing.any()):
         return out
     return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
+
+
+#: Fewest fringes in the integration range (:func:`torchirid.spectral.fringe_count`) for which the
+#: fringe-averaging methods (``piecewise``, ``envelope``) are inside their measured domain:
+#: p95 ΔE2000 ≤ 2.2 from 8 fringes up, 7–27 below (``benchmarks/bragg_color_domain.py``, 14 625
+#: colours: n2 1.5–2.4, N 5–100, Λ 10–988 nm, θ 0–84°). Short periods (Λ ≲ 80 nm: the first
+#: band in the UV) and few cells (N = 5) fall below it.
+MIN_FRINGES = 8.0
+
+
+def _check_domain(mirror, method: str) -> None:
+    """RuntimeWarning when some colours have fewer than :data:`MIN_FRINGES` fringes in the range
+    (the fringe average is then not what the CMFs see; measured ΔE2000 up to ~30)."""
+    lo, hi = mirror["range"]
+    with torch.no_grad():
+        F = mirror["N"] * (mirror["A"] + mirror["B"]) * (2 * (1 / lo - 1 / hi))
+        few = (F < MIN_FRINGES) & ~mirror["grazing"]  # (NaN compares False: NaN mirrors give NaN anyway)
+        if not bool(few.any()):
+            return
+        count, total = int(few.sum()), few.numel()
+        fmin = float(torch.where(few, F, torch.full_like(F, math.inf)).min())
+    _checks.warn_caller(
+        f"bragg_xyz(method={method!r}): {count} of {total} colours have fewer than {MIN_FRINGES:g} fringes in "
+        f"{lo:g}–{hi:g} nm (fewest {fmin:.3g}: short periods or few cells), outside the method's measured "
+        "domain (ΔE2000 up to ~30 there); use method='auto' or 'spectral' for them "
+        "(torchirid.spectral.fringe_count tells which)")
 
 
 def _non_finite_mirrors(mirror):
