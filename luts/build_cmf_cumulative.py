@@ -56,6 +56,11 @@ def main(argv=None) -> int:
     for observer in args.observers:
         for illuminant in args.illuminants:
             lut = cumulative_cmf_lut(observer, illuminant, tuple(args.range), args.nodes)
+            err = lut.parameters["max_interp_error"]
+            if max(err) > 1e-6 and not (args.nodes is not None):  # check before writing: a shipped table stays as it was
+                print(f"{observer} / {illuminant}: interpolation error {max(err):.3g} above the promise "
+                      f"1e-6; nothing written", file=sys.stderr)
+                return 1
             path = args.out / Path(str(cumulative_cmf_path(observer, illuminant, tuple(args.range)))).name
             lut.save(path)
             os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public
@@ -67,8 +72,9 @@ def main(argv=None) -> int:
             print(f"{path.name}: {back.parameters['nodes']} nodes, {path.stat().st_size / 1000:.1f} kB, "
                   f"max |interp - exact| X {err[0]:.3g} Y {err[1]:.3g} Z {err[2]:.3g}, "
                   f"white XYZ ({x:.6f}, {y:.6f}, {z:.6f})")
-    print(f"worst measured interpolation error: {worst:.3g} (promise: 1e-6)")
-    return 0 if worst <= 1e-6 else 1
+    print(f"worst measured interpolation error: {worst:.3g} (promise: 1e-6"
+          + ("; not met with the --nodes given)" if worst > 1e-6 else ")"))
+    return 0
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ magnitude and unwrapped phase) and written atomically to
 ``src/torchirid/data/fourier_sensitivity/<slug>.npz``, where
 :func:`torchirid.ibl.fourier_sensitivity` finds them::
 
-    PYTHONPATH=src python luts/fourier_sensitivity_lut.py
+    PYTHONPATH=src python luts/build_fourier_sensitivity.py
 """
 
 from __future__ import annotations
@@ -35,12 +35,22 @@ def main(argv=None) -> int:
     parser.add_argument("--observers", nargs="+", default=list(DEFAULT_OBSERVERS))
     parser.add_argument("--illuminants", nargs="+", default=list(DEFAULT_ILLUMINANTS))
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    parser.add_argument("--d-max", type=float, default=None,
+                        help="largest optical path difference D in nm (default: the shipped 20,000 nm)")
     args = parser.parse_args(argv)
+    if args.d_max is not None and not (args.d_max > 0 and args.d_max < float("inf")):
+        parser.error("--d-max must be a finite number of nm > 0")
+    size = {} if args.d_max is None else {"d_max": args.d_max}
     args.out.mkdir(parents=True, exist_ok=True)
     worst = 0.0
     for observer in args.observers:
         for illuminant in args.illuminants:
-            lut = fourier_sensitivity_lut(observer, illuminant)
+            lut = fourier_sensitivity_lut(observer, illuminant, **size)
+            err = lut.parameters["max_interp_error"]
+            if max(err) > 1e-5 and not (False):  # check before writing: a shipped table stays as it was
+                print(f"{observer} / {illuminant}: interpolation error {max(err):.3g} above the promise "
+                      f"1e-5; nothing written", file=sys.stderr)
+                return 1
             path = args.out / Path(str(fourier_sensitivity_path(observer, illuminant))).name
             lut.save(path)
             os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public

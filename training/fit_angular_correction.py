@@ -242,18 +242,9 @@ def plot(path, fitted, args) -> None:
     bx.grid(alpha=0.3)
     bx.legend(fontsize=8, loc="lower right")
     fig.tight_layout()
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=".angular_correction.", suffix=".png", dir=directory)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=130)
-        os.chmod(tmp, _file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    try:  # atomic: the old figure stays if saving fails
+        atomic_write(path, lambda f: fig.savefig(f, dpi=130, format="png"))
     finally:
         plt.close(fig)
 
@@ -397,9 +388,10 @@ def main(argv=None) -> dict:
             "pairs_n1_n2": [list(p) for p in pairs],
             "w": [[round(float(v), 13) for v in row] for row in W],
         }
-    write_json_atomic(args.json, data)
+    # the figure first: a failure there leaves the shipped JSON untouched (both writes are atomic)
     if not args.no_figure:
         plot(args.figure, fitted, args)
+    write_json_atomic(args.json, data)
     step("figure")
     bar.close()
     elapsed = time.perf_counter() - t_start

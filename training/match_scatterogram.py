@@ -35,6 +35,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if os.path.join(ROOT, "src") not in sys.path:  # run from a checkout without installing
     sys.path.insert(0, os.path.join(ROOT, "src"))
 
+from torchirid._io import atomic_write, json_ready  # noqa: E402
 from torchirid.color import delta_e_2000, xyz_to_lab  # noqa: E402
 from torchirid.fitting import match_scatterogram, render_targets  # noqa: E402
 from torchirid.layered.presets import JEWEL_BEETLE, JEWEL_BEETLE_ALPHA, JEWEL_BEETLE_NAMES, jewel_beetle  # noqa: E402
@@ -161,14 +162,14 @@ def main(argv=None) -> int:
                         "wavelengths": args.wavelengths, "noise": args.noise, "seed": args.seed,
                         "threads": args.threads, "bars": BARS},
            "results": results}
-    text = json.dumps(doc, indent=1, default=float)
+    text = json.dumps(json_ready(doc), indent=1, allow_nan=False)
     table = markdown(results, args)
     print(text)
     print()
     print(table)
-    if args.notes:
-        with open(args.notes, "w") as f:
-            f.write(table + "\n```json\n" + text + "\n```\n")
+    if args.notes:  # atomic: a failed run leaves the old notes as they were
+        os.makedirs(os.path.dirname(os.path.abspath(args.notes)), exist_ok=True)
+        atomic_write(args.notes, lambda f: f.write((table + "\n```json\n" + text + "\n```\n").encode("utf-8")))
     return 0
 
 

@@ -1,5 +1,5 @@
 """Atomic file writes: every file torchirid writes (LUTs, figures, ``.npz`` products, fitted
-coefficients) goes through :func:`atomic_write`."""
+coefficients, JSON reports) goes through :func:`atomic_write`; JSON is strict (:func:`write_json`)."""
 
 from __future__ import annotations
 
@@ -37,6 +37,36 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO[bytes]], object]) 
             pass
         raise
     return path
+
+
+def json_ready(value):
+    """``value`` as plain JSON data: every float that is not finite becomes ``None`` (JSON
+    ``null``: strict readers refuse ``NaN`` and ``Infinity``), tensors, numpy arrays and numpy
+    scalars become Python numbers or lists, tuples become lists and keys strings.
+
+    >>> json_ready({"a": float("nan"), "b": (1.5, np.float32(2.0)), 3: np.array([1, 2])})
+    {'a': None, 'b': [1.5, 2.0], '3': [1, 2]}
+    """
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if hasattr(value, "tolist") and callable(value.tolist):  # torch.Tensor, np.ndarray, np.generic
+        return json_ready(value.tolist())
+    if isinstance(value, float):
+        return value if np.isfinite(value) else None
+    return value
+
+
+def write_json(path: str | os.PathLike, obj, *, indent: int | None = 1) -> Path:
+    """Write ``obj`` as strict JSON (:func:`json_ready`; ``allow_nan=False``, UTF-8, trailing
+    newline) atomically (:func:`atomic_write`), creating the parent folder. Returns the path."""
+    import json
+
+    text = json.dumps(json_ready(obj), indent=indent, allow_nan=False, ensure_ascii=False) + "\n"
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return atomic_write(path, lambda f: f.write(text.encode("utf-8")))
 
 
 # ----------------------------------------------------------------------------------------

@@ -1,0 +1,69 @@
+"""Every script in ``training/`` and ``luts/`` runs end to end at a tiny size into a temporary folder
+(issue 22.2: ``fit_angular_correction.py`` once died with a NameError after rewriting the shipped
+JSON). Each run must exit 0, write what it says, and leave the shipped data and figures untouched.
+
+A new script needs an entry in ``TINY`` (the test fails for a script without one)."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPTS = sorted(p.relative_to(ROOT).as_posix() for d in ("training", "luts") for p in (ROOT / d).glob("*.py"))
+
+#: script → (arguments at a tiny size, with {tmp} for the output folder; files it must write there)
+TINY = {
+    "luts/build_cmf_cumulative.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
+                                      "--out", "{tmp}"], ["cie_1931_2_e_380_780nm.npz"]),
+    "luts/build_dfg.py": (["--resolution", "4", "--samples", "16", "--out", "{tmp}/dfg.npz"], ["dfg.npz"]),
+    "luts/build_fourier_sensitivity.py": (["--observers", "CIE 1931 2", "--d-max", "200", "--out", "{tmp}"],
+                                          ["cie_1931_2_d65.npz"]),
+    "luts/build_light_mixture.py": (["--masking", "separable", "--theta-nodes", "4", "--alpha-nodes", "4",
+                                     "--out", "{tmp}/mix.npz"], ["mix.npz"]),
+    "training/fit_angular_correction.py": (["--cells", "10", "--samples", "8", "--angles", "7", "--n2-count", "3",
+                                            "--extra-pairs", "1.33:2.0", "--eval-pairs", "2.0:1.5",
+                                            "--invariance-cells", "10,20", "--json", "{tmp}/w.json",
+                                            "--figure", "{tmp}/w.png", "--quiet"], ["w.json", "w.png"]),
+    "training/match_scatterogram.py": (["--presets", "red", "--incidences", "0", "--resolution", "8",
+                                        "--wavelengths", "9", "--starts", "1", "--short-iter", "2", "--max-iter", "3",
+                                        "--notes", "{tmp}/notes.md"], ["notes.md"]),
+}
+
+
+def _snapshot() -> dict[str, str]:
+    """SHA-256 of every shipped data file and committed figure."""
+    out = {}
+    for folder in (ROOT / "src" / "torchirid" / "data", ROOT / "docs" / "figures"):
+        for p in sorted(folder.rglob("*")):
+            if p.is_file():
+                out[str(p.relative_to(ROOT))] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
+
+
+def test_every_script_has_a_tiny_run():
+    assert SCRIPTS, "no scripts found"
+    missing = [s for s in SCRIPTS if s not in TINY]
+    assert not missing, f"add a tiny-size run to TINY for {missing}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("script", SCRIPTS)
+def test_script_runs_at_a_tiny_size(script, tmp_path):
+    if script not in TINY:
+        pytest.fail(f"no tiny-size run for {script}")
+    args, outputs = TINY[script]
+    before = _snapshot()
+    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, str(ROOT / script), *(a.format(tmp=tmp_path) for a in args)],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, f"{script} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
+    for name in outputs:
+        assert (tmp_path / name).is_file() and (tmp_path / name).stat().st_size > 0, (script, name)
+    assert not [p for p in tmp_path.rglob("*.tmp")], "a temporary file was left behind"
+    assert _snapshot() == before, f"{script} changed shipped data or figures"
