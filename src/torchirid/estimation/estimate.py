@@ -32,6 +32,17 @@ After the fit the per-pixel RMS residual is compared with the noise level of the
 — the model does not explain the data (wrong index model, absorbing film, wrong substrate or
 angles).
 
+**Missing data.** A non-finite sample (NaN — :func:`~torchirid.estimation.read_cube` turns an
+ENVI header's ``data ignore value`` into NaN — or ±inf) is missing: it is left out of every sum.
+A pixel without a single finite sample (a dead pixel) is *invalid*: it is dropped before stage 1,
+so it enters no score (peaks, index scan and grid check, BIC, order hypotheses, noise level,
+thickness search, final pass, :func:`film_metrics`), and the result reports it —
+``FilmEstimate.valid`` is False there and its thickness and RMS are NaN. A pixel with only some
+samples missing stays valid and is fitted from the rest; its RMS residual is taken over its
+finite samples. The pixel sample of stages 2–3 is the one of the same cube without the invalid
+pixels (the seeded permutation of every pixel, invalid ones skipped), so a few dead pixels leave
+the estimate unchanged. A cube with no valid pixel raises ``ValueError`` naming ``cube``.
+
 In the code each stage is a private function (:func:`_validate_inputs`, :func:`_peak_stage`,
 :func:`_index_scan`, :func:`_select_index_model`, :func:`_image_thickness`,
 :func:`_order_check`, :func:`_final_pass`, :func:`_noise_check`); the numbers above are the
@@ -89,8 +100,11 @@ class FilmEstimate:
     """Result of :func:`estimate_film`.
 
     params ``(K,)`` of ``index_model``; n: the index at 589.3 nm; thickness ``(*)`` nm;
-    rms ``(*)`` per-pixel RMS residual (reflectance); n_peak / thickness_peak: the peak
-    method's estimates (eq. 12–14); timings: seconds per stage.
+    rms ``(*)`` per-pixel RMS residual (reflectance) over the pixel's finite samples; n_peak /
+    thickness_peak: the peak method's estimates (eq. 12–14); timings: seconds per stage;
+    valid ``(*)`` bool: the pixels with at least one finite sample — thickness, rms and
+    thickness_peak are NaN elsewhere (dead pixels, module docstring); None (an estimate built
+    by hand) means the pixels of finite thickness.
     """
 
     params: torch.Tensor
@@ -102,6 +116,11 @@ class FilmEstimate:
     thickness_peak: torch.Tensor
     timings: dict = field(default_factory=dict)
     settings: dict = field(default_factory=dict)
+    valid: torch.Tensor | None = None
+
+    def valid_pixels(self) -> torch.Tensor:
+        """``(*)`` bool: :attr:`valid`, or where it is None the pixels of finite thickness."""
+        return self.valid if self.valid is not None else self.thickness.isfinite()
 
     def index(self, wavelength) -> torch.Tensor:
         """n(λ) of the estimate (λ in nm)."""
@@ -116,7 +135,8 @@ def noise_level(cube) -> float:
     multiplies white noise of standard deviation σ by √70 and a smooth spectrum of fringe
     period T bands by (2 sin(π/T))⁴ (≈ 0.01 at T = 20 bands): so σ̂ = 1.4826 · median|Δ⁴y| / √70
     (the MAD, robust to outliers and peaks). An upper bound when the fringes are only a few
-    bands wide. NaN samples are skipped; NaN when no 5 consecutive finite bands exist.
+    bands wide. Non-finite samples (NaN, ±inf: missing data) are skipped; NaN when no 5
+    consecutive finite bands exist.
 
     Example (white noise of σ = 0.01 on a smooth spectrum):
         >>> import torch
@@ -131,7 +151,7 @@ def noise_level(cube) -> float:
         raise ValueError(f"cube must have at least 5 bands on its last axis; got shape {tuple(y.shape)}")
     y = y.to(torch.float64) if not y.is_floating_point() else y
     d4 = y[..., :-4] - 4 * y[..., 1:-3] + 6 * y[..., 2:-2] - 4 * y[..., 3:-1] + y[..., 4:]
-    d4 = d4[~d4.isnan()]
+    d4 = d4[d4.isfinite()]  # (a missing sample spoils the five differences that contain it)
     if d4.numel() == 0:
         return math.nan
     return float(MAD_TO_SIGMA * d4.abs().median() / math.sqrt(DIFF4_NOISE_GAIN))
@@ -139,11 +159,16 @@ def noise_level(cube) -> float:
 
 @dataclass
 class _Setup:
-    """A validated estimate_film problem: the cube ``y`` ``(*, A, B)`` and its pixels ``Y``
-    ``(P, A, B)`` (NaN kept), the axes, the band model ``band`` and the decimation ``a_sel``/``b_sel``."""
+    """A validated estimate_film problem: the cube ``y`` ``(*, A, B)`` (non-finite samples → NaN),
+    its valid-pixel mask ``valid`` ``(P,)`` over all P pixels, the valid pixels ``Y`` ``(V, A, B)``
+    (missing samples NaN) and their finite-sample counts ``count`` ``(V,)``, the axes, the band model
+    ``band`` and the decimation ``a_sel``/``b_sel``. Every stage works on ``Y``: the invalid pixels
+    enter no sum."""
 
     y: torch.Tensor
+    valid: torch.Tensor
     Y: torch.Tensor
+    count: torch.Tensor
     lam: torch.Tensor
     c: torch.Tensor
     ns: float
@@ -163,6 +188,16 @@ class _Setup:
     def lam_mid(self) -> float:
         """The median band centre (nm)."""
         return float(self.lam.median())
+
+    @property
+    def batch(self) -> torch.Size:
+        """The pixel axes ``(*)`` of the cube."""
+        return self.y.shape[:-2]
+
+    def scatter(self, x) -> torch.Tensor:
+        """Per-valid-pixel values ``(V,)`` on the whole image ``(*)``, NaN at the invalid pixels."""
+        out = torch.full((self.valid.numel(),), math.nan, dtype=x.dtype, device=x.device)
+        return out.masked_scatter(self.valid, x).reshape(self.batch)
 
     def scalar(self, value) -> torch.Tensor:
         """A 0-d tensor of ``value`` in the problem's dtype and device."""
@@ -223,16 +258,23 @@ def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name,
     _checks.check_int(seed, "seed", minimum=0)
     if progress is not None and not callable(progress):
         raise ValueError(f"progress must be a callable or None; got {progress!r}")
+    y = torch.where(y.isfinite(), y, math.nan)  # ±inf samples are missing data, like NaN (a new tensor)
+    pixels = y.reshape(-1, *y.shape[-2:])
+    finite = ~pixels.isnan()
+    valid = finite.any(-1).any(-1)
+    if not bool(valid.any()):
+        raise ValueError(f"cube must have at least one pixel with a finite sample; all {valid.numel()} pixels are "
+                         "NaN or infinite (dead pixels, e.g. an ENVI 'data ignore value')")
     a_sel, b_sel = decimation(*y.shape[-2:], DECIMATION_STRIDE)
-    return _Setup(y=y, Y=y.reshape(-1, *y.shape[-2:]), lam=lam, c=c, ns=ns, band=band, n_range=n_range,
-                  thickness_range=thickness_range, a_sel=a_sel, b_sel=b_sel,
+    return _Setup(y=y, valid=valid, Y=pixels[valid], count=finite[valid].sum((-1, -2)).to(y.dtype), lam=lam, c=c,
+                  ns=ns, band=band, n_range=n_range, thickness_range=thickness_range, a_sel=a_sel, b_sel=b_sel,
                   step=progress if progress is not None else (lambda name: None))
 
 
 def _peak_stage(st: _Setup):
-    """Stage 1, the peak method (eq. 8–14) → ``(PeakResult, d_peak (P,))``; pixels without data get
-    a finite seed (the median; their estimate is set to NaN at the end)."""
-    pk = peak_method(st.y, st.lam, st.c, st.ns, n_range=st.n_range, thickness_range=st.thickness_range, **st.band)
+    """Stage 1, the peak method (eq. 8–14) on the valid pixels → ``(PeakResult, d_peak (V,))``; a pixel
+    without a peak estimate gets a finite seed (the median)."""
+    pk = peak_method(st.Y, st.lam, st.c, st.ns, n_range=st.n_range, thickness_range=st.thickness_range, **st.band)
     d_peak = pk.thickness.reshape(-1)
     if bool(d_peak.isnan().any()):
         fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else st.scalar(st.thickness_range[0])
@@ -243,10 +285,13 @@ def _peak_stage(st: _Setup):
 
 def _index_scan(st: _Setup, d_peak, n_peak: float, sample: int, seed: int) -> _Scan:
     """Stage 2 on a seeded pixel sample: the best constant n near the peaks' (:func:`scan_index`),
-    then :func:`_grid_check`."""
-    P = st.Y.shape[0]
+    then :func:`_grid_check`. The sample: the first ``sample`` valid pixels of a seeded permutation
+    of every pixel — without invalid pixels, the sample of the same cube without them."""
+    valid = st.valid.cpu()
     g = torch.Generator(device="cpu").manual_seed(int(seed))  # (the same sample on every device)
-    idx = torch.randperm(P, generator=g, device="cpu")[: min(P, sample)].to(st.Y.device)
+    perm = torch.randperm(valid.numel(), generator=g, device="cpu")
+    rank = valid.cumsum(0) - 1  # position of each valid pixel among the valid ones (the rows of st.Y)
+    idx = rank[perm[valid[perm]]][: min(st.Y.shape[0], sample)].to(st.Y.device)
     ys, ds = st.Y[idx], d_peak[idx]
     yd = st.decimated(ys)
     p_scan, d_scan, _, _ = scan_index(yd, ds, n_peak, st.lam[st.b_sel], st.c[st.a_sel], st.ns,
@@ -293,36 +338,47 @@ def _model_start(st: _Setup, scan: _Scan, model: str, slope_cache: dict):
     return theta0, d_start, float(index_model(st.scalar(st.lam_mid), theta0, model))
 
 
+def _misfit(sse) -> float:
+    """Σ of per-pixel misfits as a float; NaN (which would make every comparison False and so
+    silently keep the first candidate) counts as +inf."""
+    total = float(sse.sum())
+    return total if not math.isnan(total) else math.inf
+
+
 def _order_hypotheses(st: _Setup, scan: _Scan, model: str, theta0, d_start, n_start: float, iterations: int):
     """Stage 3 for one model: the joint fit (:func:`refine_film`) from each global order shift of
-    ``ORDER_SHIFTS`` → ``(sse, RefineResult)`` of the least misfit."""
-    best = None
+    ``ORDER_SHIFTS`` → ``(sse, RefineResult, shift, {shift: sse})`` of the least misfit (the shift
+    keys ``"+0"``, ``"-1"``, ``"+1"``; None for a shift that would start at d ≤ 0)."""
+    best, tried = None, {}
     T = st.period(n_start)
     for j in ORDER_SHIFTS:
         start = d_start + j * T
         if bool((start <= 0).any()):
+            tried[f"{j:+.0f}"] = None
             continue
         res = refine_film(scan.ys, st.lam, st.c, st.ns, start, theta0, index_model_name=model, iterations=iterations,
                           **st.band)
-        loss = float(res.sse.sum())
+        loss = _misfit(res.sse)
+        tried[f"{j:+.0f}"] = loss
         if best is None or loss < best[0]:
-            best = (loss, res)
+            best = (loss, res, j)
         st.step("order hypothesis")
-    return best
+    return (*best, tried)
 
 
 def _select_index_model(st: _Setup, scan: _Scan, candidates, iterations: int):
     """Stage 3 for every candidate model; the one of least BIC over the sample's finite samples
-    wins → ``(model, RefineResult on the sample, selection {model: sse, bic, params})``."""
-    n_obs = int((~scan.ys.isnan()).sum())  # samples in the BIC (NaN samples do not count)
+    wins → ``(model, RefineResult on the sample, selection {model: sse, bic, params, order_shift,
+    order_sse})``. The sample holds valid pixels only, so every misfit is a finite sum."""
+    n_obs = int((~scan.ys.isnan()).sum())  # samples in the BIC (missing samples do not count)
     slope_cache, selection, results = {}, {}, {}
     for model in candidates:
         theta0, d_start, n_start = _model_start(st, scan, model, slope_cache)
-        sse, res = _order_hypotheses(st, scan, model, theta0, d_start, n_start, iterations)
+        sse, res, shift, tried = _order_hypotheses(st, scan, model, theta0, d_start, n_start, iterations)
         K = INDEX_MODELS[model]
         sse_m = max(sse, torch.finfo(st.Y.dtype).tiny)
         bic = n_obs * math.log(sse_m / max(n_obs, 1)) + K * math.log(max(n_obs, 2))
-        selection[model] = dict(sse=sse, bic=bic, params=res.params.tolist())
+        selection[model] = dict(sse=sse, bic=bic, params=res.params.tolist(), order_shift=shift, order_sse=tried)
         results[model] = res
     model = min(selection, key=lambda m: selection[m]["bic"])
     return model, results[model], selection
@@ -344,9 +400,14 @@ def _order_check(st: _Setup, scan: _Scan, theta, model: str, d0, s0, n_mid: floa
     """Stage 4b: pixels with no good order among the peak-based candidates — misfit above
     ``EXHAUSTIVE_MISFIT_RATIO`` × the sample's mean at the fitted index, or all of them when the
     peaks misled the index search — get an exhaustive thickness search on every band of the
-    decimated angles; it replaces d0 where it fits better → ``(d0, pixels searched)``."""
-    ref = float(cube_sse(scan.yd, st.model_terms(theta, model), sample_fit.thickness[:, None]).sum() / scan.yd.shape[0])
-    bad = (s0 > EXHAUSTIVE_MISFIT_RATIO * ref) | torch.full_like(s0, float(scan.restarted), dtype=torch.bool)
+    decimated angles; it replaces d0 where it fits better → ``(d0, pixels searched)``. Misfits are
+    compared per finite sample (scaled to a whole pixel): a pixel missing some samples is not
+    mistaken for a well-fitted one."""
+    per_pixel = scan.yd.shape[-2] * scan.yd.shape[-1]  # samples of a whole decimated pixel
+    sample_sse = cube_sse(scan.yd, st.model_terms(theta, model), sample_fit.thickness[:, None]).sum()
+    ref = float(sample_sse / scan.yd.shape[0]) * (scan.yd.shape[0] * per_pixel / max(1, int((~scan.yd.isnan()).sum())))
+    scale = per_pixel / (~st.decimated(st.Y).isnan()).sum((-1, -2)).clamp_min(1).to(s0.dtype)  # 1 for whole pixels
+    bad = (s0 * scale > EXHAUSTIVE_MISFIT_RATIO * ref) | torch.full_like(s0, float(scan.restarted), dtype=torch.bool)
     if bool(bad.any()):
         gstep = float(st.lam.min()) / (THICKNESS_GRID_DIVISOR * float(torch.sqrt(n_mid ** 2 - st.s2).max()))
         grid = thickness_grid(st.thickness_range, gstep, st.Y)
@@ -363,29 +424,46 @@ def _order_check(st: _Setup, scan: _Scan, theta, model: str, d0, s0, n_mid: floa
 
 def _final_pass(st: _Setup, theta, model: str, d0, final_iterations: int, smoothness: float, progress):
     """Stage 4c: d polished on the full cube, then ``final_iterations`` joint iterations on every
-    pixel (with the smoothness term) → ``(theta, d (P,), sse (P,))``."""
+    valid pixel (with the smoothness term) → ``(theta, d (V,), sse (V,))``. The smoothness term
+    needs the image: it then runs on the whole cube, where :func:`refine_film` leaves the pixels
+    without data out of every sum and out of the neighbour pairs."""
     d, S = d_only_gauss_newton(st.Y, d0, st.model_terms(theta, model, full_bands=True, all_angles=True),
                                iterations=POLISH_ITERATIONS)
     d = d[:, 0]
     st.step("thickness")
     if final_iterations == 0 and smoothness == 0:
         return theta, d, S[:, 0]
-    res = refine_film(st.y, st.lam, st.c, st.ns, d.reshape(st.y.shape[:-2]), theta, index_model_name=model,
-                      iterations=max(final_iterations, 1), smoothness=smoothness, order_check=False,
-                      fit_index=final_iterations > 0, progress=progress, **st.band)
-    return res.params, res.thickness.reshape(-1), res.sse.reshape(-1)
+    image = smoothness > 0 and len(st.batch) == 2
+    res = refine_film(st.y if image else st.Y, st.lam, st.c, st.ns, st.scatter(d) if image else d, theta,
+                      index_model_name=model, iterations=max(final_iterations, 1), smoothness=smoothness,
+                      order_check=False, fit_index=final_iterations > 0, progress=progress, **st.band)
+    d, sse = res.thickness.reshape(-1), res.sse.reshape(-1)
+    return res.params, (d[st.valid] if image else d), (sse[st.valid] if image else sse)
 
 
-def _noise_check(st: _Setup, rms, model: str):
-    """Compare the median RMS residual with the data's noise level; warn (``RuntimeWarning``) above
-    ``NOISE_WARNING_RATIO`` → ``(noise level, ratio)``."""
+def _noise_advice(model: str, requested: str) -> str:
+    """What the noise warning suggests: a richer index model only when one was not tried already
+    (``"auto"`` tried them all; nothing is richer than the richest, the Cauchy models are nested)."""
+    check = "check the substrate index, the angles and the polarization (an absorbing film is not modelled)"
+    if requested == "auto":
+        return (f"none of the index models {_checks.names(tuple(INDEX_MODELS))} explains the cube "
+                f"({model!r} has the least BIC) — {check}")
+    richer = [m for m in INDEX_MODELS if INDEX_MODELS[m] > INDEX_MODELS[model]]
+    if not richer:
+        return f"the {model!r} index model, the richest, does not explain the cube — {check}"
+    return (f"the {model!r} index model does not explain the cube — try index_model_name='auto' (or "
+            f"{richer[-1]!r} for a dispersive film), or {check}")
+
+
+def _noise_check(st: _Setup, rms, model: str, requested: str):
+    """Compare the median RMS residual (valid pixels) with the data's noise level; warn
+    (``RuntimeWarning``, advice by :func:`_noise_advice`) above ``NOISE_WARNING_RATIO`` →
+    ``(noise level, ratio)``."""
     sigma = noise_level(st.Y)
     ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
     if ratio > NOISE_WARNING_RATIO:
         warnings.warn(f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data "
-                      f"({sigma:.2g}); the {model!r} index model does not explain the cube — try "
-                      f"index_model_name='auto' or 'cauchy3' (dispersive film), or check the substrate index, "
-                      f"angles and polarization", RuntimeWarning, stacklevel=4)
+                      f"({sigma:.2g}); {_noise_advice(model, requested)}", RuntimeWarning, stacklevel=4)
     return sigma, ratio
 
 
@@ -435,19 +513,18 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     theta, d, sse = _final_pass(st, sample_fit.params, model, d0, final_iterations, smoothness, progress)
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
-    A, B = st.Y.shape[-2:]
-    rms = (sse / (A * B)).sqrt()
-    empty = st.Y.isnan().all(-1).all(-1)  # no finite sample: no estimate (its residuals were 0 by the NaN fill)
-    d, rms = torch.where(empty, math.nan, d), torch.where(empty, math.nan, rms)
-    sigma, ratio = _noise_check(st, rms, model)
-    batch = st.y.shape[:-2]
+    rms = (sse / st.count).sqrt()  # over the pixel's finite samples
+    sigma, ratio = _noise_check(st, rms, model, index_model_name)
+    P, V = st.valid.numel(), st.Y.shape[0]
     return FilmEstimate(
         params=theta, index_model=model, n=float(index_model(st.scalar(REFERENCE_WAVELENGTH), theta, model)),
-        thickness=d.reshape(batch), rms=rms.reshape(batch), n_peak=pk.n, thickness_peak=pk.thickness, timings=times,
+        thickness=st.scatter(d), rms=st.scatter(rms), n_peak=pk.n, thickness_peak=st.scatter(pk.thickness.reshape(-1)),
+        timings=times, valid=st.valid.reshape(st.batch),
         settings=dict(st.band, n_substrate=st.ns, index_model=model, index_start="grid" if scan.restarted else "peaks",
                       index_model_requested=index_model_name, index_selection=selection, noise_level=sigma,
                       residual_to_noise=ratio, exhaustive_pixels=exhaustive, smoothness=smoothness, sample=sample,
-                      seed=seed))
+                      seed=seed, pixels=P, invalid_pixels=P - V,
+                      pixels_missing_samples=int((st.count < st.Y.shape[-2] * st.Y.shape[-1]).sum())))
 
 
 def model_cube(params, index_model_name, thickness, wavelength, cos_theta, n_substrate, **kw) -> torch.Tensor:
@@ -467,26 +544,32 @@ def film_metrics(estimate: FilmEstimate, truth) -> dict:
 
     n error at 589.3 nm; mean and max |d error| (nm); mean ΔE*ab (CIE 1976, D65, CIE 1931 2°)
     between the true noise-free band spectra and the re-rendered estimate, averaged over
-    pixels and angles; spectral RMSE (reflectance units) averaged the same way.
+    pixels and angles; spectral RMSE (reflectance units) averaged the same way. Every average
+    runs over the estimate's valid pixels (:meth:`FilmEstimate.valid_pixels`; ``valid_pixels``
+    counts them): a dead pixel has no estimate to score.
     """
     kw = {k: estimate.settings[k] for k in ("bandwidth", "passband", "polarization", "n_incident")}
-    est = model_cube(estimate.params, estimate.index_model, estimate.thickness, truth.wavelength, truth.cos_theta,
-                     truth.sample.n_substrate, **kw)
-    lab_t = xyz_to_lab(spectrum_to_xyz(truth.clean, truth.wavelength))
+    ok = estimate.valid_pixels()
+    est = model_cube(estimate.params, estimate.index_model, estimate.thickness[ok], truth.wavelength,
+                     truth.cos_theta, truth.sample.n_substrate, **kw)
+    clean = truth.clean[ok]
+    lab_t = xyz_to_lab(spectrum_to_xyz(clean, truth.wavelength))
     lab_e = xyz_to_lab(spectrum_to_xyz(est, truth.wavelength))
     de = delta_e_1976(lab_t, lab_e)
-    rmse = ((est - truth.clean) ** 2).mean(-1).sqrt()
-    err = (estimate.thickness - truth.thickness).abs()
+    rmse = ((est - clean) ** 2).mean(-1).sqrt()
+    d_true = truth.thickness[ok]
+    err = (estimate.thickness[ok] - d_true).abs()
     return {
         "n_true": truth.sample.n_reference,
         "n_est": estimate.n,
         "n_error": abs(estimate.n - truth.sample.n_reference),
         "n_peak": estimate.n_peak,
-        "d_true_mean": float(truth.thickness.mean()),
-        "d_est_mean": float(estimate.thickness.mean()),
+        "valid_pixels": int(ok.sum()),
+        "d_true_mean": float(d_true.mean()),
+        "d_est_mean": float(estimate.thickness[ok].mean()),
         "d_error_mean": float(err.mean()),
         "d_error_max": float(err.max()),
-        "d_error_peak_mean": float((estimate.thickness_peak - truth.thickness).abs().mean()),
+        "d_error_peak_mean": float((estimate.thickness_peak[ok] - d_true).abs().mean()),
         "delta_e_mean": float(de.mean()),
         "rmse_mean": float(rmse.mean()),
         "time_s": float(estimate.timings.get("total", math.nan)),

@@ -423,7 +423,8 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     r"""Kobayashi et al.'s estimate of n (eq. 12) and per-pixel d (eq. 13–14) from a cube ``(*, A, B)``.
 
     Args:
-        cube: ``(*, A, B)`` band reflectance, angles sorted by increasing θ.
+        cube: ``(*, A, B)`` band reflectance, angles sorted by increasing θ; non-finite samples
+            (NaN, ±inf) are missing data, a pixel without a finite sample gets NaN d and sse.
         wavelength: ``(B,)`` band centres (nm), uniform, B ≥ 7; cos_theta ``(A,)``.
         n_substrate: real substrate index.
         bandwidth, passband, polarization, n_incident: the band model
@@ -446,6 +447,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     uniform_bands(lam)
     sorted_angles(c)
     band_settings(bandwidth, passband, polarization)
+    y = torch.where(y.isfinite(), y, math.nan)  # ±inf samples are missing data, like NaN (a new tensor)
     ns = real_index(n_substrate, "n_substrate", y)
     n0 = real_index(n_incident, "n_incident", y, incident=True)
     n_range = value_range(n_range, "n_range", positive=True)

@@ -24,6 +24,10 @@ from its start, then re-tests every pixel at d ± one order period T = λ/(2√(
 one batched call (a few d-only Gauss–Newton steps each) and keeps the best. Pixels whose
 misfit stays above 10× the median are left out of the index update (robust to stray orders).
 
+Missing data: a non-finite sample of the cube (NaN, ±inf) is left out of every sum; a pixel
+without a single finite sample enters no sum — neither the misfit, nor the median of the inlier
+test, nor a smoothness pair — and comes back with NaN thickness and misfit.
+
 :func:`refine_film` runs in stages — :func:`_refine_inputs` (validation), :func:`_lm_fit` (the
 damped iterations: :func:`_normal_equations` then :func:`_damped_step`) and :func:`_order_check`.
 The tuning constants (``LM_*``, ``INLIER_MISFIT_RATIO``, ``MAX_THICKNESS_STEP``, ...) are
@@ -191,13 +195,19 @@ def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step
     return d, sse_out
 
 
-def _smooth_terms(d_img, mu_s):
-    """(value, gradient, diagonal) of mu_s·Σ_{4-neighbours}(d_p − d_q)² for an image (H, W)."""
+def _smooth_terms(d_img, mu_s, mask=None):
+    """(value, gradient, diagonal) of mu_s·Σ_{4-neighbours}(d_p − d_q)² for an image (H, W); with a
+    ``mask`` (H, W) only the pairs of two pixels in the mask count (a pixel without data is no
+    neighbour)."""
     if mu_s == 0 or d_img.ndim != 2:
         z = torch.zeros_like(d_img)
         return d_img.new_zeros(()), z, z
-    dx = d_img[:, 1:] - d_img[:, :-1]
-    dy = d_img[1:, :] - d_img[:-1, :]
+    if mask is None:
+        mask = torch.ones_like(d_img, dtype=torch.bool)
+    wx = (mask[:, 1:] & mask[:, :-1]).to(d_img.dtype)
+    wy = (mask[1:, :] & mask[:-1, :]).to(d_img.dtype)
+    dx = (d_img[:, 1:] - d_img[:, :-1]) * wx
+    dy = (d_img[1:, :] - d_img[:-1, :]) * wy
     val = mu_s * ((dx * dx).sum() + (dy * dy).sum())
     g = torch.zeros_like(d_img)
     g[:, 1:] += 2 * mu_s * dx
@@ -205,10 +215,10 @@ def _smooth_terms(d_img, mu_s):
     g[1:, :] += 2 * mu_s * dy
     g[:-1, :] -= 2 * mu_s * dy
     deg = torch.zeros_like(d_img)
-    deg[:, 1:] += 1
-    deg[:, :-1] += 1
-    deg[1:, :] += 1
-    deg[:-1, :] += 1
+    deg[:, 1:] += wx
+    deg[:, :-1] += wx
+    deg[1:, :] += wy
+    deg[:-1, :] += wy
     return val, g, 2 * mu_s * deg
 
 
@@ -286,13 +296,20 @@ def scan_index(cube, thickness, n_start, wavelength, cos_theta, n_substrate, *, 
 
 
 class _Fit:
-    """One validated refinement problem: the pixels ``Y`` ``(P, A, B)`` (NaN → 0) with their mask
-    ``valid``, the band grid, the index model and the band-model keywords; evaluates the misfit."""
+    """One validated refinement problem: the pixels ``Y`` ``(P, A, B)`` (missing samples → 0) with
+    their mask of finite samples ``valid``, the band grid, the index model and the band-model
+    keywords; evaluates the misfit. ``has_data`` ``(P,)``: pixels with at least one finite sample."""
 
     def __init__(self, Y, valid, lam, c, ns, model, band, batch, smoothness):
         self.Y, self.valid, self.lam, self.c, self.ns = Y, valid, lam, c, ns
         self.model, self.band, self.batch, self.smoothness = model, band, batch, smoothness
         self.image = len(batch) == 2 and smoothness > 0
+        self.has_data = valid.any(-1).any(-1)
+
+    @property
+    def data(self):
+        """The pixels with their missing samples NaN (what :func:`d_only_gauss_newton` skips)."""
+        return torch.where(self.valid, self.Y, math.nan)
 
     def terms(self, theta):
         """Terms (a, b, e, k, h) of the index parameters ``theta`` on the whole grid."""
@@ -311,7 +328,9 @@ class _Fit:
 
     def smooth(self, d):
         """(value, gradient, diagonal) of the smoothness term (zeros unless an image with μ_s > 0)."""
-        return _smooth_terms(d.reshape(self.batch), self.smoothness) if self.image else _smooth_terms(d, 0.0)
+        if not self.image:
+            return _smooth_terms(d, 0.0)
+        return _smooth_terms(d.reshape(self.batch), self.smoothness, self.has_data.reshape(self.batch))
 
     def total(self, sse, d) -> float:
         """The objective L: misfit plus smoothness."""
@@ -358,7 +377,8 @@ def _refine_inputs(cube, wavelength, cos_theta, n_substrate, thickness_init, ind
     if d.numel() != P:
         raise ValueError(f"thickness_init must have one value per pixel ({P}); got {d.numel()}")
     d = d.nan_to_num(float(d[~d.isnan()].median()) if bool((~d.isnan()).any()) else FALLBACK_THICKNESS).clamp_min(0.0)
-    fit = _Fit(Y.nan_to_num(0.0), ~Y.isnan(), lam, c, ns, index_model_name, band, batch, smoothness)
+    finite = Y.isfinite()  # ±inf samples are missing data, like NaN
+    fit = _Fit(torch.where(finite, Y, 0.0), finite, lam, c, ns, index_model_name, band, batch, smoothness)
     return fit, theta, d
 
 
@@ -393,7 +413,8 @@ def _normal_equations(fit, theta, d, sse, fit_index) -> _Normal:
     Hdd, gd = Hdd + sdiag.reshape(-1) / 2, gd + sg.reshape(-1) / 2  # of ½L
     if not fit_index:
         return _Normal(Hdd, gd, None, None, None)
-    inlier = (sse <= INLIER_MISFIT_RATIO * sse.median()).to(dtype)  # robust: stray-order pixels do not steer n
+    median = torch.where(fit.has_data, sse, math.nan).nanmedian()  # (a pixel without data has misfit 0: no say)
+    inlier = (sse <= INLIER_MISFIT_RATIO * median).to(dtype)  # robust: stray-order pixels do not steer n
     return _Normal(Hdd, gd, Hdt * inlier[:, None], (Htt_p * inlier[:, None, None]).sum(0),
                    (gt_p * inlier[:, None]).sum(0))
 
@@ -454,9 +475,9 @@ def _order_check(fit, theta, d, sse, progress):
     n_mid = index_model(lam_mid, theta, fit.model)
     s2 = (fit.band["n_incident"] ** 2) * (1 - fit.c * fit.c)
     T = float(lam_mid) / (2 * float(torch.sqrt(n_mid ** 2 - s2).mean()))
-    Dn, S = d_only_gauss_newton(fit.Y, order_candidates(d, T), terms, iterations=ORDER_CHECK_ITERATIONS)
+    Dn, S = d_only_gauss_newton(fit.data, order_candidates(d, T), terms, iterations=ORDER_CHECK_ITERATIONS)
     best = S.argmin(-1)
-    changed = best != 1
+    changed = (best != 1) & fit.has_data  # (a pixel without data scores every order 0: no choice)
     reordered = int(changed.sum())
     if reordered:
         d = torch.where(changed, Dn.gather(-1, best[:, None])[:, 0], d)

@@ -4,11 +4,16 @@ Writes ``<out>/thickness.png``, ``<out>/fit_error.png`` (per-pixel RMS residual)
 ``<out>/thickness_nm.npy``, ``<out>/report.json`` (n, index parameters, thickness statistics,
 timings, settings) and, when the cube carries a ground truth (``thickness_nm`` in the .npz),
 ``<out>/thickness_error.png`` and the Table-1 errors in the report.
+
+Dead pixels (no finite sample: NaN in a .npz, an ENVI header's ``data ignore value``) have no
+estimate: NaN in ``thickness_nm.npy``, grey in the maps, left out of every statistic, and
+counted in the report's ``pixels`` (``total``, ``valid``, ``invalid``, ``missing_samples``: valid
+pixels fitted from part of their samples). ``report.json`` is strict JSON: a number that is not
+finite (a statistic of no pixel, an infinite misfit) is written ``null``.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import sys
 import warnings
@@ -16,6 +21,7 @@ import warnings
 import numpy as np
 import torch
 
+from ..._io import write_json
 from ...estimation import estimate_film
 from ...estimation.cube_io import read_cube
 from .. import _args
@@ -67,6 +73,15 @@ def add_parser(subparsers):
     return p
 
 
+def _stats(x) -> dict:
+    """mean, min, max and std of the finite values of a tensor (None where there are none)."""
+    v = x[x.isfinite()].double()
+    if v.numel() == 0:
+        return {"mean": None, "min": None, "max": None, "std": None}
+    return {"mean": float(v.mean()), "min": float(v.min()), "max": float(v.max()),
+            "std": float(v.std()) if v.numel() > 1 else 0.0}
+
+
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Estimate the film and write the maps and the report. Exit status: 0, 1 (write), 2 (bad argument or cube)."""
@@ -92,7 +107,7 @@ def run(args) -> int:
     notes = [str(w.message) for w in caught]
     for note in notes:
         print(f"{_args.PROG} {NAME}: warning: {_args.one_line(note)}", file=sys.stderr)
-    d = est.thickness
+    d, valid = est.thickness, est.valid
     report = {
         "cube": [os.fspath(c) for c in args.cube] if len(args.cube) > 1 else os.fspath(args.cube[0]),
         "angles_deg": cube.angles_deg.tolist(),
@@ -102,8 +117,10 @@ def run(args) -> int:
         "index_model": est.index_model,
         "index_params": est.params.tolist(),
         "n_peak_method": est.n_peak,
-        "thickness_nm": {"mean": float(d.mean()), "min": float(d.min()), "max": float(d.max()), "std": float(d.std())},
-        "rms_residual_mean": float(est.rms.mean()),
+        "pixels": {"total": valid.numel(), "valid": int(valid.sum()), "invalid": int((~valid).sum()),
+                   "missing_samples": est.settings["pixels_missing_samples"]},
+        "thickness_nm": _stats(d[valid]),
+        "rms_residual_mean": _stats(est.rms[valid])["mean"],
         "noise_level": est.settings["noise_level"],
         "residual_to_noise": est.settings["residual_to_noise"],
         "index_selection": est.settings["index_selection"],
@@ -115,18 +132,19 @@ def run(args) -> int:
         os.makedirs(args.out, exist_ok=True)
         np.save(os.path.join(args.out, "thickness_nm.npy"), d.numpy())
         save_film_map_png(d, os.path.join(args.out, "thickness.png"), f"thickness, n = {est.n:.4f}", "d (nm)")
+        # (invalid pixels are NaN in every map: drawn grey, outside the colour scale)
         save_film_map_png(est.rms, os.path.join(args.out, "fit_error.png"), "RMS residual per pixel", "reflectance",
                           cmap="magma")
         if cube.thickness is not None:
             err = (d - cube.thickness).abs()
             save_film_map_png(err, os.path.join(args.out, "thickness_error.png"), "|d − d_true|", "nm", cmap="magma")
-            report["thickness_error_nm"] = {"mean": float(err.mean()), "max": float(err.max())}
+            report["thickness_error_nm"] = {k: v for k, v in _stats(err[valid]).items() if k in ("mean", "max")}
             if "n_true" in cube.meta:
                 report["n_error"] = abs(est.n - float(cube.meta["n_true"]))
-        with open(os.path.join(args.out, "report.json"), "w") as f:
-            json.dump(report, f, indent=1, default=float)
+        write_json(os.path.join(args.out, "report.json"), report)  # strict JSON (NaN → null), atomic
     except OSError as e:
         return _args.cannot_write(NAME, args.out, e)
-    print(f"n = {est.n:.4f} ({est.index_model}), mean d = {float(d.mean()):.1f} nm, {est.timings['total']:.1f} s "
-          f"→ {args.out}")
+    dead = int((~valid).sum())
+    print(f"n = {est.n:.4f} ({est.index_model}), mean d = {float(d[valid].mean()):.1f} nm"
+          f"{f' ({dead} invalid pixels)' if dead else ''}, {est.timings['total']:.1f} s → {args.out}")
     return 0
