@@ -8,6 +8,7 @@ it passes the checks and propagates through the physics.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import numbers
@@ -16,6 +17,72 @@ from typing import Sequence
 import torch
 
 POLARIZATIONS = ("s", "p", "unpolarized")
+
+
+_VALUE_CHECKS = {"enabled": True}
+
+
+def value_checks_enabled() -> bool:
+    """Whether torchirid checks argument *values* (ranges, units, NaN-free counts).
+
+    Off under :func:`set_value_checks(False) <set_value_checks>` / :func:`value_checks`, and
+    automatically while ``torch.compile`` traces (``torch.compiler.is_compiling()``)."""
+    return _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling()
+
+
+def set_value_checks(enabled: bool = True) -> None:
+    """Switch torchirid's argument-value checks on (default) or off, for the whole process.
+
+    The checks (wavelength in nm, cos θ in [0, 1], indices with Re n > 0 and κ ≥ 0, thicknesses
+    ≥ 0, integer cell counts, ...) read tensor values back to Python (``bool(t.any())``), which
+    ``torch.func.vmap`` cannot do and which breaks ``torch.compile(fullgraph=True)``. With the
+    checks off the kernels are free of that data-dependent control flow and run under both;
+    invalid values then give NaN or wrong numbers instead of a ValueError. Types, shapes,
+    option names and dtypes are still checked. Prefer the scoped :func:`value_checks`.
+
+    >>> import torch, torchirid
+    >>> f = torch.func.vmap(lambda d: torchirid.thin_film_reflectance(550.0, 1.0, 1.4, d, 1.5))
+    >>> with torchirid.value_checks(False):
+    ...     R = f(torch.tensor([100.0, 200.0], dtype=torch.float64))
+    >>> R.shape
+    torch.Size([2])
+    """
+    if not isinstance(enabled, bool):
+        raise ValueError(f"enabled must be True or False; got {enabled!r}")
+    _VALUE_CHECKS["enabled"] = enabled
+
+
+@contextlib.contextmanager
+def value_checks(enabled: bool = True):
+    """Context manager: argument-value checks on or off inside the block (:func:`set_value_checks`),
+    restored on exit."""
+    if not isinstance(enabled, bool):
+        raise ValueError(f"enabled must be True or False; got {enabled!r}")
+    before = _VALUE_CHECKS["enabled"]
+    _VALUE_CHECKS["enabled"] = enabled
+    try:
+        yield
+    finally:
+        _VALUE_CHECKS["enabled"] = before
+
+
+def traceable() -> bool:
+    """True when kernels must avoid data-dependent Python control flow: value checks off
+    (:func:`set_value_checks`) or ``torch.compile`` tracing. Guards that would branch on tensor
+    values (``if bool(mask.any())``) then take their masked branch unconditionally."""
+    return not value_checks_enabled()
+
+
+def _value_check(fn):
+    """Decorator: the check runs only while :func:`value_checks_enabled`."""
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        if _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling():
+            return fn(*args, **kwargs)
+        return None
+
+    return run
 
 
 def _is_tensorlike(x) -> bool:
@@ -179,12 +246,15 @@ def flush_grazing(c: torch.Tensor) -> torch.Tensor:
     (0/0 → NaN). NaN passes through unchanged.
     """
     tiny = torch.finfo(c.dtype).tiny ** 0.5
+    if traceable():  # no data-dependent branch (vmap, torch.compile)
+        return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
     with torch.no_grad():
         if not bool((c.abs() < tiny).any()):  # the common case: nothing to flush, no extra pass
             return c
     return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
 
 
+@_value_check
 def check_positive(t: torch.Tensor, name: str, unit: str = "nm") -> None:
     v = _scalar(t)
     if v is not None:
@@ -202,6 +272,7 @@ MIN_WAVELENGTH_NM = 1.0
 MAX_WAVELENGTH_NM = 1.0e6
 
 
+@_value_check
 def check_wavelength(t: torch.Tensor, name: str = "wavelength") -> None:
     """ValueError unless every (non-NaN) value lies in [MIN_WAVELENGTH_NM, MAX_WAVELENGTH_NM] nm.
 
@@ -242,6 +313,7 @@ def check_wavelength_range(wavelength_range, name: str = "wavelength_range") -> 
     return lo, hi
 
 
+@_value_check
 def check_nonnegative(t: torch.Tensor, name: str, unit: str = "nm") -> None:
     v = _scalar(t)
     if v is not None:
@@ -253,6 +325,7 @@ def check_nonnegative(t: torch.Tensor, name: str, unit: str = "nm") -> None:
             raise ValueError(f"{name} must be >= 0 {unit}; got min {t.min().item():g}")
 
 
+@_value_check
 def check_cosine(t: torch.Tensor, name: str = "cos_theta") -> None:
     v = _scalar(t)
     if v is not None:
@@ -279,6 +352,7 @@ def check_numbers(**named) -> None:
             raise ValueError(f"{name} must be a number, a tensor or a sequence of numbers; got {x!r}") from exc
 
 
+@_value_check
 def check_signed_cosine(t: torch.Tensor, name: str = "cos_theta", slack: float = 1e-6) -> None:
     """A cosine whose sign carries meaning (or is ignored): in [-1, 1], up to ``slack`` (the z of a
     normalised direction may exceed 1 by rounding; the callers clamp); NaN passes (it propagates)."""
@@ -294,6 +368,7 @@ def check_signed_cosine(t: torch.Tensor, name: str = "cos_theta", slack: float =
             raise ValueError(f"{name} must lie in [-1, 1] (a cosine); got {t[bad].flatten()[0].item():g}")
 
 
+@_value_check
 def check_index(t: torch.Tensor, name: str) -> None:
     """Real part > 0 and extinction κ = Im ≥ 0 (κ > 0 means absorption)."""
     v = _scalar(t)
@@ -312,6 +387,7 @@ def check_index(t: torch.Tensor, name: str) -> None:
             )
 
 
+@_value_check
 def check_real_index(t: torch.Tensor, name: str) -> None:
     """An incident medium: real (lossless) with n > 0."""
     if not t.is_complex():
@@ -345,6 +421,8 @@ def as_cells(cells, device) -> torch.Tensor:
         raise ValueError(f"cells must be an integer >= 1 or an integer tensor; got {cells!r}") from exc
     if t.is_complex() or t.dtype == torch.bool:
         raise ValueError("cells must be an integer >= 1 (integer tensor)")
+    if traceable():  # no value checks: no data-dependent branch (vmap, torch.compile)
+        return t.to(torch.int64)
     if t.is_floating_point():
         with torch.no_grad():
             if not bool(torch.isfinite(t).all()):
@@ -411,7 +489,9 @@ def broadcast_shapes(*shapes) -> torch.Size:
     process — more than a whole small call costs. Raises RuntimeError on incompatible shapes
     like torch does.
     """
-    ndim = max((len(s) for s in shapes), default=0)
+    ndim = 0
+    for s in shapes:  # (a loop, not max(..., default=0): torch.compile traces this)
+        ndim = max(ndim, len(s))
     out = [1] * ndim
     for s in shapes:
         for i, size in enumerate(s, start=ndim - len(s)):

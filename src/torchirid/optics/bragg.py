@@ -356,20 +356,20 @@ def _star(A, B):
     rA, rpA, tA = A
     rB, rpB, tB = B
     den = 1 - rpA * rB
-    if bool((den == 0).any()):
+    if _checks.traceable() or bool((den == 0).any()):
         # guard: den = 0 needs |r'_A| = |r_B| = 1, hence t_A = t_B = 0 (lossless total
         # reflection, e.g. grazing): the two stacks do not see each other
         degenerate = den == 0
         den = torch.where(degenerate, torch.ones_like(den), den)
         zero = torch.zeros_like(den)
-        return (torch.where(degenerate, rA.expand_as(den), rA + tA * tA * rB / den),
-                torch.where(degenerate, rpB.expand_as(den), rpB + tB * tB * rpA / den),
+        return (torch.where(degenerate, rA, rA + tA * tA * rB / den),  # (where broadcasts: any shapes)
+                torch.where(degenerate, rpB, rpB + tB * tB * rpA / den),
                 torch.where(degenerate, zero, tA * tB / den))
     tt = tA * tB / den
     return rA + tA * tA * rB / den, rpB + tB * tB * rpA / den, tt
 
 
-def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
+def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max=None):
     cdt = _checks.complex_dtype(lam.dtype)
     n1c, n2c = n1.to(cdt), n2.to(cdt)
     host = n1.real if nh is None else nh
@@ -382,7 +382,7 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
     e1b = torch.exp(1j * (k0 * d2 * q2))
     e2a, e2b = e1a * e1a, e1b * e1b
     bits = []
-    Nmax = int(N.max())
+    Nmax = int(N.max()) if n_max is None else n_max  # (a Python int: no read-back under torch.compile)
     n = N.clone()
     for _ in range(max(1, Nmax.bit_length())):
         bits.append((n & 1).bool())
@@ -398,7 +398,7 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization):
         # q2 = 0 (n2 exactly at its critical angle: r12 = 1, e^{2ib} = 1, a 0/0 up to rounding),
         # or den = 0 exactly (η1 = 0, grazing in n1, with a zero- or half-wave n2 layer)
         degenerate = (eta2 == 0) | (den == 0)
-        if bool(degenerate.any()):
+        if _checks.traceable() or bool(degenerate.any()):
             # guard: the slab's exact limit from its characteristic matrix
             # [[1, −iβ], [0, 1]], β = k0 d2 m2 (sin b / η2 as b, η2 → 0): r = −iη1β/(2 − iη1β),
             # t = 2 e^{ib}/(2 − iη1β);
@@ -482,7 +482,13 @@ def bragg_reflectance(
     c = _checks.flush_grazing(c)
     general = _needs_general(c, n1, n2, nh)
     if general is None:
-        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
+        n_max = int(cells) if _checks.traceable() and isinstance(cells, int) and not isinstance(cells, bool) else None
+        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max)
+    elif _checks.traceable():  # vmap / torch.compile: the static kernel, both paths where needed
+        R = _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=True)
+        # (no data-dependent test of the mask: the general path is evaluated for every point)
+        n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
+        R = torch.where(general, _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max), R)
     else:
         real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
         R = real(lam, c, n1, n2, d1, d2, nh, N, polarization)

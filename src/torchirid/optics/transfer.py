@@ -61,7 +61,7 @@ def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transm
         rj = r[..., j]
         ge2 = gamma * e2[..., j]
         den = 1 + rj * ge2
-        if bool((den == 0).any()):
+        if _checks.traceable() or bool((den == 0).any()):
             # guard: with critical films nudged, 0/0 remains only at grazing incidence, where a
             # zero- or half-wave film sits between media that both look like the incident one
             # (η = 0): the film is invisible and nothing is reflected (nor transmitted at grazing)
