@@ -3,7 +3,9 @@
 from .measured import ScatterogramImage, load_scatterogram, save_scatterogram_exr, save_scatterogram_png
 from .scatterogram import (
     DEFAULT_CELLS,
+    DEFAULT_HARMONICS,
     DEFAULT_INIT,
+    ScatterogramAlternative,
     ScatterogramFit,
     bragg_structure,
     match_scatterogram,
@@ -13,7 +15,9 @@ from .scatterogram import (
 
 __all__ = [
     "DEFAULT_CELLS",
+    "DEFAULT_HARMONICS",
     "DEFAULT_INIT",
+    "ScatterogramAlternative",
     "ScatterogramFit",
     "ScatterogramImage",
     "bragg_structure",

@@ -25,7 +25,7 @@ import numpy as np
 import torch
 
 from .. import _checks
-from .._io import import_openexr, read_exr, atomic_write  # noqa: F401  (shared OpenEXR reader)
+from .._io import atomic_write, check_readable, file_error, import_openexr, read_exr, reading  # noqa: F401
 from ..color import linear_srgb_to_srgb, xyz_to_linear_srgb
 from ..layered.scatterograms import PROJECTIONS, projection_radius, scatterogram_directions
 
@@ -39,9 +39,12 @@ _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 _PNG_CHANNELS = {0: 1, 2: 3, 4: 2, 6: 4}  # colour type → samples per pixel (grey, RGB, grey+alpha, RGBA)
 
 
+_PNG_WHAT = "scatterogram image"
+
+
 def _png_chunks(data: bytes, path):
     if data[:8] != _PNG_SIGNATURE:
-        raise ValueError(f"path {os.fspath(path)!r} is not a PNG file (bad signature)")
+        raise file_error(_PNG_WHAT, path, "is not a PNG file (bad signature)")
     pos, chunks = 8, []
     while pos + 8 <= len(data):
         length, kind = struct.unpack(">I4s", data[pos:pos + 8])
@@ -95,26 +98,32 @@ def _read_png(path) -> tuple[np.ndarray, np.ndarray, int]:
     16-bit greyscale/RGB(A) (which Pillow reduces to 8 bits) are decoded here; 8-bit and
     palette images through Pillow. ``valid`` is False where a channel is at its maximum code
     (saturated) or alpha is 0."""
-    with open(path, "rb") as f:
-        data = f.read()
-    chunks = _png_chunks(data, path)
-    if not chunks or chunks[0][0] != b"IHDR":
-        raise ValueError(f"path {os.fspath(path)!r}: PNG without an IHDR chunk")
-    width, height, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", chunks[0][1])
-    if depth == 16:
-        if interlace or ctype not in _PNG_CHANNELS:
-            raise ValueError(f"path {os.fspath(path)!r}: interlaced 16-bit PNGs are not supported")
-        channels = _PNG_CHANNELS[ctype]
-        raw = zlib.decompress(b"".join(c for k, c in chunks if k == b"IDAT"))
-        rows = _unfilter(raw, height, width * channels * 2, channels * 2)
-        pix = rows.view(">u2").reshape(height, width, channels).astype(np.float64) / 65535.0
-    else:
-        from PIL import Image
+    path = check_readable(path, _PNG_WHAT, magic=_PNG_SIGNATURE, kind="a PNG file")
+    with reading(path, _PNG_WHAT):
+        data = path.read_bytes()
+        chunks = _png_chunks(data, path)
+        if not chunks or chunks[0][0] != b"IHDR" or len(chunks[0][1]) != 13:
+            raise file_error(_PNG_WHAT, path, "is truncated or damaged (a PNG without a complete IHDR chunk)")
+        width, height, depth, ctype, _, _, interlace = struct.unpack(">IIBBBBB", chunks[0][1])
+        if width < 1 or height < 1:
+            raise file_error(_PNG_WHAT, path, f"is damaged (PNG size {width} x {height})")
+        if depth == 16:
+            if interlace or ctype not in _PNG_CHANNELS:
+                raise file_error(_PNG_WHAT, path, "is an interlaced 16-bit PNG (not supported)")
+            channels = _PNG_CHANNELS[ctype]
+            idat = b"".join(c for k, c in chunks if k == b"IDAT")
+            if not idat:
+                raise file_error(_PNG_WHAT, path, "is truncated (a PNG without image data)")
+            raw = zlib.decompress(idat)
+            rows = _unfilter(raw, height, width * channels * 2, channels * 2)
+            pix = rows.view(">u2").reshape(height, width, channels).astype(np.float64) / 65535.0
+        else:
+            from PIL import Image
 
-        with Image.open(path) as im:
-            has_alpha = im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info)
-            mode = "RGBA" if has_alpha else ("L" if im.mode in ("1", "L", "I;16") else "RGB")
-            pix = np.asarray(im.convert(mode), np.float64) / 255.0
+            with Image.open(path) as im:
+                has_alpha = im.mode in ("RGBA", "LA", "PA") or (im.mode == "P" and "transparency" in im.info)
+                mode = "RGBA" if has_alpha else ("L" if im.mode in ("1", "L", "I;16") else "RGB")
+                pix = np.asarray(im.convert(mode), np.float64) / 255.0
         if pix.ndim == 2:
             pix = pix[..., None]
         channels = pix.shape[-1]
@@ -201,9 +210,10 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
         a :class:`ScatterogramImage`; ``xyz`` and ``mask`` go to :func:`match_scatterogram`.
 
     Raises:
-        ValueError: a bad argument, or a non-PNG / non-EXR / unsupported file.
+        ValueError: a bad argument; an empty, truncated, damaged, non-PNG / non-EXR or
+            unsupported file, or an image smaller than 2 × 2 pixels (the message names the file).
+        FileNotFoundError: no file at ``path``.
         ImportError: an ``.exr`` path without the ``openexr`` package.
-        OSError: the file cannot be read.
     """
     is_exr = os.fspath(path).lower().endswith(".exr")
     if saturation is not None:
@@ -229,13 +239,16 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
 
     f64 = torch.float64
     if is_exr:
-        rgb, valid = read_exr(path, saturation)
+        rgb, valid = read_exr(path, saturation, what=_PNG_WHAT)
         linear, file_params = torch.as_tensor(rgb, dtype=f64), {"format": "exr"}
         if saturation is not None:
             file_params["saturation"] = float(saturation)
     else:
         rgb, valid, depth = _read_png(path)
         linear, file_params = _srgb_decode(torch.as_tensor(rgb, dtype=f64)), {"format": "png", "bits": depth}
+    if min(valid.shape) < 2:
+        raise file_error(_PNG_WHAT, path, f"is {valid.shape[1]} x {valid.shape[0]} pixels; a scatterogram image "
+                                          "needs at least 2 x 2 (a disc to resample)")
     xyz_img = linear @ _rgb_to_xyz_matrix(f64).T * float(exposure)  # (H, W, 3)
     return _resample(xyz_img, valid, path=path, projection=projection, center=center, radius_px=radius_px,
                      resolution=resolution, grid_projection=grid_projection, rotation_deg=rotation_deg,
