@@ -62,3 +62,21 @@ def test_bad_arguments_raise(kwargs, name):
     args = dict(n_film=1.5, thickness=300.0, n_substrate=1.0, **GRID) | kwargs
     with pytest.raises(ValueError, match=name):
         figures.thin_film_reflectance_map(**args)
+
+
+def test_default_spectrum_figure_labels_whole_degrees_and_antialiases():
+    """Issue 22.8: the default grid (was 90 angles: 30.3°, 59.7°) has every degree, the line spectra
+    are labelled 0°, 30°, 60°, 80°, and the map is an antialiased image (pcolormesh aliased fringes)."""
+    from matplotlib.image import AxesImage
+
+    from torchirid.app.cli import build_parser
+
+    args = build_parser().parse_args(["spectrum"])
+    assert args.angles == 91
+    rmap = figures.thin_film_reflectance_map(1.33, 3000.0, 1.5, wavelengths=(380.0, 780.0, 41), angles=args.angles)
+    fig = figures.plot_reflectance_map(rmap)
+    ax_map, _, ax_lines = fig.axes[0], fig.axes[1], [a for a in fig.axes if a.get_legend() is not None][0]
+    labels = [t.get_text() for t in ax_lines.get_legend().get_texts()]
+    assert labels == ["θ = 0°", "θ = 30°", "θ = 60°", "θ = 80°"]
+    images = [a for a in ax_map.get_children() if isinstance(a, AxesImage)]
+    assert images and images[0].get_interpolation() == "antialiased"

@@ -48,7 +48,13 @@ def test_render_shapes_and_ranges():
     r = sp.render_sphere("Al", [(1.4, 1000.0), ("Ag", 5.0), (1.4, 1000.0)], 25.0, **SMALL)
     assert r.srgb.shape == (24, 24, 3) and r.lab.shape == (24, 24, 3)
     assert np.all((r.srgb >= 0) & (r.srgb <= 1))
-    assert np.all(r.srgb[~r.mask] == 0) and np.all(np.isnan(r.lab[~r.mask]))
+    c = (np.arange(24) + 0.5) / 24 * 2 - 1
+    radius = np.hypot(*np.meshgrid(c, c))
+    assert np.all(r.srgb[radius >= 1 + 1 / 24] == 0) and np.all(np.isnan(r.lab[~r.mask]))
+    # issue 22.8: an antialiased silhouette — rim pixels just outside the disc carry a fraction of
+    # the colour, less than their inside neighbours (was a binary, jagged edge)
+    rim = (radius >= 1) & (radius < 1 + 1 / 24)
+    assert r.srgb[rim].max() > 0 and r.srgb[rim].sum(-1).mean() < r.srgb[r.mask].sum(-1).mean()
     assert np.all(r.lit <= r.mask) and r.lit.sum() > 0.3 * r.mask.sum()
     assert np.all(np.isfinite(r.lab[r.mask]))
     assert 0 < r.chroma_mean <= r.chroma_p95

@@ -76,9 +76,10 @@ def add_parser(subparsers):
     g.add_argument(
         "--angles",
         type=_args.count,
-        default=90,
+        default=91,
         metavar="COUNT",
-        help="number of incidence angles θ (degrees, in the incident medium), evenly spaced from 0 to 90 inclusive",
+        help="number of incidence angles θ (degrees, in the incident medium), evenly spaced from 0 to 90 inclusive "
+             "(default 91: every degree)",
     )
     g.add_argument("--dtype", choices=reflectance_maps.DTYPES, default="float64", help="precision of the computation")
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from .. import _args
 from ..figures import thin_film_ibl
 
@@ -79,7 +79,8 @@ def run(args) -> int:
         thin_film_ibl.save_thin_film_ibl_png(panels, paths[0], dpi=args.dpi)
         thin_film_ibl.save_thin_film_ibl_npz(panels[0], paths[1])
         thin_film_ibl.save_thin_film_ibl_npz(panels[1], paths[2])
-        atomic_write(paths[3], lambda f: f.write(json.dumps(report, indent=2, sort_keys=True).encode()))
+        text = json.dumps(json_ready(report), indent=2, sort_keys=True, allow_nan=False) + "\n"  # strict: NaN → null
+        atomic_write(paths[3], lambda f: f.write(text.encode()))
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
     for p in panels:

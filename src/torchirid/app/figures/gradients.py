@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from ... import _checks
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from ...color import spectrum_to_xyz, xyz_to_srgb
 from ...optics import bragg_reflectance, thin_film_reflectance
 from ...spectral import bragg_xyz
@@ -130,7 +130,7 @@ class GradientAtlas:
             curve_wavelength_nm=self.curve_wavelength_nm,
             reflectance_bragg=self.reflectance_bragg.astype(np.float32),
             reflectance_thin_film=self.reflectance_thin_film.astype(np.float32),
-            params=np.array(json.dumps(self.params, sort_keys=True)),
+            params=np.array(json.dumps(json_ready(self.params), sort_keys=True, allow_nan=False)),
         )
         arrays.update({f"srgb_{key}": value for key, value in self.srgb.items()})
         arrays.update({f"xyz_{key}": value for key, value in self.xyz.items()})

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 from ... import _checks
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from ...optics import bragg_reflectance, thin_film_reflectance
 from ..._version import __version__
 
@@ -278,16 +278,24 @@ def plot_reflectance_map(rmap: ReflectanceMap):
     ax_map, ax_lines = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.35, 1]})
     finite = R[np.isfinite(R)]
     vmax = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
-    mesh = ax_map.pcolormesh(wavelength_nm, theta_deg, R, shading="nearest", cmap="magma", vmin=0.0, vmax=vmax)
+    # an image of the even grid, resampled with antialiasing (pcolormesh draws every cell and aliases
+    # the fringes of a thick film or a many-cell mirror into moiré at screen resolution)
+    half_w = 0.5 * (wavelength_nm[-1] - wavelength_nm[0]) / max(len(wavelength_nm) - 1, 1)
+    half_t = 0.5 * (theta_deg[-1] - theta_deg[0]) / max(len(theta_deg) - 1, 1)
+    mesh = ax_map.imshow(R, origin="lower", aspect="auto", cmap="magma", vmin=0.0, vmax=vmax,
+                         interpolation="antialiased", interpolation_stage="data",
+                         extent=(wavelength_nm[0] - half_w, wavelength_nm[-1] + half_w,
+                                 theta_deg[0] - half_t, theta_deg[-1] + half_t))
     fig.colorbar(mesh, ax=ax_map, label="reflectance R")
     ax_map.set_xlabel("wavelength λ (nm)")
     ax_map.set_ylabel("incidence angle θ (degrees)")
     ax_map.set_title(f"R(θ, λ), {rmap.polarization}")
 
-    # a few spectra at fixed angles (the grid angles nearest to these)
+    # a few spectra at fixed angles (the grid angles nearest to these; the default grid has every degree)
     picks = sorted({int(np.abs(theta_deg - t).argmin()) for t in (0.0, 30.0, 60.0, 80.0)})
     for i in picks:
-        ax_lines.plot(wavelength_nm, R[i], label=f"θ = {theta_deg[i]:.1f}°")
+        t = float(theta_deg[i])
+        ax_lines.plot(wavelength_nm, R[i], label=f"θ = {t:.0f}°" if abs(t - round(t)) < 1e-9 else f"θ = {t:.1f}°")
     ax_lines.set_xlabel("wavelength λ (nm)")
     ax_lines.set_ylabel("reflectance R")
     ax_lines.set_ylim(0.0, max(1.0, vmax) * 1.02)
@@ -323,6 +331,6 @@ def save_reflectance_map_npz(rmap: ReflectanceMap, path: str | os.PathLike):
             theta_deg=rmap.theta_deg,
             cos_theta=rmap.cos_theta,
             reflectance=rmap.reflectance,
-            params=np.array(json.dumps(rmap.params, sort_keys=True)),
+            params=np.array(json.dumps(json_ready(rmap.params), sort_keys=True, allow_nan=False)),
         ),
     )

@@ -18,7 +18,7 @@ from typing import Sequence
 import numpy as np
 import torch
 
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from ...layered import Scatterogram, projection_radius, scatterogram_srgb
 
 __all__ = [
@@ -115,6 +115,6 @@ def save_scatterograms_npz(scatterograms, path: str | os.PathLike):
         mask=rows[0][0].mask.cpu().numpy(),
         wavelength_nm=rows[0][0].wavelength.detach().cpu().to(torch.float64).numpy(),
         titles=np.array([[s.title for s in r] for r in rows]),
-        params=np.array(json.dumps([[s.params | {"title": s.title} for s in r] for r in rows], sort_keys=True)),
+        params=np.array(json.dumps(json_ready([[s.params | {"title": s.title} for s in r] for r in rows]), sort_keys=True, allow_nan=False)),
     )
     return atomic_write(path, lambda f: np.savez(f, **arrays))

@@ -38,7 +38,7 @@ import torch
 
 from ... import _checks
 from ..._cache import cached
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from ...optics.film_stack import hirayama_stacks
 from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 from ..._version import __version__
@@ -196,14 +196,24 @@ def _indices(substrate, films, wl: torch.Tensor, coated: bool) -> tuple[torch.Te
 
 
 def _geometry(size: int, light, dtype):
-    """Per-pixel geometry of an orthographic unit sphere: mask (H, W) and, on the pixels inside,
-    cos θ_v, cos θ_l, cos φ and R·L (flattened over the masked pixels)."""
+    """Per-pixel geometry of an orthographic unit sphere: the drawn pixels (H, W) and, on them
+    (flattened), cos θ_v, cos θ_l, cos φ, R·L, the disc's coverage of each pixel (1 inside, a
+    fraction on the silhouette: the edge is antialiased) and whether the pixel centre is inside.
+
+    Silhouette pixels whose centre lies just outside the disc (by less than half a pixel) are
+    shaded with the normal at the rim and drawn with their coverage; statistics use only the
+    pixels whose centre is inside."""
     c = (torch.arange(size, dtype=dtype) + 0.5) / size * 2 - 1
     y, x = torch.meshgrid(-c, c, indexing="ij")  # row 0 at the top (y = +1)
-    r2 = x * x + y * y
-    mask = r2 < 1
-    nz = torch.sqrt(torch.clamp(1 - r2[mask], min=0))
-    N = torch.stack([x[mask], y[mask], nz], -1)
+    r = torch.sqrt(x * x + y * y)
+    half = 1.0 / size  # half a pixel in the [-1, 1] frame
+    cover_img = ((1 - r) / (2 * half) + 0.5).clamp(0, 1)  # linear coverage across the rim
+    mask = cover_img > 0
+    inside = (r < 1)[mask]
+    scale = torch.where(r[mask] < 1, torch.ones_like(r[mask]), (1 - 1e-9) / r[mask])  # rim normal
+    xs, ys = x[mask] * scale, y[mask] * scale
+    nz = torch.sqrt(torch.clamp(1 - xs * xs - ys * ys, min=0))
+    N = torch.stack([xs, ys, nz], -1)
     L = torch.tensor(light, dtype=dtype)
     L = L / L.norm()
     V = torch.tensor([0.0, 0.0, 1.0], dtype=dtype)
@@ -217,7 +227,7 @@ def _geometry(size: int, light, dtype):
     # irrelevant, where either is along the normal: sin θ = 0 there)
     cphi = torch.where(ok, (Lt * Vt).sum(-1) / torch.where(ok, nl * nv, torch.ones_like(nl)), torch.ones_like(nl))
     R = 2 * cv[:, None] * N - V
-    return mask, cv, cl, cphi.clamp(-1, 1), R @ L
+    return mask, cv, cl, cphi.clamp(-1, 1), R @ L, cover_img[mask], inside
 
 
 @dataclass(frozen=True)
@@ -318,7 +328,7 @@ def render_sphere(
     S = lamp_spd(wl, lamp)
     M = torch.as_tensor(_adaptation_numpy(lamp, tuple(wl.tolist())), dtype=dt)
     n, d = _indices(substrate, films, wl, coated)
-    mask, cv, cl, cphi, RdotL = _geometry(size, light, dt)
+    mask, cv, cl, cphi, RdotL, cover, inside = _geometry(size, light, dt)
 
     kr = rough_multilayer_reflectance(wl, cv[:, None], n, d, sigma, tau, shadowing=shadowing)  # (P, W)
     cos_d = math.cos(math.radians(light_radius_deg))
@@ -335,14 +345,18 @@ def render_sphere(
 
     H = W = size
     srgb = np.zeros((H, W, 3))
-    srgb[mask.numpy()] = rgb.numpy()
+    srgb[mask.numpy()] = (rgb * cover[:, None].to(rgb.dtype)).numpy()  # antialiased silhouette on black
+    m = mask.numpy()
+    inside_np = inside.numpy()
+    centre_in = np.zeros((H, W), dtype=bool)
+    centre_in[m] = inside_np
     lab_img = np.full((H, W, 3), np.nan)
-    lab_img[mask.numpy()] = lab.numpy()
-    lit_flat = ((cl > 0) & (RdotL < cos_d)).numpy()
+    lab_img[centre_in] = lab.numpy()[inside_np]
+    lit_flat = ((cl > 0) & (RdotL < cos_d)).numpy() & inside_np
     lit = np.zeros((H, W), dtype=bool)
-    lit[mask.numpy()] = lit_flat
+    lit[m] = lit_flat
     cm, cp = chroma_stats(np.nan_to_num(lab_img), lit)
-    return SphereRender(srgb=srgb, lab=lab_img, mask=mask.numpy(), lit=lit, chroma_mean=cm, chroma_p95=cp,
+    return SphereRender(srgb=srgb, lab=lab_img, mask=centre_in, lit=lit, chroma_mean=cm, chroma_p95=cp,
                         lightness_mean=float(lab_img[lit, 0].mean()))
 
 
@@ -457,6 +471,6 @@ def save_panels_npz(panels: SpherePanels, path) -> Path:
             lightness=panels.lightness,
             rows=np.array(panels.rows),
             sigmas_nm=np.array(panels.sigmas),
-            params=np.array(json.dumps(panels.params, sort_keys=True)),
+            params=np.array(json.dumps(json_ready(panels.params), sort_keys=True, allow_nan=False)),
         ),
     )

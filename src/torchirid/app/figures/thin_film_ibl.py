@@ -34,7 +34,7 @@ import numpy as np
 import torch
 
 from ... import _checks
-from ..._io import atomic_write
+from ..._io import atomic_write, json_ready
 from ...color.convert import xyz_to_lab, xyz_to_linear_srgb, linear_srgb_to_srgb
 from ...color.difference import delta_e_2000
 from ...ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
@@ -103,7 +103,7 @@ class ThinFilmIBLComparison:
     def arrays(self) -> dict[str, np.ndarray]:
         arrays = dict(theta_deg=self.theta_deg, cos_theta=self.cos_theta, columns=self.columns,
                       alpha=self.alpha, thickness_nm=self.thickness_nm, albedo=self.albedo,
-                      params=np.array(json.dumps(self.params, sort_keys=True)))
+                      params=np.array(json.dumps(json_ready(self.params), sort_keys=True, allow_nan=False)))
         arrays.update({f"xyz_{k}": v for k, v in self.xyz.items()})
         arrays.update({f"delta_e_{k}": v for k, v in self.delta_e.items()})
         return arrays
@@ -205,6 +205,7 @@ def plot_thin_film_ibl(panels):
     Returns a ``matplotlib.figure.Figure`` (no pyplot).
     """
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     panels = list(panels)
     keys = [k for k, _ in THIN_FILM_IBL_METHODS] + ["reference"]
@@ -228,6 +229,8 @@ def plot_thin_film_ibl(panels):
             ax.set_title(lab, fontsize=7)
             ax.set_xlabel(xlab, fontsize=7, labelpad=1)
             ax.tick_params(labelsize=6, length=2, pad=1)
+            ax.xaxis.set_major_locator(MaxNLocator(nbins=3))  # 2.3-inch panels: few ticks, no overlap
+            ax.yaxis.set_major_locator(MaxNLocator(nbins=4))
             if j == 0:
                 ax.set_ylabel(f"{title}\nθo (degrees)", fontsize=7)
             else:
