@@ -113,8 +113,10 @@ def test_gaussian_path_consistency():
     c = torch.tensor([0.3, 0.9], dtype=F64)
     D = 2 * 1.3 * 600 * torch.sqrt(1 - (1 / 1.3) ** 2 * (1 - c * c))
     a = gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=0.0)
-    b = thin_film_xyz_fourier(c, **FILM, terms=2, sensitivity="exact")
+    b = thin_film_xyz_fourier(c, **FILM, sensitivity="exact")  # (the same default terms in both)
     assert (a - b).abs().max() < 1e-12
+    a2 = gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=0.0, terms=2)
+    assert (a2 - thin_film_xyz_fourier(c, **FILM, terms=2, sensitivity="exact")).abs().max() < 1e-12
     with pytest.raises(ValueError, match="path_var"):
         gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=-1.0)
 

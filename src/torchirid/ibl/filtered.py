@@ -24,7 +24,8 @@ eq. 27–28 (D = 2η₂ d cos θ₂ is linear in cos θ₂): :math:`μ_D = 2η_2
 :math:`σ_D = 2η_2 d\,σ_{\cos θ_2}`,
 
 eq. 29 (D ~ N(μ_D, σ²_D); C*_m and φ₂* of eq. 4 taken at the mean, i.e. at
-:math:`\cos θ_1^* = \sqrt{(1 + μ_{⟨ω_i,ω_o⟩})/2}`; M terms, M = 2 as in the paper):
+:math:`\cos θ_1^* = \sqrt{(1 + μ_{⟨ω_i,ω_o⟩})/2}`; M terms: the paper uses M = 2, the default here is 4 like
+every Fourier thin-film colour of :mod:`torchirid.ibl` — pass ``terms=2`` for the paper's):
 
 .. math:: \mathbf{XYZ} ≈ C_0^*\hat S(0) + \sum_{m=1}^{M} C_m^*\left[e^{imφ_2^*}\hat S(-mμ_D, m^2σ_D^2)
           + e^{-imφ_2^*}\hat S(mμ_D, m^2σ_D^2)\right],
@@ -68,7 +69,7 @@ def _vectors(x, name, dtype, device):
 
 
 def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
-                           n_incident=1.0, terms: int = 2, observer: str = "CIE 1931 2",
+                           n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
                            sensitivity: str = "exact") -> torch.Tensor:
     r"""Thin-film XYZ averaged over a light-direction distribution (Kneiphof et al. 2019, eq. 20–29).
@@ -86,7 +87,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         thickness: film thickness d in nm (≥ 0). Shape ``(*)``.
         n_substrate: base index η₃ + iκ₃ (non-dispersive, κ ≥ 0). Shape ``(*)``.
         n_incident: real outer index η₁ (default 1).
-        terms: M ≥ 0, Fourier terms kept (paper: 2).
+        terms: M ≥ 0, Fourier terms kept (default 4; the paper's is 2).
         observer, illuminant: the sensitivity (see :func:`~torchirid.ibl.fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         sensitivity: ``"exact"`` (default) or ``"lut"`` (:data:`FILTERED_SENSITIVITY_MODES`).
@@ -170,7 +171,7 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivit
 
 
 def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
-                                n_incident=1.0, terms: int = 2, observer: str = "CIE 1931 2",
+                                n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                                 illuminant: str = "D65", polarization: str = "unpolarized",
                                 sensitivity: str = "exact") -> torch.Tensor:
     r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.

@@ -118,7 +118,7 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
 
 
 def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, view, alpha, n_film, thickness,
-                                n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 2,
+                                n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 4,
                                 observer: str = "CIE 1931 2", polarization: str = "unpolarized",
                                 sensitivity: str = "exact", output: str = "rgb", dfg=None) -> torch.Tensor:
     r"""Radiance reflected by a rough thin-film surface under a prefiltered environment (Kneiphof eq. 12).
@@ -141,7 +141,7 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         method: ``"kneiphof"`` (default: eq. 20–29 with the prefiltered moments) or
             ``"belcour_barla"`` (eq. 4 at the ideal reflection, cos θ₁ = ⟨n, ω_o⟩) —
             :data:`SHADING_METHODS`.
-        terms: Fourier terms M ≥ 0 (paper: 2).
+        terms: Fourier terms M ≥ 0 (default 4; the paper's is 2).
         observer: colour-matching functions of the reflectance term (illuminant fixed to D65,
             the white of the sRGB primaries the map is in).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
