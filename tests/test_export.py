@@ -38,7 +38,7 @@ def _check_round_trip(src, back):
 def test_raw_round_trip(tmp_path, sizes, channels, dtype):
     src = _lut(sizes, channels, dtype)
     data, side = export_lut(src, tmp_path / "t", format="raw")
-    assert (data.name, side.name) == ("t.bin", "t.json")
+    assert (data.name, side.name) == ("t.bin", "t.bin.json")
     raw = np.fromfile(data, dtype="<f4").reshape(*sizes, *channels)
     np.testing.assert_array_equal(raw, src.values.to(torch.float32).numpy())
     back = load_exported_lut(tmp_path / "t.bin")
@@ -85,13 +85,41 @@ def test_corrupt_and_bad_args(tmp_path):
         export_lut(np.zeros(3), tmp_path / "c")
 
 
+def test_raw_and_exr_exports_to_one_stem_keep_their_own_sidecars(tmp_path):
+    """Each container has its sidecar (``<data file>.json``): a raw and an EXR export to the same
+    stem overwrite nothing of each other, each file reads back its own export, and the bare
+    stem, now ambiguous, is refused."""
+    pytest.importorskip("OpenEXR")
+    raw_src, exr_src = _lut((4, 3), (2,), seed=1), _lut((5, 2), (3,), seed=2)
+    raw_files = export_lut(raw_src, tmp_path / "t", format="raw")
+    _check_round_trip(raw_src, load_exported_lut(tmp_path / "t"))  # the stem: the only export
+    before = [f.read_bytes() for f in raw_files]
+    exr_files = export_lut(exr_src, tmp_path / "t.exr", format="exr")  # a suffix on the stem is dropped
+    assert [f.name for f in raw_files + exr_files] == ["t.bin", "t.bin.json", "t.exr", "t.exr.json"]
+    assert [f.read_bytes() for f in raw_files] == before  # untouched
+    assert json.loads(raw_files[1].read_text())["container"] == "raw"
+    assert json.loads(exr_files[1].read_text())["container"] == "exr"
+    for path, src in ((raw_files[0], raw_src), (raw_files[1], raw_src), (tmp_path / "t.bin", raw_src),
+                      (exr_files[0], exr_src), (exr_files[1], exr_src)):
+        _check_round_trip(src, load_exported_lut(path))
+    with pytest.raises(ValueError, match="ambiguous") as info:
+        load_exported_lut(tmp_path / "t")
+    assert "t.bin.json" in str(info.value) and "t.exr.json" in str(info.value)
+    with pytest.raises(FileNotFoundError, match="nope"):
+        load_exported_lut(tmp_path / "nope")
+    raw_files[1].unlink()
+    with pytest.raises(FileNotFoundError, match=r"t\.bin\.json"):
+        load_exported_lut(raw_files[0])  # a data file never borrows another container's sidecar
+    _check_round_trip(exr_src, load_exported_lut(tmp_path / "t"))  # the stem: the EXR export is left
+
+
 @pytest.mark.parametrize("sizes,channels", [((6, 5), ()), ((6, 5), (4,)), ((4, 3), (7,)),
                                             ((5,), (2,)), ((3, 4, 2), (3,)), ((2, 3, 4, 5), ())])
 def test_exr_round_trip(tmp_path, sizes, channels):
     OpenEXR = pytest.importorskip("OpenEXR")
     src = _lut(sizes, channels)
     data, side = export_lut(src, tmp_path / "e", format="exr")
-    assert data.name == "e.exr"
+    assert (data.name, side.name) == ("e.exr", "e.exr.json")
     back = load_exported_lut(side)
     _check_round_trip(src, back)
     lay = json.loads(side.read_text())["exr_layout"]

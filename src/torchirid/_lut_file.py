@@ -26,6 +26,7 @@ _FLOAT_DTYPES = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 _SAVABLE = {torch.float16: np.float16, torch.float32: np.float32, torch.float64: np.float64}
 _FROM_NUMPY = {np.dtype(np.float16): torch.float16, np.dtype(np.float32): torch.float32,
                np.dtype(np.float64): torch.float64}
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # an .npz is a zip: a local file header, or an empty archive
 _META_KEYS = ("format", "format_version", "builder", "parameters", "units",
               "torchirid_version", "axes", "shape", "dtype", "hash")
 
@@ -87,6 +88,14 @@ def read_verified(cls, path: Path):
 
     # Read everything inside one guard: zip/npy/JSON errors all mean a damaged file.
     try:
+        if not path.is_file():
+            raise corrupt("not a regular file")
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+        if not head:
+            raise corrupt("the file is empty (0 bytes)")
+        if not head.startswith(_ZIP_MAGIC):
+            raise corrupt(f"not an .npz (zip) archive (it starts with {head!r})")
         # open the file ourselves: np.load leaks its handle when the zip is unreadable
         with open(path, "rb") as fh, np.load(fh, allow_pickle=False) as z:
             if not isinstance(z, np.lib.npyio.NpzFile):

@@ -7,10 +7,11 @@ LUT exports (:func:`export_lut`, read back with :func:`load_exported_lut`)
 
 * ``out/dfg.bin``: the values as little-endian float32, C order, shape
   ``(n_1, ..., n_k, *channels)`` (the :class:`~torchirid.lut.LUT` layout, no header);
-* ``out/dfg.json``: the sidecar (below).
+* ``out/dfg.bin.json``: the sidecar (below).
 
-``format="exr"`` writes ``out/dfg.exr`` (float32 pixels, ZIP compression, lossless) plus the
-same sidecar.  The channels (flattened in C order) are the EXR channels ``R, G, B, A`` for up
+``format="exr"`` writes ``out/dfg.exr`` (float32 pixels, ZIP compression, lossless) plus its
+sidecar ``out/dfg.exr.json``.  The sidecar of a data file is always its name plus ``.json``, so a
+raw and an EXR export to the same stem live side by side.  The channels (flattened in C order) are the EXR channels ``R, G, B, A`` for up
 to four of them, ``ch00, ch01, ...`` beyond.  The image is an *atlas* of 2-D tiles: each tile
 spans the last two axes (rows = axis ``k-2``, columns = axis ``k-1``; a 1-D LUT is one
 ``1 × n_1`` tile); the leading axes (flattened in C order into a tile index ``t``) pick the
@@ -52,7 +53,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from ._io import atomic_write
+from ._io import atomic_write, check_readable, file_error, read_exr_channels
 from .lut import LUT
 from ._version import __version__
 
@@ -70,11 +71,49 @@ _DTYPES = {"float16": torch.float16, "bfloat16": torch.bfloat16, "float32": torc
 
 
 
+_WHAT_SIDE, _WHAT_DATA = "LUT export sidecar", "LUT data file"
+#: sidecar keys every export has (``exr_layout`` too for EXR)
+_SIDECAR_KEYS = ("format", "format_version", "container", "data_file", "shape", "channel_shape", "axes",
+                 "builder", "parameters", "units", "torchirid_version", "source_hash", "source_dtype",
+                 "data_sha256")
+_LAYOUT_INTS = ("tile_rows", "tile_cols", "n_tiles", "tiles_x", "tiles_y", "width", "height")
+
+
 def _stem(path) -> Path:
+    """``path`` without a trailing ``.bin.json`` / ``.exr.json`` / ``.bin`` / ``.exr`` / ``.json``."""
     p = Path(path)
-    if p.suffix.lower() in (".bin", ".exr", ".json"):
-        p = p.with_suffix("")
+    low = p.name.lower()
+    for suffix in (".bin.json", ".exr.json", ".bin", ".exr", ".json"):
+        if low.endswith(suffix) and len(low) > len(suffix):
+            return p.with_name(p.name[:-len(suffix)])
     return p
+
+
+def _sidecar_of(data_path: Path) -> Path:
+    """The sidecar of a data file: its name plus ``.json`` (``dfg.bin`` → ``dfg.bin.json``)."""
+    return data_path.with_name(data_path.name + ".json")
+
+
+def _find_sidecar(path) -> tuple[Path, str | None]:
+    """(the sidecar of ``path``, the data file name asked for or None) for :func:`load_exported_lut`."""
+    p = Path(path)
+    low = p.name.lower()
+    if low.endswith(".json"):  # the sidecar itself
+        return p, None
+    if low.endswith((".bin", ".exr")):
+        side = _sidecar_of(p)
+        if not side.exists():
+            raise FileNotFoundError(f"no export sidecar for {str(p)!r}: {str(side)!r} does not exist")
+        return side, p.name
+    candidates = [_sidecar_of(p.with_name(p.name + ext)) for ext in (".bin", ".exr")]
+    found = [side for side in candidates if side.exists()]
+    if len(found) > 1:
+        raise ValueError(f"path {str(p)!r} is ambiguous: a raw and an EXR export share this stem "
+                         f"({found[0].name}, {found[1].name}); pass the .bin or .exr file, or its sidecar")
+    if not found:
+        raise FileNotFoundError(f"no LUT export at {str(p)!r}: neither {str(candidates[0])!r} nor "
+                                f"{str(candidates[1])!r} exists")
+    return found[0], None
 
 
 def _openexr():
@@ -137,9 +176,10 @@ def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tu
 
     Args:
         lut: a :class:`~torchirid.lut.LUT` (any float dtype; values are written as float32).
-        path: the output stem; ``<path>.bin`` or ``<path>.exr`` and ``<path>.json`` are
-            written (a trailing ``.bin``/``.exr``/``.json`` on ``path`` is dropped).  The
-            directory must exist.
+        path: the output stem; ``<path>.bin`` and its sidecar ``<path>.bin.json`` (raw), or
+            ``<path>.exr`` and ``<path>.exr.json`` (EXR), are written (a trailing ``.bin``,
+            ``.exr``, ``.json``, ``.bin.json`` or ``.exr.json`` on ``path`` is dropped), so the
+            two containers of one stem never overwrite each other.  The directory must exist.
         format: ``"raw"`` (little-endian float32 ``.bin``) or ``"exr"`` (OpenEXR float32
             atlas; needs the optional ``openexr`` package).
         channel_names: optional names of the flattened channels, recorded in the sidecar
@@ -157,7 +197,8 @@ def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tu
     if format not in EXPORT_FORMATS:
         raise ValueError(f"format must be one of {EXPORT_FORMATS}, got {format!r}")
     stem = _stem(path)
-    data_path, side_path = stem.with_name(stem.name + _SUFFIX[format]), stem.with_name(stem.name + ".json")
+    data_path = stem.with_name(stem.name + _SUFFIX[format])
+    side_path = _sidecar_of(data_path)
     values = _float32_values(lut)
     sizes = [int(g.numel()) for g in lut.axes.values()]
     n_ch = math.prod(lut.channel_shape)
@@ -215,67 +256,126 @@ def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tu
     return data_path, side_path
 
 
+def _is_int(v, lo: int = 0) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool) and v >= lo
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _read_sidecar(side_path: Path) -> dict:
+    """The sidecar at ``side_path``, checked key by key (ValueError naming it otherwise)."""
+    check_readable(side_path, _WHAT_SIDE)
+
+    def bad(why):
+        return file_error(_WHAT_SIDE, side_path, why)
+
+    try:
+        side = json.loads(side_path.read_bytes().decode("utf-8"))
+    except ValueError as e:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise bad(f"is not JSON ({e})") from e
+    if not isinstance(side, dict) or side.get("format") != _TAG:
+        raise bad(f"is not a torchirid LUT export (no \"format\": \"{_TAG}\")")
+    if side.get("format_version") != _VERSION:
+        raise bad(f"has an unsupported format_version {side.get('format_version')!r} (expected {_VERSION})")
+    missing = [k for k in _SIDECAR_KEYS if k not in side]
+    if missing:
+        raise bad(f"lacks key(s) {missing}")
+    if side["container"] not in EXPORT_FORMATS:
+        raise bad(f"has an unknown container {side['container']!r} (expected one of {EXPORT_FORMATS})")
+    name = side["data_file"]
+    if not isinstance(name, str) or not name or Path(name).name != name:
+        raise bad(f"data_file must be a bare file name; got {name!r}")
+    axes = side["axes"]
+    if (not isinstance(axes, list) or not axes
+            or not all(isinstance(a, dict) and isinstance(a.get("name"), str) and _is_int(a.get("size"), 2)
+                       and isinstance(a.get("values"), list) and len(a["values"]) == a["size"]
+                       and all(_is_number(v) for v in a["values"]) for a in axes)):
+        raise bad("axes must be a non-empty list of {name, size >= 2, values: size numbers}")
+    shape, channel_shape = side["shape"], side["channel_shape"]
+    for key, v in (("shape", shape), ("channel_shape", channel_shape)):
+        if not isinstance(v, list) or not all(_is_int(n, 1) for n in v):
+            raise bad(f"{key} must be a list of whole numbers >= 1; got {v!r}")
+    sizes = [a["size"] for a in axes]
+    if shape != sizes + channel_shape:
+        raise bad(f"shape {shape} disagrees with the axis sizes {sizes} and channel_shape {channel_shape}")
+    for key in ("builder", "torchirid_version", "source_hash", "data_sha256"):
+        if not isinstance(side[key], str):
+            raise bad(f"{key} must be a string; got {side[key]!r}")
+    for key in ("parameters", "units"):
+        if not isinstance(side[key], dict):
+            raise bad(f"{key} must be a JSON object; got {side[key]!r}")
+    if not isinstance(side["source_dtype"], str) or side["source_dtype"] not in _DTYPES:
+        raise bad(f"source_dtype must be one of {sorted(_DTYPES)}; got {side['source_dtype']!r}")
+    if side["container"] == "exr":
+        lay = side.get("exr_layout")
+        if not isinstance(lay, dict) or not all(_is_int(lay.get(k), 1) for k in _LAYOUT_INTS):
+            raise bad(f"exr_layout must give {', '.join(_LAYOUT_INTS)} (whole numbers >= 1)")
+        expected = _atlas_layout(sizes)
+        if any(lay[k] != expected[k] for k in _LAYOUT_INTS):
+            raise bad(f"exr_layout { {k: lay[k] for k in _LAYOUT_INTS} } disagrees with the axis sizes {sizes}")
+        names = lay.get("channel_names")
+        if (not isinstance(names, list) or len(names) != math.prod(channel_shape)
+                or not all(isinstance(c, str) for c in names)):
+            raise bad(f"exr_layout channel_names must be {math.prod(channel_shape)} channel names; got {names!r}")
+    return side
+
+
 def load_exported_lut(path, *, dtype: torch.dtype | None = None) -> LUT:
     """Rebuild the :class:`~torchirid.lut.LUT` written by :func:`export_lut` (for checks).
 
-    ``path`` is the stem or any of the files.  Values come back as the float32 data converted
-    to ``dtype`` (default: the source dtype; axes are exact).  The float32 data are checked
-    against the sidecar's ``data_sha256``; for a float16/bfloat16/float32 source the rebuilt
-    LUT's hash must also equal ``source_hash``.  ValueError on any mismatch or bad sidecar.
+    ``path`` is the stem, the data file (``.bin``/``.exr``) or its sidecar; a stem with both a
+    raw and an EXR export is ambiguous (ValueError: pass a file).  Values come back as the
+    float32 data converted to ``dtype`` (default: the source dtype; axes are exact).  The
+    float32 data are checked against the sidecar's ``data_sha256``; for a
+    float16/bfloat16/float32 source the rebuilt LUT's hash must also equal ``source_hash``.
+
+    Raises:
+        FileNotFoundError: no sidecar, or no data file beside it (the message names it).
+        ValueError: an empty, truncated, damaged or foreign sidecar or data file, a sidecar
+            with a missing key or a value of the wrong type, data of the wrong size, or a hash
+            mismatch (the message names the file).
     """
-    stem = _stem(path)
-    side_path = stem.with_name(stem.name + ".json")
-    if not side_path.exists():
-        raise FileNotFoundError(f"no export sidecar at {str(side_path)!r}")
-    try:
-        side = json.loads(side_path.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as e:
-        raise ValueError(f"sidecar {str(side_path)!r} is not JSON: {e}") from None
-    if not isinstance(side, dict) or side.get("format") != _TAG:
-        raise ValueError(f"sidecar {str(side_path)!r} is not a torchirid LUT export")
-    if side.get("format_version") != _VERSION:
-        raise ValueError(f"sidecar {str(side_path)!r}: unsupported format_version "
-                         f"{side.get('format_version')!r} (expected {_VERSION})")
+    side_path, asked = _find_sidecar(path)
+    side = _read_sidecar(side_path)
     name = side["data_file"]
-    if not isinstance(name, str) or Path(name).name != name:
-        raise ValueError(f"sidecar data_file must be a bare file name, got {name!r}")
+    if asked is not None and name != asked:
+        raise file_error(_WHAT_SIDE, side_path, f"describes the data file {name!r}, not {asked!r}")
     data_path = side_path.with_name(name)
-    shape = [int(s) for s in side["shape"]]
-    sizes = [a["size"] for a in side["axes"]]
+    shape = side["shape"]
     if side["container"] == "raw":
-        raw = data_path.read_bytes()
+        raw = check_readable(data_path, _WHAT_DATA).read_bytes()
         if len(raw) != 4 * math.prod(shape):
-            raise ValueError(f"{str(data_path)!r} has {len(raw)} bytes, expected "
-                             f"{4 * math.prod(shape)} for float32 shape {shape}")
+            raise file_error(_WHAT_DATA, data_path, f"has {len(raw)} bytes; its sidecar {str(side_path)!r} gives "
+                                                    f"float32 shape {shape}, {4 * math.prod(shape)} bytes")
         values = np.frombuffer(raw, dtype="<f4").reshape(shape)
-    elif side["container"] == "exr":
-        OpenEXR = _openexr()
-        lay = side["exr_layout"]
-        try:
-            exr = OpenEXR.File(os.fspath(data_path), separate_channels=True)
-            chans = exr.parts[0].channels
-            img = np.stack([np.asarray(chans[c].pixels, dtype=np.float32)
-                            for c in lay["channel_names"]], -1)
-        except (KeyError, RuntimeError, OSError) as e:
-            raise ValueError(f"cannot read the OpenEXR LUT {str(data_path)!r}: {e}") from None
-        if img.shape[:2] != (lay["height"], lay["width"]):
-            raise ValueError(f"{str(data_path)!r} is {img.shape[1]}x{img.shape[0]}, expected "
-                             f"{lay['width']}x{lay['height']}")
-        values = _from_atlas(img, lay).reshape(shape)
     else:
-        raise ValueError(f"unknown container {side['container']!r} in {str(side_path)!r}")
+        lay = side["exr_layout"]
+        chans = read_exr_channels(data_path, _WHAT_DATA)
+        absent = [c for c in lay["channel_names"] if c not in chans]
+        if absent:
+            raise file_error(_WHAT_DATA, data_path, f"lacks the channel(s) {absent} of its sidecar; it has "
+                                                    f"{sorted(chans)}")
+        img = np.stack([np.asarray(chans[c], dtype=np.float32) for c in lay["channel_names"]], -1)
+        if img.shape[:2] != (lay["height"], lay["width"]):
+            raise file_error(_WHAT_DATA, data_path, f"is {img.shape[1]} x {img.shape[0]} pixels; its sidecar "
+                                                    f"{str(side_path)!r} gives {lay['width']} x {lay['height']}")
+        values = _from_atlas(img, lay).reshape(shape)
     values = np.ascontiguousarray(values, dtype="<f4")
     if hashlib.sha256(values.tobytes()).hexdigest() != side["data_sha256"]:
-        raise ValueError(f"{str(data_path)!r} is corrupted: data_sha256 mismatch")
-    src = _DTYPES.get(side["source_dtype"], torch.float32)
+        raise file_error(_WHAT_DATA, data_path, "is corrupted: data_sha256 mismatch")
+    src = _DTYPES[side["source_dtype"]]
     axes = {a["name"]: torch.tensor(a["values"], dtype=torch.float64) for a in side["axes"]}
-    lut = LUT(torch.from_numpy(values.astype(np.float32)).to(src), axes, builder=side["builder"],
-              parameters=side["parameters"], units=side["units"],
-              torchirid_version=side["torchirid_version"])
-    if [int(g.numel()) for g in axes.values()] != sizes:
-        raise ValueError(f"sidecar {str(side_path)!r}: axis sizes disagree with their node lists")
+    try:
+        lut = LUT(torch.from_numpy(values.astype(np.float32)).to(src), axes, builder=side["builder"],
+                  parameters=side["parameters"], units=side["units"],
+                  torchirid_version=side["torchirid_version"])
+    except ValueError as e:
+        raise file_error(_WHAT_SIDE, side_path, f"does not describe a valid LUT ({e})") from e
     if src != torch.float64 and lut.hash != side["source_hash"]:
-        raise ValueError(f"{str(data_path)!r}: rebuilt LUT hash differs from source_hash")
+        raise file_error(_WHAT_DATA, data_path, "does not rebuild the exported LUT: its hash differs from the "
+                                                "sidecar's source_hash")
     return lut.to(dtype=dtype) if dtype is not None else lut
 
 

@@ -31,6 +31,7 @@ __all__ = [
     "add_command_parser",
     "cannot_write",
     "check_name",
+    "check_range",
     "count",
     "fail",
     "index",
@@ -180,6 +181,15 @@ def parse_wavelengths(raw) -> tuple[float, float, int]:
     if n > 1 and hi == lo:
         raise ValueError("--wavelengths: MIN == MAX needs COUNT 1")
     return lo, hi, n
+
+
+def check_range(pair, option: str, unit: str = "") -> tuple[float, float]:
+    """``MIN MAX`` of an option (numbers already parsed) as ``(min, max)``; ValueError naming the
+    option unless MIN < MAX (``torchirid fit-film --thickness-range 500 100``)."""
+    lo, hi = pair
+    if not lo < hi:
+        raise ValueError(f"{option}: MIN must be < MAX{f' ({unit})' if unit else ''}; got {lo:g} {hi:g}")
+    return lo, hi
 
 
 def check_name(name: str, option: str = "--name") -> None:

@@ -19,12 +19,14 @@ A cube is ``(H, W, A, B)`` band reflectance with ``wavelength`` ``(B,)`` in nm a
 from __future__ import annotations
 
 import json
+import logging
 import os
 from dataclasses import dataclass, field
 
 import numpy as np
 import torch
 
+from .._io import ZIP_MAGIC, check_readable, file_error, reading
 
 __all__ = ["Cube", "read_cube", "write_npz", "write_envi"]
 
@@ -116,35 +118,122 @@ _WAVELENGTH_UNITS = {"nm": 1.0, "nanometers": 1.0, "nanometer": 1.0, "um": 1000.
 
 
 def _read_envi_one(path):
-    from spectral.io import envi
-
     p = os.fspath(path)
-    if not os.path.exists(p):
-        raise ValueError(f"ENVI header {p!r} does not exist")
+    check_readable(p, "ENVI header", magic=b"ENVI", kind="an ENVI header (its first line must be 'ENVI')",
+                   missing=ValueError)
+    try:
+        from spectral.io import envi
+    except ImportError as exc:
+        raise ImportError("reading ENVI cubes needs the optional 'spectral' package: pip install spectral") from exc
+
+    log = logging.getLogger("spectral")  # spectral logs a warning on stderr before we raise the error
+    level = log.level
+    log.setLevel(logging.ERROR)
     try:
         img = envi.open(p)
-    except Exception as exc:  # spectral raises its own error types for bad headers / missing data files
-        raise ValueError(f"cannot read ENVI file {p!r}: {exc}") from exc
-    data = np.asarray(img.load(scale=False), dtype=np.float64)  # raw values: the ignore value is in file units
+    except envi.EnviDataFileNotFoundError as exc:
+        stem = os.path.splitext(os.path.basename(p))[0]
+        raise file_error("ENVI header", p, f"its data file is missing (looked for {stem}, {stem}.img, {stem}.dat, "
+                                           f"{stem}.raw... beside it)") from exc
+    except Exception as exc:  # spectral raises its own error types (and numpy's) for a bad header
+        raise file_error("ENVI header", p, f"cannot be read ({type(exc).__name__}: {exc})") from exc
+    finally:
+        log.setLevel(level)
+    data_file = os.fspath(img.filename)
+    with reading(data_file, "ENVI data file"):
+        need = int(img.offset) + int(img.nrows) * int(img.ncols) * int(img.nbands) * int(img.sample_size)
+        have = os.path.getsize(data_file)
+        if have < need:
+            raise file_error("ENVI data file", data_file,
+                             f"is truncated: {have} bytes, where its header {p!r} needs {need} (lines {img.nrows} "
+                             f"x samples {img.ncols} x bands {img.nbands} x {img.sample_size} bytes + offset "
+                             f"{img.offset})")
+        data = np.asarray(img.load(scale=False), dtype=np.float64)  # raw values: the ignore value is in file units
     if data.ndim == 2:
         data = data[:, :, None]
     md = img.metadata
-    wl = np.asarray([float(v) for v in md.get("wavelength", [])])
+
+    def numbers(key):
+        value = md.get(key)
+        try:
+            return np.asarray([float(v) for v in ([value] if isinstance(value, str) else value)], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise file_error("ENVI header", p, f"field {key!r} must hold numbers; got {value!r}") from exc
+
+    wl = numbers("wavelength") if "wavelength" in md else np.zeros(0)
     if wl.size != data.shape[-1]:
-        raise ValueError(f"ENVI file {p!r} must give one 'wavelength' per band ({data.shape[-1]}); got {wl.size}")
+        raise file_error("ENVI header", p, f"must give one 'wavelength' per band ({data.shape[-1]}); got {wl.size}")
     units = str(md.get("wavelength units", "nm")).strip().lower()
     if units not in _WAVELENGTH_UNITS:
-        raise ValueError(f"ENVI file {p!r}: wavelength units must be nanometers or micrometers; got {units!r}")
+        raise file_error("ENVI header", p, f"wavelength units must be nanometers or micrometers; got {units!r}")
     wl = wl * _WAVELENGTH_UNITS[units]
     if "data ignore value" in md:
-        data[data == float(md["data ignore value"])] = np.nan  # dead pixels → NaN (the fits skip them)
+        data[data == numbers("data ignore value")[0]] = np.nan  # dead pixels → NaN (the fits skip them)
     if "reflectance scale factor" in md:
-        data = data / float(md["reflectance scale factor"])
-    ang = md.get("incidence angle")
-    fwhm = md.get("fwhm")
-    return data, wl, (None if ang is None else np.asarray([float(v) for v in ang])), (
-        None if not fwhm else float(np.median([float(v) for v in fwhm])) * _WAVELENGTH_UNITS[units])
+        factor = numbers("reflectance scale factor")[0]
+        if not (np.isfinite(factor) and factor > 0):
+            raise file_error("ENVI header", p, f"'reflectance scale factor' must be a number > 0; got {factor:g}")
+        data = data / factor
+    ang = numbers("incidence angle") if "incidence angle" in md else None
+    if ang is not None and ang.size != data.shape[-1]:
+        raise file_error("ENVI header", p, f"must give one 'incidence angle' per band ({data.shape[-1]}); "
+                                           f"got {ang.size}")
+    fwhm = numbers("fwhm") if md.get("fwhm") else None
+    return data, wl, ang, (None if fwhm is None else float(np.median(fwhm)) * _WAVELENGTH_UNITS[units])
     # (fwhm is in the header's wavelength units too: micrometres → nm like the wavelengths)
+
+
+_NPZ_WHAT = "cube file"
+
+
+def _read_npz(p: str):
+    """(cube, wavelength, angles, bandwidth, thickness, meta) of a cube ``.npz``; ValueError naming ``p``."""
+    check_readable(p, _NPZ_WHAT, magic=ZIP_MAGIC, kind="an .npz (zip) archive", missing=ValueError)
+
+    def bad(why):
+        return file_error(_NPZ_WHAT, p, why)
+
+    def numeric(z, key, ndim):
+        a = z[key]
+        if a.dtype.kind not in "biuf" or a.ndim != ndim:
+            raise bad(f"array {key!r} must be {ndim}-D real numbers; got {a.dtype} with shape {a.shape}")
+        return torch.from_numpy(a.astype(np.float64))
+
+    # open the file ourselves: np.load leaks its handle when the zip is unreadable
+    with reading(p, _NPZ_WHAT), open(p, "rb") as fh, np.load(fh, allow_pickle=False) as z:
+        missing = [key for key in ("cube", "wavelength_nm", "angle_deg") if key not in z.files]
+        if missing:
+            raise bad(f"must hold arrays cube, wavelength_nm, angle_deg; missing {missing[0]!r} (it has {z.files})")
+        cube, wl, ang = numeric(z, "cube", 4), numeric(z, "wavelength_nm", 1), numeric(z, "angle_deg", 1)
+        bw = th = None
+        if "bandwidth_nm" in z.files:
+            a = z["bandwidth_nm"]
+            if a.dtype.kind not in "biuf" or a.size != 1:
+                raise bad(f"'bandwidth_nm' must be one number; got {a.dtype} with shape {a.shape}")
+            bw = float(a.reshape(()))
+        if "thickness_nm" in z.files:
+            th = numeric(z, "thickness_nm", 2)
+        meta = {}
+        if "meta" in z.files:
+            a = z["meta"]
+            if a.dtype.kind != "U" or a.ndim != 0:
+                raise bad(f"'meta' must be a JSON string; got {a.dtype} with shape {a.shape}")
+            try:
+                meta = json.loads(str(a))
+            except ValueError as exc:
+                raise bad(f"'meta' is not JSON ({exc})") from exc
+            if not isinstance(meta, dict):
+                raise bad(f"'meta' must be a JSON object; got {type(meta).__name__}")
+    if cube.shape[2] != ang.numel() or cube.shape[3] != wl.numel():
+        raise bad(f"'cube' must have shape (H, W, A={ang.numel()}, B={wl.numel()}) for its {ang.numel()} angle_deg "
+                  f"and {wl.numel()} wavelength_nm; got {tuple(cube.shape)}")
+    if not bool(torch.isfinite(wl).all() and (wl > 0).all()):
+        raise bad(f"'wavelength_nm' must be finite wavelengths > 0 nm; got {wl.tolist()}")
+    if not bool(torch.isfinite(ang).all() and (ang >= 0).all() and (ang < 90).all()) or ang.unique().numel() != ang.numel():
+        raise bad(f"'angle_deg' must be distinct incidence angles in [0, 90) degrees; got {ang.tolist()}")
+    if th is not None and tuple(th.shape) != tuple(cube.shape[:2]):
+        raise bad(f"'thickness_nm' must have shape (H, W) = {tuple(cube.shape[:2])}; got {tuple(th.shape)}")
+    return cube, wl, ang, bw, th, meta
 
 
 def read_cube(path, *, angles_deg=None) -> Cube:
@@ -161,7 +250,10 @@ def read_cube(path, *, angles_deg=None) -> Cube:
         :class:`Cube` with the angles sorted increasingly.
 
     Raises:
-        ValueError: unreadable or inconsistent files, missing or mismatched angles.
+        ValueError: a missing, empty, truncated, damaged or foreign file, content of the wrong
+            shape or type, inconsistent files (the message names the file), missing or
+            mismatched angles.
+        ImportError: an ENVI file without the optional ``spectral`` package.
 
     Example:
         >>> import tempfile, os, torch
@@ -195,17 +287,7 @@ def read_cube(path, *, angles_deg=None) -> Cube:
         return Cube(torch.from_numpy(cube), torch.from_numpy(wl), torch.from_numpy(ang), parts[0][3]).sorted()
     p = os.fspath(path)
     if p.endswith(".npz"):
-        with np.load(p, allow_pickle=False) as z:
-            for key in ("cube", "wavelength_nm", "angle_deg"):
-                if key not in z:
-                    raise ValueError(f"{p!r} must hold arrays cube, wavelength_nm, angle_deg; missing {key!r}")
-            cube = torch.from_numpy(z["cube"].astype(np.float64))
-            wl = torch.from_numpy(z["wavelength_nm"].astype(np.float64))
-            ang = torch.from_numpy(z["angle_deg"].astype(np.float64))
-            bw = float(z["bandwidth_nm"]) if "bandwidth_nm" in z else None
-            th = torch.from_numpy(z["thickness_nm"].astype(np.float64)) if "thickness_nm" in z else None
-            meta = json.loads(str(z["meta"])) if "meta" in z else {}
-        _check_shapes(cube, wl, ang)
+        cube, wl, ang, bw, th, meta = _read_npz(p)
         ang_arg = _check_angles(angles_deg)
         if ang_arg is not None and (ang_arg.size != ang.numel() or not np.allclose(ang_arg, ang.numpy())):
             raise ValueError(f"angles_deg {ang_arg.tolist()} disagrees with the angle_deg {ang.tolist()} stored in {p!r}")
@@ -227,10 +309,13 @@ def read_cube(path, *, angles_deg=None) -> Cube:
             angles = ang_arg.tolist()
         else:
             angles = list(dict.fromkeys(ang_all.tolist()))
+            if not all(0 <= a < 90 for a in angles):
+                raise file_error("ENVI header", p, f"'incidence angle' must be in [0, 90) degrees; got {angles}")
             A = len(angles)
             B = wl_all.size // A
             if A * B != wl_all.size or not np.allclose(ang_all, np.repeat(angles, B)):
-                raise ValueError("ENVI bands must be angle-major: all bands of one angle, then the next")
+                raise file_error("ENVI header", p, "bands must be angle-major: all bands of one angle, then the "
+                                                   "next")
             if ang_arg is not None and (ang_arg.size != A or not np.allclose(ang_arg, angles)):
                 raise ValueError(f"angles_deg {ang_arg.tolist()} disagrees with the 'incidence angle' field of "
                                  f"{p!r} ({angles})")

@@ -35,6 +35,7 @@ import numpy as np
 import torch
 
 from .. import _checks
+from .._io import check_readable, file_error, read_exr, reading
 from ..lut import LUT
 from ..microfacet.ggx import ggx_d_kernel
 
@@ -300,43 +301,60 @@ def prefilter_environment(env, alphas, *, resolution=(32, 64)) -> PrefilteredEnv
                                   radiance=torch.stack(rad_out), moments=torch.stack(mom_out))
 
 
+_ENV_WHAT = "environment map"
+_RGBE_MAGIC = (b"#?RADIANCE", b"#?RGBE")
+
+
 def _read_hdr(path) -> np.ndarray:
     """Radiance RGBE (.hdr) → (H, W, 3) float64 linear RGB; flat or new-style RLE scanlines, -Y H +X W."""
-    p = os.fspath(path)
-    with open(p, "rb") as f:
-        data = f.read()
-    if not (data.startswith(b"#?RADIANCE") or data.startswith(b"#?RGBE")):
-        raise ValueError(f"path {p!r} is not a Radiance .hdr file (no '#?RADIANCE' / '#?RGBE' signature)")
+    p = check_readable(path, _ENV_WHAT, magic=_RGBE_MAGIC, kind="a Radiance .hdr file ('#?RADIANCE' / '#?RGBE')")
+    with reading(p, _ENV_WHAT):
+        return _decode_rgbe(p.read_bytes(), p)
+
+
+def _decode_rgbe(data: bytes, p) -> np.ndarray:
+    def bad(why):
+        return file_error(_ENV_WHAT, p, why)
+
     pos = 0
     while True:  # header lines until an empty line
         end = data.find(b"\n", pos)
         if end < 0:
-            raise ValueError(f"path {p!r}: truncated .hdr header")
+            raise bad("is truncated (the .hdr header does not end)")
         line = data[pos:end].strip()
         pos = end + 1
         if not line:
             break
         if line.startswith(b"FORMAT=") and line != b"FORMAT=32-bit_rle_rgbe":
-            raise ValueError(f"path {p!r}: only FORMAT=32-bit_rle_rgbe is supported; "
-                             f"got {line.decode(errors='replace')}")
+            raise bad(f"only FORMAT=32-bit_rle_rgbe is supported; got {line.decode(errors='replace')}")
     end = data.find(b"\n", pos)
     parts = data[pos:end if end >= 0 else len(data)].split()
+    if not parts:
+        raise bad("is truncated (no '-Y H +X W' resolution line after the .hdr header)")
     if len(parts) != 4 or parts[0] != b"-Y" or parts[2] != b"+X":
-        raise ValueError(f"path {p!r}: only the standard '-Y H +X W' .hdr orientation is supported; got {parts!r}")
+        raise bad(f"only the standard '-Y H +X W' .hdr orientation is supported; got {parts!r}")
     try:
         height, width = int(parts[1]), int(parts[3])
     except ValueError as exc:
-        raise ValueError(f"path {p!r}: bad .hdr resolution line {parts!r}") from exc
+        raise bad(f"has a bad .hdr resolution line {parts!r}") from exc
     if height < 1 or width < 1:
-        raise ValueError(f"path {p!r}: bad .hdr size {height} x {width}")
-    pos = end + 1
+        raise bad(f"has a bad .hdr size {height} x {width}")
+    pos = end + 1 if end >= 0 else len(data)
+    # the fewest bytes a scanline can take (flat: 4 per pixel; new-style RLE: a 4-byte marker,
+    # then per channel one 2-byte run per 127 pixels): refuse a header promising more pixels than
+    # the file can hold before allocating them
+    rle = 8 <= width < 32768
+    least = min(4 * width, 4 + 8 * -(-width // 127)) if rle else 4 * width
+    if height * least > len(data) - pos:
+        raise bad(f"is truncated: {len(data) - pos} bytes of pixel data cannot hold the {height} x {width} pixels "
+                  f"of its header")
     buf = np.frombuffer(data, dtype=np.uint8)
     out = np.empty((height, width, 4), dtype=np.uint8)
     try:
         for row in range(height):
-            if 8 <= width < 32768 and buf[pos] == 2 and buf[pos + 1] == 2 and not (buf[pos + 2] & 0x80):
+            if rle and buf[pos] == 2 and buf[pos + 1] == 2 and not (buf[pos + 2] & 0x80):
                 if (int(buf[pos + 2]) << 8 | int(buf[pos + 3])) != width:
-                    raise ValueError(f"path {p!r}: .hdr scanline {row} has a wrong RLE width")
+                    raise bad(f"has a wrong RLE width in .hdr scanline {row}")
                 pos += 4
                 for ch in range(4):
                     x = 0
@@ -346,12 +364,14 @@ def _read_hdr(path) -> np.ndarray:
                         if count > 128:  # a run
                             count -= 128
                             if count > width - x:
-                                raise ValueError(f"path {p!r}: .hdr RLE run overflows scanline {row}")
+                                raise bad(f"has an RLE run overflowing .hdr scanline {row}")
                             out[row, x:x + count, ch] = buf[pos]
                             pos += 1
                         else:  # literal bytes
                             if count == 0 or count > width - x:
-                                raise ValueError(f"path {p!r}: bad .hdr RLE count in scanline {row}")
+                                raise bad(f"has a bad RLE count in .hdr scanline {row}")
+                            if pos + count > buf.size:
+                                raise IndexError
                             out[row, x:x + count, ch] = buf[pos:pos + count]
                             pos += count
                         x += count
@@ -360,11 +380,11 @@ def _read_hdr(path) -> np.ndarray:
                     raise IndexError
                 px = buf[pos:pos + 4 * width].reshape(width, 4)
                 if bool(((px[:, 0] == 1) & (px[:, 1] == 1) & (px[:, 2] == 1)).any()):
-                    raise ValueError(f"path {p!r}: old-style .hdr run-length encoding is not supported")
+                    raise bad("uses the old-style .hdr run-length encoding (not supported)")
                 out[row] = px
                 pos += 4 * width
     except IndexError as exc:
-        raise ValueError(f"path {p!r}: truncated .hdr pixel data") from exc
+        raise bad("is truncated (the .hdr pixel data end early)") from exc
     e = out[..., 3].astype(np.int32)
     scale = np.where(e == 0, 0.0, np.ldexp(1.0, e - 136))  # Radiance colr_color: (m + ½)·2^(e−136)
     return (out[..., :3].astype(np.float64) + 0.5) * scale[..., None]
@@ -379,14 +399,15 @@ def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tenso
     in the module's equirectangular convention (row 0 = zenith +z).
 
     Raises:
-        ValueError: another suffix, a malformed file, or an unsupported .hdr variant.
+        ValueError: another suffix; an empty, truncated, damaged or foreign file; an EXR without
+            R, G, B (or Y) channels; an unsupported .hdr variant (the message names the file).
+        FileNotFoundError: no file at ``path``.
+        ImportError: an ``.exr`` path without the ``openexr`` package.
     """
     _check_float_dtype(dtype)
     suffix = os.path.splitext(os.fspath(path))[1].lower()
     if suffix == ".exr":
-        from .._io import read_exr  # lazy: reuse the package's one OpenEXR reader
-
-        rgb, _ = read_exr(path)
+        rgb, _ = read_exr(path, what=_ENV_WHAT)
     elif suffix == ".hdr":
         rgb = _read_hdr(path)
     else:

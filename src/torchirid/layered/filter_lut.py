@@ -157,11 +157,15 @@ class FilterLUT:
     @classmethod
     def load(cls, path, *, alpha: float | None = None, dtype: torch.dtype | None = None, device=None) -> "FilterLUT":
         """Read a table written by :meth:`save`; with ``alpha`` given, refuse a table built
-        for another roughness (ValueError)."""
+        for another roughness. Errors as :meth:`torchirid.lut.LUT.load` (``FileNotFoundError``;
+        ``ValueError`` naming the file for a damaged, foreign or mismatched table)."""
         params = None if alpha is None else {"alpha": float(alpha)}
         lut = LUT.load(path, builder=_LUT_BUILDER, parameters=params, expect={"axes": ("theta_i", "u")},
                        dtype=dtype, device=device)
-        return cls(lut)
+        try:
+            return cls(lut)
+        except ValueError as exc:
+            raise ValueError(f"LUT file {str(path)!r} is not a transmission-filter table: {exc}") from exc
 
 
 def transmission_filter_lut(alpha: float, *, theta_i_step_deg: float = 0.25, u_nodes: int = 129,

@@ -85,12 +85,13 @@ def _stats(x) -> dict:
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Estimate the film and write the maps and the report. Exit status: 0, 1 (write), 2 (bad argument or cube)."""
+    _args.check_range(args.thickness_range, "--thickness-range", "nm")  # before the (slow) read
     if args.threads:
         torch.set_num_threads(args.threads)
     try:
         paths = args.cube if len(args.cube) > 1 else args.cube[0]
-        cube = read_cube(paths, angles_deg=args.angles)
-    except OSError as exc:  # a missing or unreadable CUBE is a bad argument too
+        cube = read_cube(paths, angles_deg=args.angles)  # ValueError naming the file (→ exit 2)
+    except (OSError, ImportError) as exc:  # an unreadable CUBE, or ENVI without 'spectral': one line too
         return _args.fail(NAME, exc)
     bw = args.bandwidth if args.bandwidth is not None else (cube.bandwidth if cube.bandwidth is not None else 4.0)
     bar = _args.progress_bar(f"torchirid {NAME}")
