@@ -30,6 +30,7 @@ RANKS = {
     # shared internals: the version and the cache registry below the rest
     "_version": 0, "_cache": 0,
     "_checks": 0.5, "_compile": 0.5, "_quadrature": 0.5, "_io": 0.5, "_lut_file": 0.5,
+    "_chunks": 0.75,  # block-wise evaluation (uses _checks.traceable)
     # tables, materials, colorimetry: no optics inside
     "lut": 1, "materials": 1, "color": 1,
     # exact optics and microfacets

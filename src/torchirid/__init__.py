@@ -27,6 +27,7 @@ The ``torchirid`` command and the figures live in :mod:`torchirid.app` (not impo
 from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, spectral
 from ._cache import clear_caches
 from ._checks import set_value_checks, value_checks, value_checks_enabled
+from ._chunks import chunk_size, get_chunk_size, set_chunk_size
 from ._compile import compile_enabled, set_compile
 from ._version import __version__
 from .color import delta_e, delta_e_2000, illuminant_spd, cmfs, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
@@ -148,6 +149,9 @@ __all__ = [
     "compile_enabled",
     "set_compile",
     "set_value_checks",
+    "chunk_size",
+    "get_chunk_size",
+    "set_chunk_size",
     "value_checks",
     "value_checks_enabled",
 ]

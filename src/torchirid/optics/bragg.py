@@ -44,7 +44,7 @@ import math
 
 import torch
 
-from .. import _checks, _compile
+from .. import _checks, _chunks, _compile
 from .fresnel import interface, normal_wavenumber, same_medium
 
 __all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope", "yeh_reflectance_kernel"]
@@ -479,15 +479,23 @@ def bragg_reflectance(
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells)
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
                                    () if nh is None else nh.shape)
+    n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
+    # block by block over large batches when no gradient is wanted (torchirid._chunks)
+    return _chunks.evaluate(_bragg_core, (lam, c, n1, n2, d1, d2, nh, N), batch, polarization=polarization,
+                            n_max=n_max)
+
+
+def _bragg_core(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max):
+    """:func:`bragg_reflectance` on validated tensors (one block of the batch)."""
     c = _checks.flush_grazing(c)
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
+                                     () if nh is None else nh.shape)
     general = _needs_general(c, n1, n2, nh)
     if general is None:
-        n_max = int(cells) if _checks.traceable() and isinstance(cells, int) and not isinstance(cells, bool) else None
-        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max)
+        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max if _checks.traceable() else None)
     elif _checks.traceable():  # vmap / torch.compile: the static kernel, both paths where needed
         R = _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=True)
         # (no data-dependent test of the mask: the general path is evaluated for every point)
-        n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
         R = torch.where(general, _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max), R)
     else:
         real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
@@ -495,7 +503,7 @@ def bragg_reflectance(
         if bool(general.any()):
             Rg = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
             R = torch.where(general, Rg, R)
-    return R.expand(batch)
+    return R
 
 
 def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, polarization: str = "s") -> torch.Tensor:

@@ -20,7 +20,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .fresnel import normal_wavenumber, nudge_critical
 from .transfer import recursion, stack_admittances
 
@@ -71,9 +71,15 @@ def thin_film_reflectance(
     _checks.check_index(nf, "n_film")
     _checks.check_index(ns, "n_substrate")
     _checks.check_real_index(n0, "n_incident")
-    c = _checks.flush_grazing(c)
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
+    # block by block over large batches when no gradient is wanted (torchirid._chunks)
+    return _chunks.evaluate(_thin_film_core, (lam, c, nf, d, ns, n0), batch, polarization=polarization)
 
-    cdt = _checks.complex_dtype(dtype)
+
+def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
+    """:func:`thin_film_reflectance` on validated tensors (one block of the batch)."""
+    c = _checks.flush_grazing(c)
+    cdt = _checks.complex_dtype(lam.dtype)
     n0 = n0.real if n0.is_complex() else n0
     s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
     nf, ns = nf.to(cdt), ns.to(cdt)
@@ -86,6 +92,4 @@ def thin_film_reflectance(
     phi = (2 * math.pi) * qf * d / lam  # film phase; only exp(2iφ) with |·| ≤ 1 is formed
     e2 = torch.exp(2j * phi)[..., None]
     gamma, _ = recursion(stack_admittances(q, n, polarization), e2, e2, with_transmission=False)
-    R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |r|² ≤ 1 up to an ulp
-    batch = _checks.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
-    return R.expand(batch)
+    return (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |r|² ≤ 1 up to an ulp
