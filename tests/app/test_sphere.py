@@ -152,7 +152,8 @@ def test_cli_tiny_render(tmp_path, capsys):
 
 
 def test_cli_errors(tmp_path, capsys):
-    args = _parser().parse_args(["render-sphere", "--size", "12", "--out", str(tmp_path / "missing")])
+    (tmp_path / "a_file").write_text("x")
+    args = _parser().parse_args(["render-sphere", "--size", "12", "--out", str(tmp_path / "a_file")])
     assert args.func(args) == 2
     args = _parser().parse_args(["render-sphere", "--size", "4", "--out", str(tmp_path)])
     assert args.func(args) == 2
@@ -174,3 +175,17 @@ def test_presets_are_built_lazily_and_match_hirayama_stacks():
     assert sorted(render_sphere.PRESETS) == ["fig8", "table1"] and render_sphere.PRESETS["table1"]() == sp.TABLE1_OBJECTS
     with pytest.raises(AttributeError, match="NO_SUCH_PRESET"):
         sp.NO_SUCH_PRESET  # noqa: B018
+
+
+def test_cli_creates_the_folder_prints_paths_and_writes_formats(tmp_path, capsys):
+    """Issue 22.3/22.8: a missing --out folder is created, every written path is printed, and
+    --format png,svg writes both figures."""
+    out = tmp_path / "new" / "folder"
+    args = _parser().parse_args(["render-sphere", "--preset", "custom", "--substrate", "1.5", "--film", "1.4:300",
+                                 "--sigma", "0", "--size", "8", "--wavelength-step", "50", "--out", str(out),
+                                 "--name", "s", "--format", "png,svg", "--quiet"])
+    assert args.func(args) == 0
+    printed = capsys.readouterr().out
+    for name in ("s.png", "s.svg", "s.npz"):
+        assert (out / name).is_file() and str(out / name) in printed
+    assert (out / "s.svg").read_text().lstrip().startswith("<?xml")

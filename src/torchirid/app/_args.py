@@ -198,12 +198,39 @@ def check_name(name: str, option: str = "--name") -> None:
         raise ValueError(f"{option} must be a plain file stem, got {name!r}")
 
 
-# ----------------------------------------------------------------------------- progress
-def progress_bar(desc: str, total: int | None = None, unit: str = "step", **kwargs):
-    """A tqdm bar on stderr that appears only after 2 s and vanishes when closed."""
+# ----------------------------------------------------------------------------- progress, outputs
+def progress_bar(desc: str, total: int | None = None, unit: str = "step", *, quiet: bool = False, **kwargs):
+    """A tqdm bar on stderr (with a total: count, rate and ETA) that appears only after 2 s and
+    vanishes when closed; silent with ``quiet`` (``--quiet``) or when stderr is not a terminal."""
     from tqdm.auto import tqdm
 
     kwargs.setdefault("delay", 2.0)
     kwargs.setdefault("leave", False)
     kwargs.setdefault("file", sys.stderr)
+    kwargs.setdefault("disable", True if quiet else None)  # None: off when not a TTY
     return tqdm(total=total, desc=desc, unit=unit, **kwargs)
+
+
+def add_output_options(parser: argparse.ArgumentParser, *, figures: bool = True) -> None:
+    """``--quiet`` (no progress bar) and, for commands that draw, ``--format png[,pdf,svg]``."""
+    parser.add_argument("--quiet", action="store_true", help="no progress bar (there is none when stderr is not a terminal)")
+    if figures:
+        from .figures._format import FIGURE_FORMATS
+
+        def formats(text: str) -> tuple[str, ...]:
+            items = tuple(dict.fromkeys(t.strip().lower().lstrip(".") for t in text.split(",") if t.strip()))
+            bad = [t for t in items if t not in FIGURE_FORMATS]
+            if not items or bad:
+                raise argparse.ArgumentTypeError(f"expected a comma-separated list of {', '.join(FIGURE_FORMATS)}; "
+                                                 f"got {text!r}")
+            return items
+
+        parser.add_argument("--format", type=formats, default=("png",), metavar="FMT[,FMT]",
+                            help="figure file format(s): png, pdf, svg, comma-separated (default png)")
+
+
+def figure_paths(out, name: str, formats) -> list:
+    """``out/name.<fmt>`` for each figure format."""
+    from pathlib import Path
+
+    return [Path(out) / f"{name}.{fmt}" for fmt in formats]

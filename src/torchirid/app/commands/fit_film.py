@@ -22,12 +22,15 @@ import numpy as np
 import torch
 
 from ..._io import write_json
-from ...estimation import estimate_film
+from ...estimation import INDEX_MODELS, estimate_film
 from ...estimation.cube_io import read_cube
 from .. import _args
 from ..figures.film_maps import save_film_map_png
 
 NAME = "fit-film"
+#: the largest reflectance accepted in a cube (noise may push a true 1 a little above it);
+#: beyond it the data are taken to be in percent or counts and refused
+MAX_REFLECTANCE = 1.5
 
 __all__ = ["NAME", "add_parser", "run"]
 
@@ -69,6 +72,7 @@ def add_parser(subparsers):
                    help="spatial smoothness weight (reflectance²/nm²)")
     p.add_argument("--threads", type=_args.count, default=None, help="torch threads (default: torch's)")
     p.add_argument("--seed", type=int, default=0)
+    _args.add_output_options(p)
     p.set_defaults(func=run, parser=p)
     return p
 
@@ -93,8 +97,17 @@ def run(args) -> int:
         cube = read_cube(paths, angles_deg=args.angles)  # ValueError naming the file (→ exit 2)
     except (OSError, ImportError) as exc:  # an unreadable CUBE, or ENVI without 'spectral': one line too
         return _args.fail(NAME, exc)
+    top = float(torch.nan_to_num(cube.cube.double(), nan=0.0, posinf=0.0, neginf=0.0).max())
+    if top > MAX_REFLECTANCE:
+        # data in percent (or counts): the fit would chase n ≈ 100 and exit 0 with nonsense
+        raise ValueError(f"the cube holds reflectances up to {top:g} (> {MAX_REFLECTANCE:g}): fit-film needs reflectance "
+                         "as a fraction of 1; data in percent? divide by 100, or give the ENVI header a "
+                         "'reflectance scale factor = 100'")
     bw = args.bandwidth if args.bandwidth is not None else (cube.bandwidth if cube.bandwidth is not None else 4.0)
-    bar = _args.progress_bar(f"torchirid {NAME}")
+    # the stages estimate_film reports: peaks, index scan, 3 order hypotheses per index model tried,
+    # order check, thickness, 2 final passes
+    models = len(INDEX_MODELS) if args.index_model == "auto" else 1
+    bar = _args.progress_bar(f"torchirid {NAME}", total=4 + 3 * models + 2, unit="stage", quiet=args.quiet)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
@@ -103,6 +116,7 @@ def run(args) -> int:
                                 polarization=args.polarization, thickness_range=tuple(args.thickness_range),
                                 smoothness=args.smoothness, seed=args.seed,
                                 progress=lambda name: (bar.set_postfix_str(name), bar.update(1)))
+        bar.total = max(bar.total or 0, bar.n)
     finally:
         bar.close()
     notes = [str(w.message) for w in caught]
@@ -132,20 +146,28 @@ def run(args) -> int:
     try:
         os.makedirs(args.out, exist_ok=True)
         np.save(os.path.join(args.out, "thickness_nm.npy"), d.numpy())
-        save_film_map_png(d, os.path.join(args.out, "thickness.png"), f"thickness, n = {est.n:.4f}", "d (nm)")
-        # (invalid pixels are NaN in every map: drawn grey, outside the colour scale)
-        save_film_map_png(est.rms, os.path.join(args.out, "fit_error.png"), "RMS residual per pixel", "reflectance",
-                          cmap="magma")
+        written = [os.path.join(args.out, "thickness_nm.npy")]
+        maps = [(d, "thickness", f"thickness, n = {est.n:.4f}", "d (nm)", "viridis"),
+                # (invalid pixels are NaN in every map: drawn grey, outside the colour scale)
+                (est.rms, "fit_error", "RMS residual per pixel", "reflectance", "magma")]
         if cube.thickness is not None:
             err = (d - cube.thickness).abs()
-            save_film_map_png(err, os.path.join(args.out, "thickness_error.png"), "|d − d_true|", "nm", cmap="magma")
+            maps.append((err, "thickness_error", "|d − d_true|", "nm", "magma"))
+        for values, stem, title, unit, cmap in maps:
+            for path in _args.figure_paths(args.out, stem, args.format):
+                save_film_map_png(values, path, title, unit, cmap=cmap)
+                written.append(os.fspath(path))
+        if cube.thickness is not None:
             report["thickness_error_nm"] = {k: v for k, v in _stats(err[valid]).items() if k in ("mean", "max")}
             if "n_true" in cube.meta:
                 report["n_error"] = abs(est.n - float(cube.meta["n_true"]))
         write_json(os.path.join(args.out, "report.json"), report)  # strict JSON (NaN → null), atomic
+        written.append(os.path.join(args.out, "report.json"))
     except OSError as e:
         return _args.cannot_write(NAME, args.out, e)
     dead = int((~valid).sum())
     print(f"n = {est.n:.4f} ({est.index_model}), mean d = {float(d[valid].mean()):.1f} nm"
-          f"{f' ({dead} invalid pixels)' if dead else ''}, {est.timings['total']:.1f} s → {args.out}")
+          f"{f' ({dead} invalid pixels)' if dead else ''}, {est.timings['total']:.1f} s")
+    for path in written:
+        print(path)
     return 0

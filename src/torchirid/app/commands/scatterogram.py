@@ -89,6 +89,7 @@ def add_parser(subparsers):
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     g.add_argument("--name", default="scatterogram", metavar="STEM", help="file stem: writes STEM.png and STEM.npz")
     g.add_argument("--dpi", type=_args.count, default=150, metavar="DPI", help="resolution of the PNG")
+    _args.add_output_options(g)
     sp.set_defaults(func=run, parser=sp)
     return sp
 
@@ -119,22 +120,30 @@ def run(args) -> int:
     lam = torch.linspace(wl_min, wl_max, wl_count, dtype=torch.float64)
     rows, labels = [], []
     kw = dict(resolution=args.resolution, wavelength=lam, projection=args.projection, lut=args.lut)
-    if args.white:
-        rows.append([scatterogram(s, title=t, **kw) for t, s in structures])
-        labels.append("white environment")
-    for theta, phi in beams:
-        rows.append([scatterogram(s, incident_deg=(theta, phi), title=t, **kw) for t, s in structures])
-        labels.append(f"beam θi={theta:g}°, φi={phi:g}°")
+    lights = ([None] if args.white else []) + [(theta, phi) for theta, phi in beams]
+    bar = _args.progress_bar(f"torchirid {NAME}", total=len(lights) * len(structures), unit="image", quiet=args.quiet)
+    try:
+        for light in lights:
+            row = []
+            for t, s in structures:
+                row.append(scatterogram(s, title=t, **kw) if light is None
+                           else scatterogram(s, incident_deg=light, title=t, **kw))
+                bar.update()
+            rows.append(row)
+            labels.append("white environment" if light is None else f"beam θi={light[0]:g}°, φi={light[1]:g}°")
+    finally:
+        bar.close()
 
     out = Path(args.out)
-    png_path = out / f"{args.name}.png"
+    figures = _args.figure_paths(out, args.name, args.format)
     npz_path = out / f"{args.name}.npz"
     try:
         out.mkdir(parents=True, exist_ok=True)
-        scatterograms.save_scatterograms_png(rows, png_path, dpi=args.dpi, exposure=args.exposure, row_labels=labels)
+        for path in figures:
+            scatterograms.save_scatterograms_png(rows, path, dpi=args.dpi, exposure=args.exposure, row_labels=labels)
         scatterograms.save_scatterograms_npz(rows, npz_path)
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
-    print(png_path)
-    print(npz_path)
+    for path in [*figures, npz_path]:
+        print(path)
     return 0

@@ -84,6 +84,7 @@ def add_parser(subparsers):
     g.add_argument("--dtype", choices=reflectance_maps.DTYPES, default="float64", help="precision of the computation")
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     g.add_argument("--name", default="spectrum", metavar="STEM", help="file stem: writes STEM.npz and STEM.png")
+    _args.add_output_options(g)
     sp.set_defaults(func=run, parser=sp)
     return sp
 
@@ -106,13 +107,15 @@ def run(args) -> int:
 
     out = Path(args.out)
     npz_path = out / f"{args.name}.npz"
-    png_path = out / f"{args.name}.png"
+    figures = _args.figure_paths(out, args.name, args.format)
     try:
         out.mkdir(parents=True, exist_ok=True)
         reflectance_maps.save_reflectance_map_npz(rmap, npz_path)
-        reflectance_maps.save_reflectance_map_png(rmap, png_path, dpi=120)
+        for path in figures:
+            reflectance_maps.save_reflectance_map_png(rmap, path, dpi=120)
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
     print(npz_path)
-    print(png_path)
+    for path in figures:
+        print(path)
     return 0

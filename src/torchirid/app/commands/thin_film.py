@@ -48,6 +48,7 @@ def add_parser(subparsers):
     sp.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     sp.add_argument("--name", default="thin_film", metavar="STEM", help="file stem")
     sp.add_argument("--dpi", type=_args.count, default=150, metavar="DPI", help="resolution of the PNG")
+    _args.add_output_options(sp)
     sp.set_defaults(func=run, parser=sp)
     return sp
 
@@ -61,7 +62,8 @@ def run(args) -> int:
     if args.n_film < 1.0:
         raise ValueError("--n-film must be >= 1 (the outer medium is air)")
     panels = []
-    bar = _args.progress_bar("thin-film panels", total=len(thin_film_ibl.THIN_FILM_IBL_PANELS), unit="panel")
+    bar = _args.progress_bar(f"torchirid {NAME}", total=len(thin_film_ibl.THIN_FILM_IBL_PANELS), unit="panel",
+                             quiet=args.quiet)
     try:
         for panel in thin_film_ibl.THIN_FILM_IBL_PANELS:
             panels.append(thin_film_ibl.thin_film_ibl_comparison(
@@ -72,20 +74,21 @@ def run(args) -> int:
         bar.close()
     out = Path(args.out)
     report = {p.panel: {"stats": p.stats(), "seconds": p.seconds, "params": p.params} for p in panels}
-    paths = [out / f"{args.name}.png", out / f"{args.name}_roughness.npz", out / f"{args.name}_thickness.npz",
-             out / f"{args.name}.json"]
+    figures = _args.figure_paths(out, args.name, args.format)
+    paths = [out / f"{args.name}_roughness.npz", out / f"{args.name}_thickness.npz", out / f"{args.name}.json"]
     try:
         out.mkdir(parents=True, exist_ok=True)
-        thin_film_ibl.save_thin_film_ibl_png(panels, paths[0], dpi=args.dpi)
-        thin_film_ibl.save_thin_film_ibl_npz(panels[0], paths[1])
-        thin_film_ibl.save_thin_film_ibl_npz(panels[1], paths[2])
+        for path in figures:
+            thin_film_ibl.save_thin_film_ibl_png(panels, path, dpi=args.dpi)
+        thin_film_ibl.save_thin_film_ibl_npz(panels[0], paths[0])
+        thin_film_ibl.save_thin_film_ibl_npz(panels[1], paths[1])
         text = json.dumps(json_ready(report), indent=2, sort_keys=True, allow_nan=False) + "\n"  # strict: NaN → null
-        atomic_write(paths[3], lambda f: f.write(text.encode()))
+        atomic_write(paths[2], lambda f: f.write(text.encode()))
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
     for p in panels:
         for k, st in p.stats().items():
             print(f"{p.panel:9s} {k:10s} ΔE2000 mean {st['mean']:6.2f}  p95 {st['p95']:6.2f}  max {st['max']:6.2f}")
-    for path in paths:
+    for path in [*figures, *paths]:
         print(path)
     return 0

@@ -13,6 +13,7 @@ import os
 import numpy as np
 
 from ..._io import atomic_write
+from ._format import figure_format
 
 __all__ = ["INVALID_COLOUR", "plot_film_map", "save_film_map_png"]
 
@@ -46,4 +47,4 @@ def save_film_map_png(image, path: str | os.PathLike, title: str, label: str, *,
     The directory must exist; ``OSError`` propagates.
     """
     fig = plot_film_map(image, title, label, cmap=cmap)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi))

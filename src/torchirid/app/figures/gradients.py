@@ -31,6 +31,7 @@ import torch
 
 from ... import _checks
 from ..._io import atomic_write, json_ready
+from ._format import figure_format
 from ...color import spectrum_to_xyz, xyz_to_srgb
 from ...optics import bragg_reflectance, thin_film_reflectance
 from ...spectral import bragg_xyz
@@ -406,7 +407,7 @@ def save_gradient_atlas_png(atlas: GradientAtlas, path: str | os.PathLike, *, dp
     The directory must exist; ``OSError`` propagates. Returns ``path`` as a ``Path``.
     """
     fig = plot_gradient_atlas(atlas)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi))
 
 
 def save_gradient_atlas_npz(atlas: GradientAtlas, path: str | os.PathLike):

@@ -20,6 +20,7 @@ import torch
 
 from ... import _checks
 from ..._io import atomic_write, json_ready
+from ._format import figure_format
 from ...optics import bragg_reflectance, thin_film_reflectance
 from ..._version import __version__
 
@@ -313,7 +314,7 @@ def save_reflectance_map_png(rmap: ReflectanceMap, path: str | os.PathLike, *, d
     The directory must exist; ``OSError`` propagates. Returns ``path`` as a ``Path``.
     """
     fig = plot_reflectance_map(rmap)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi))
 
 
 def save_reflectance_map_npz(rmap: ReflectanceMap, path: str | os.PathLike):

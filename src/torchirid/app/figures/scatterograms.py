@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from ..._io import atomic_write, json_ready
+from ._format import figure_format
 from ...layered import Scatterogram, projection_radius, scatterogram_srgb
 
 __all__ = [
@@ -99,7 +100,7 @@ def save_scatterograms_png(scatterograms, path: str | os.PathLike, *, dpi: int =
     The directory must exist; ``OSError`` propagates. Returns ``path`` as a ``Path``.
     """
     fig = plot_scatterograms(scatterograms, **plot_kwargs)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi, facecolor="white"))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi, facecolor="white"))
 
 
 def save_scatterograms_npz(scatterograms, path: str | os.PathLike):

@@ -39,6 +39,7 @@ import torch
 from ... import _checks
 from ..._cache import cached
 from ..._io import atomic_write, json_ready
+from ._format import figure_format
 from ...optics.film_stack import hirayama_stacks
 from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 from ..._version import __version__
@@ -385,8 +386,11 @@ class SpherePanels:
     params: dict = field(repr=False)
 
 
-def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **kwargs) -> SpherePanels:
+def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, *, progress=None,
+                  **kwargs) -> SpherePanels:
     """Render every (stack, σ₀) as a coated and an uncoated sphere (:func:`render_sphere` kwargs).
+
+    ``progress``: optional callable, called once per rendered sphere (2 · stacks · σ₀ calls).
 
     Example:
         >>> p = render_panels({"Al": ("Al", [(1.4, 300.0)])}, sigmas=(0.0,), size=8, wavelength_step=50.0)
@@ -400,7 +404,11 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, **
         substrate, films = stacks[name]
         row_i, row_c, row_l = [], [], []
         for s in sigmas:
-            pair = [render_sphere(substrate, films, float(s), tau, coated=c, **kwargs) for c in (True, False)]
+            pair = []
+            for c in (True, False):
+                pair.append(render_sphere(substrate, films, float(s), tau, coated=c, **kwargs))
+                if progress is not None:
+                    progress()
             row_i.append(np.stack([p.srgb for p in pair]))
             row_c.append(np.array([[p.chroma_mean, p.chroma_p95] for p in pair]))
             row_l.append(np.array([p.lightness_mean for p in pair]))
@@ -457,7 +465,7 @@ def plot_panels(panels: SpherePanels, title: str = ""):
 def save_panels_png(panels: SpherePanels, path, *, title: str = "", dpi: int = 130) -> Path:
     """Write :func:`plot_panels` atomically as a PNG."""
     fig = plot_panels(panels, title)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi, facecolor="black"))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi, facecolor="black"))
 
 
 def save_panels_npz(panels: SpherePanels, path) -> Path:

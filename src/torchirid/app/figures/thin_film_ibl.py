@@ -35,6 +35,7 @@ import torch
 
 from ... import _checks
 from ..._io import atomic_write, json_ready
+from ._format import figure_format
 from ...color.convert import xyz_to_lab, xyz_to_linear_srgb, linear_srgb_to_srgb
 from ...color.difference import delta_e_2000
 from ...ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
@@ -250,7 +251,7 @@ def plot_thin_film_ibl(panels):
 def save_thin_film_ibl_png(panels, path: str | os.PathLike, *, dpi: int = 150):
     """Draw :func:`plot_thin_film_ibl` and write it atomically as a PNG. Returns the path."""
     fig = plot_thin_film_ibl(panels)
-    return atomic_write(path, lambda f: fig.savefig(f, format="png", dpi=dpi))
+    return atomic_write(path, lambda f: fig.savefig(f, format=figure_format(path), dpi=dpi))
 
 
 def save_thin_film_ibl_npz(panel: ThinFilmIBLComparison, path: str | os.PathLike):
