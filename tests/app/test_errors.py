@@ -99,3 +99,32 @@ def test_the_console_process(tmp_path):
     assert proc.returncode == 2
     assert proc.stderr.splitlines() == [proc.stderr.strip()] and proc.stderr.startswith("torchirid spectrum: error: ")
     assert proc.stdout == ""
+
+
+#: issue 22: every subcommand, every class of bad argument → status 2 and one line
+#: (missing and empty files: the one command that reads files, tests/app/test_fit_film_bad_files.py)
+ERROR_CLASSES = {
+    "spectrum": {"nan": ["--d1", "nan"], "negative": ["--d1", "-5"], "unit": ["--wavelengths", "5e-7", "7.8e-7", "5"]},
+    "gradients": {"nan": ["--lambdas", "nan"], "negative": ["--lambdas", "-244"], "unit": ["--lambdas", "2.44e-7"]},
+    "scatterogram": {"nan": ["--alpha", "nan"], "negative": ["--alpha", "-0.1"],
+                     "unit": ["--wavelengths", "4.2e-7", "6.8e-7", "4"]},
+    "film-table": {"nan": ["--wavelengths", "400", "nan", "5"], "negative": ["--angles", "-3"],
+                   "unit": ["--wavelengths", "4e-7", "7e-7", "5"]},
+    "render-sphere": {"nan": ["--tau", "nan"], "negative": ["--tau", "-1"], "unit": ["--wavelength-step", "5e-9"]},
+    "thin-film": {"nan": ["--alpha", "nan"], "negative": ["--thickness", "-10"], "unit": ["--thickness", "3e-7"]},
+    "fit-film": {"nan": ["c.npz", "--bandwidth", "nan"], "negative": ["c.npz", "--bandwidth", "-4"],
+                 "unit": ["c.npz", "--thickness-range", "2e-8", "2e-6"]},
+}
+
+
+def test_error_classes_cover_every_subcommand():
+    assert set(ERROR_CLASSES) == {command.NAME for command in cli.COMMANDS}
+
+
+@pytest.mark.parametrize("command,kind", [(c, k) for c in sorted(ERROR_CLASSES) for k in ("nan", "negative", "unit")])
+def test_every_bad_argument_class_is_one_line_and_status_2(tmp_path, capsys, command, kind):
+    code, out, err = _run(capsys, [command, "--out", str(tmp_path / "out"), *ERROR_CLASSES[command][kind]])
+    _check_one_line(code, err, command)
+    if kind == "unit":
+        assert "nm" in err
+    assert not (tmp_path / "out").exists()

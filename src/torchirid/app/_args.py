@@ -139,6 +139,32 @@ def nonnegative(text: str) -> float:
     return value
 
 
+#: the shortest length (nm) taken at face value on the command line: anything shorter and > 0 is
+#: almost surely metres or micrometres (a 300 nm film written 3e-7)
+MIN_LENGTH_NM = 0.01
+
+
+def _length(text: str, allow_zero: bool) -> float:
+    value = number(text)
+    if value < 0 or (value == 0 and not allow_zero):
+        raise argparse.ArgumentTypeError(f"expected a length in nm {'>= 0' if allow_zero else '> 0'}, got {text!r}")
+    if 0 < value < MIN_LENGTH_NM:
+        raise argparse.ArgumentTypeError(
+            f"expected a length in nm, got {text!r}: lengths are in nm (metres or micrometres? "
+            f"300 nm is 300, not 3e-7 or 0.3)")
+    return value
+
+
+def length(text: str) -> float:
+    """A length in nm, finite, >= 0, not below MIN_LENGTH_NM unless 0 (a unit mistake)."""
+    return _length(text, allow_zero=True)
+
+
+def positive_length(text: str) -> float:
+    """A length in nm, finite, > 0, not below MIN_LENGTH_NM (a unit mistake)."""
+    return _length(text, allow_zero=False)
+
+
 def count(text: str) -> int:
     """A whole number >= 1."""
     try:

@@ -61,13 +61,13 @@ def add_parser(subparsers):
     p.add_argument("--polarization", choices=_args.POLARIZATIONS, default="unpolarized",
                    help="polarization seen by the camera (default: unpolarized, as everywhere in torchirid; "
                         "Kobayashi et al. measure the s wave through a polarizer: --polarization s)")
-    p.add_argument("--bandwidth", type=_args.positive, default=None, metavar="NM",
+    p.add_argument("--bandwidth", type=_args.positive_length, default=None, metavar="NM",
                    help="band width in nm (default: from the file, else 4)")
     p.add_argument("--passband", choices=("box", "gaussian"), default="box")
     p.add_argument("--index-model", choices=("auto", "constant", "cauchy", "cauchy3"), default="auto",
                    help="film index model: auto (default) fits constant, cauchy and cauchy3 on a pixel sample and "
                         "keeps the least BIC; cauchy3 for a dispersive film such as ZnS")
-    p.add_argument("--thickness-range", type=_args.positive, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
+    p.add_argument("--thickness-range", type=_args.positive_length, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
     p.add_argument("--smoothness", type=_args.nonnegative, default=0.0,
                    help="spatial smoothness weight (reflectance²/nm²)")
     p.add_argument("--threads", type=_args.count, default=None, help="torch threads (default: torch's)")

@@ -62,7 +62,7 @@ def add_parser(subparsers):
     g.add_argument("--n2", type=_args.positive, default=1.5, metavar="N",
                    help="real index of layer 2 and of the thin film")
     g.add_argument("--cells", type=_args.count, default=20, metavar="COUNT", help="number N of cells of the mirrors")
-    g.add_argument("--lambdas", type=_args.positive, nargs="+", default=[244.0, 500.0, 988.0], metavar="NM",
+    g.add_argument("--lambdas", type=_args.positive_length, nargs="+", default=[244.0, 500.0, 988.0], metavar="NM",
                    help="periods Λ = d1 + d2 in nm, one row each (the thin film's thickness too)")
     g.add_argument("--ratios", type=_ratio, nargs="+", default=[0.1, 0.3, 0.5, 0.7, 0.9], metavar="R",
                    help="ratios d1/Λ in (0, 1), one column each")

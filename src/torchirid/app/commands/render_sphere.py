@@ -63,11 +63,11 @@ def add_parser(subparsers):
     p.add_argument("--substrate", default="Al", help="substrate material for --preset custom (Al, Si, Cu, Ag, Au or an index)")
     p.add_argument("--film", type=_film, action="append", default=None, metavar="MAT:NM",
                    help="a film for --preset custom, from the air side down (repeat)")
-    p.add_argument("--sigma", type=_args.nonnegative, nargs="+", default=None, metavar="NM",
+    p.add_argument("--sigma", type=_args.length, nargs="+", default=None, metavar="NM",
                    help="rms roughness values σ0 in nm (default: 0 25 50 for fig8, 0 50 for table1)")
-    p.add_argument("--tau", type=_args.positive, default=300.0, metavar="NM", help="autocorrelation length τ in nm")
+    p.add_argument("--tau", type=_args.positive_length, default=300.0, metavar="NM", help="autocorrelation length τ in nm")
     p.add_argument("--size", type=_args.count, default=128, help="sphere image side in pixels (>= 8)")
-    p.add_argument("--wavelength-step", type=_args.positive, default=5.0, metavar="NM",
+    p.add_argument("--wavelength-step", type=_args.positive_length, default=5.0, metavar="NM",
                    help="spectral step over 380–780 nm")
     p.add_argument("--lamp", default="FL10", help="CIE fluorescent illuminant (FL1..FL12, FL3.x)")
     p.add_argument("--ambient", type=_args.nonnegative, default=0.35,
@@ -82,6 +82,8 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Render, draw and write the panels; prints the chroma table. Exit status: 0, 1 (write), 2 (bad argument)."""
+    if not 0.1 <= args.wavelength_step <= 100.0:  # (5e-9 asked for a 640 GB spectrum)
+        raise ValueError(f"--wavelength-step must lie in [0.1, 100] nm; got {args.wavelength_step:g}")
     sigmas = args.sigma if args.sigma is not None else ((0.0, 50.0) if args.preset == "table1" else (0.0, 25.0, 50.0))
     out = Path(args.out)
     if out.exists() and not out.is_dir():

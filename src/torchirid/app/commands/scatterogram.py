@@ -65,8 +65,8 @@ def add_parser(subparsers):
                    metavar="NAME", help=f"one column each: {', '.join(JEWEL_BEETLE_NAMES)} or custom")
     g.add_argument("--n1", type=_args.positive, default=1.59, metavar="N", help="custom: index n1 (low)")
     g.add_argument("--n2", type=_args.positive, default=1.67, metavar="N", help="custom: index n2 (high)")
-    g.add_argument("--d1", type=_args.positive, default=78.4, metavar="NM", help="custom: thickness d1 in nm")
-    g.add_argument("--d2", type=_args.positive, default=81.6, metavar="NM", help="custom: thickness d2 in nm")
+    g.add_argument("--d1", type=_args.positive_length, default=78.4, metavar="NM", help="custom: thickness d1 in nm")
+    g.add_argument("--d2", type=_args.positive_length, default=81.6, metavar="NM", help="custom: thickness d2 in nm")
     g.add_argument("--cells", type=_args.count, default=8, metavar="COUNT", help="custom: number N of cells")
     g.add_argument("--alpha", type=_args.positive, default=0.05, metavar="A", help="custom: GGX roughness α")
     g.add_argument("--n-incident", type=_args.positive, default=1.0, metavar="N",

@@ -41,15 +41,15 @@ def add_parser(subparsers):
         "--n1", type=_args.index, default=1.0, metavar="N", help="index of layer 1 (also the medium below the mirror)"
     )
     g.add_argument("--n2", type=_args.index, default=1.5, metavar="N", help="refractive index of layer 2")
-    g.add_argument("--d1", type=_args.number, default=125.0, metavar="NM", help="thickness of layer 1 in nm")
-    g.add_argument("--d2", type=_args.number, default=375.0, metavar="NM", help="thickness of layer 2 in nm")
+    g.add_argument("--d1", type=_args.length, default=125.0, metavar="NM", help="thickness of layer 1 in nm")
+    g.add_argument("--d2", type=_args.length, default=375.0, metavar="NM", help="thickness of layer 2 in nm")
     g.add_argument("--cells", type=int, default=20, metavar="COUNT", help="number N of cells (layer pairs)")
 
     g = sp.add_argument_group(
         "thin film (--kind thin-film)", "the stack n_incident | (n_film, thickness) | n_substrate, lit from n_incident"
     )
     g.add_argument("--n-film", type=_args.index, default=1.5, metavar="N", help="refractive index of the film")
-    g.add_argument("--thickness", type=_args.number, default=375.0, metavar="NM", help="film thickness in nm")
+    g.add_argument("--thickness", type=_args.length, default=375.0, metavar="NM", help="film thickness in nm")
     g.add_argument(
         "--n-substrate", type=_args.index, default=1.0, metavar="N", help="refractive index of the medium below the film"
     )

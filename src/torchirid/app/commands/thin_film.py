@@ -40,10 +40,10 @@ def add_parser(subparsers):
     sp.add_argument("--n-film", type=_args.positive, default=1.3, metavar="N", help="film index η2 (real, >= 1)")
     sp.add_argument("--base", type=_args.index, default=complex(2.0, 0.5), metavar="N",
                     help="base index η3 + iκ3, e.g. 2+0.5j (non-dispersive)")
-    sp.add_argument("--thickness", type=_args.positive, default=600.0, metavar="NM",
+    sp.add_argument("--thickness", type=_args.positive_length, default=600.0, metavar="NM",
                     help="film thickness of the roughness panel")
     sp.add_argument("--alpha", type=_args.positive, default=0.25, metavar="A", help="GGX roughness of the thickness panel")
-    sp.add_argument("--max-thickness", type=_args.positive, default=1000.0, metavar="NM", help="end of the thickness axis")
+    sp.add_argument("--max-thickness", type=_args.positive_length, default=1000.0, metavar="NM", help="end of the thickness axis")
     sp.add_argument("--resolution", type=_args.count, default=32, metavar="CELLS", help="cells per axis of each panel")
     sp.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     sp.add_argument("--name", default="thin_film", metavar="STEM", help="file stem")
