@@ -16,6 +16,12 @@ with :math:`φ_j = 2π q_j d_j / λ` and ``q = n cos θ`` on the branch ``Im q �
 decaying factors :math:`|e^{iφ}| = e^{-\mathrm{Im}\,φ} ≤ 1` are ever formed, never
 :math:`e^{+\mathrm{Im}\,φ}`: a micrometre of metal underflows to exactly zero transmission
 and the reflectance of the bulk metal, with no clamping of the phase.
+
+:func:`multilayer` runs the recursion as a fraction ``γ = N / D`` (three complex multiply-adds
+per film, both polarizations in one pass, ``|τ|²`` telescoped; ``_transfer_fast``), with
+``t_j = 2η_{j-1}/(η_{j-1} + η_j)`` (no cancellation where ``r → −1``). :func:`recursion` below is
+the division form, used by the thin film and as the tests' reference. Exactly at grazing
+incidence R is the limit ``cos θ → 0``: 1, or 0 for a stack invisible there.
 """
 
 from __future__ import annotations
@@ -25,6 +31,7 @@ import math
 import torch
 
 from .. import _checks
+from ._transfer_fast import reflect_transmit
 from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
 
 __all__ = ["multilayer"]
@@ -77,12 +84,23 @@ def recursion(eta: torch.Tensor, e1: torch.Tensor, e2: torch.Tensor, with_transm
     return gamma, tau
 
 
-def stack_wavenumbers(lam, c, n, d):
+def interface_amplitudes(eta_i: torch.Tensor, eta_j: torch.Tensor):
+    """``r = (η_i − η_j)/(η_i + η_j)`` and ``|t|² = |2η_i / (η_i + η_j)|²`` (``t = 1 + r`` without
+    its cancellation where r → −1: near a film's critical angle, near grazing); ``|t|² = 1``
+    where the two media are the same (r = 0, also at grazing where η_i = η_j = 0)."""
+    r = interface(eta_i, eta_j)
+    den = eta_i + eta_j
+    same = den == 0
+    den2 = torch.where(same, torch.ones_like(den.real), den.real * den.real + den.imag * den.imag)
+    num2 = 4 * (eta_i.real * eta_i.real + eta_i.imag * eta_i.imag)
+    return r, torch.where(same, torch.ones_like(den2), num2 / den2)
+
+
+def stack_normal_wavenumbers(c, n, cdt):
     """Normal wavenumbers ``q = n cos θ`` of every medium ``[..., L+2]`` (Im q ≥ 0; critical
-    films nudged), the film phase factors ``e1 = exp(iφ_j)``, ``e2 = e1²`` ``[..., L]`` and the
-    indices broadcast to ``q``'s shape, for validated real ``lam``, cosine ``c`` (grazing
-    flushed), indices ``n`` and thicknesses ``d``. Shared by the smooth and rough multilayers."""
-    cdt = _checks.complex_dtype(lam.dtype)
+    films nudged) and the indices broadcast to ``q``'s shape, for a validated cosine ``c``
+    (grazing flushed) and indices ``n``, in the complex dtype ``cdt``. ``q`` has the batch of
+    ``c`` and ``n`` only (no wavelength axis)."""
     n0 = n[..., 0].real if n.is_complex() else n[..., 0]
     s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
     nc = n.to(cdt)
@@ -91,11 +109,26 @@ def stack_wavenumbers(lam, c, n, d):
     q0, q_inner = torch.broadcast_tensors(q0[..., None], q_inner)
     films = nudge_critical(q_inner[..., :-1], nc[..., 1:-1], (c > 0)[..., None])
     q = torch.cat([q0[..., :1], films, q_inner[..., -1:]], dim=-1)
+    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
+    return q, nc_b
+
+
+def stack_wavenumbers(lam, c, n, d):
+    """Normal wavenumbers ``q = n cos θ`` of every medium ``[..., L+2]`` (Im q ≥ 0; critical
+    films nudged), the film phase factors ``e1 = exp(iφ_j)``, ``e2 = e1²`` ``[..., L]`` and the
+    indices broadcast to ``q``'s shape, for validated real ``lam``, cosine ``c`` (grazing
+    flushed), indices ``n`` and thicknesses ``d``. Used by the rough multilayer."""
+    q, nc_b = stack_normal_wavenumbers(c, n, _checks.complex_dtype(lam.dtype))
     # phase φ_j = 2π q_j d_j / λ of the films; only decaying exponentials are formed
     phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
     e1 = torch.exp(1j * phi)
-    nc_b = nc.expand(q.shape) if nc.shape != q.shape else nc
     return q, e1, e1 * e1, nc_b
+
+
+def _polarization_mean(x: torch.Tensor) -> torch.Tensor:
+    """Mean over the leading polarization axis (1 or 2 entries): ``(x_s + x_p) / 2``, one add on
+    the batch instead of a reduction."""
+    return x[0] if x.shape[0] == 1 else (x[0] + x[1]) * 0.5
 
 
 def check_stack_shape(n: torch.Tensor, d: torch.Tensor) -> None:
@@ -150,19 +183,27 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     _checks.check_nonnegative(d, "thicknesses")
     _checks.check_index(n, "indices")
     _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
-    q, e1, e2, nc_b = stack_wavenumbers(lam, _checks.flush_grazing(c), n, d)
-    eta = align_polarization_axis(stack_admittances(q, nc_b, polarization), e2.shape[:-1])
-    gamma, tau = recursion(eta, e1, e2)
-    R = (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp
-
-    # eq. 6: T = Re(η_B)/η_A |τ|^2, the Poynting flux just inside the exit medium (τ is the
-    # tangential-field amplitude of the admittance form, so this holds for complex η_B too)
-    eta0 = eta[..., 0].real
-    grazing = eta0 == 0  # (a NaN input is not grazing: it propagates)
-    safe0 = torch.where(grazing, torch.ones_like(eta0), eta0)
-    T = (tau.real ** 2 + tau.imag ** 2) * eta[..., -1].real / safe0
-    T = torch.where(grazing, torch.zeros_like(T), T)  # grazing incidence carries no power in
-    T = T.mean(0).clamp(0, 1)
-    R, T = torch.broadcast_tensors(R, T)
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    q, nc_b = stack_normal_wavenumbers(_checks.flush_grazing(c), n, _checks.complex_dtype(dtype))
+    eta = align_polarization_axis(stack_admittances(q, nc_b, polarization), batch)  # [P, *Bq, L+2]
+    r, t2 = interface_amplitudes(eta[..., :-1], eta[..., 1:])  # [P, *Bq, L+1]
+    # eq. 6: T = Re(η_B)/η_A |τ|^2, the Poynting flux just inside the exit medium (τ is the
+    # tangential-field amplitude of the admittance form, so this holds for complex η_B too);
+    # the factor rides on the exit interface's |t|², so that the kernel returns T directly
+    eta0 = eta[..., 0].real
+    grazing = eta0 == 0  # grazing incidence carries no power in (a NaN input is not grazing)
+    safe0 = torch.where(grazing, torch.ones_like(eta0), eta0)
+    flux = torch.where(grazing, torch.zeros_like(eta0), eta[..., -1].real / safe0)
+    t2 = torch.cat([t2[..., :-1], t2[..., -1:] * flux[..., None]], dim=-1)
+    k = (2 * math.pi) * q[..., 1:-1] * d  # film phases φ_j = k_j / λ
+    R, T = reflect_transmit(r, t2, k, 1 / lam, batch)  # |γ|², T per polarization: [P, *batch]
+    if _checks.traceable() or bool(grazing.any()):
+        # exactly at grazing (η = 0 in every medium of the incident index) the recursion holds only
+        # rounding where the stack meets 0/0 (zero-thickness films between such media): R is the
+        # limit cos θ → 0 there, 1 unless nothing is visible (every film of another index has
+        # d = 0 and the exit medium has the incident index), then 0 (a NaN input stays NaN)
+        visible = ((eta[..., 1:-1] != 0) & (d > 0)).any(-1) | (eta[..., -1] != 0)
+        R = torch.where(grazing & ~R.isnan(), visible.to(R.dtype), R)
+    R = _polarization_mean(R).clamp(0, 1)  # |γ|² ≤ 1 up to an ulp
+    T = _polarization_mean(T).clamp(0, 1)
     return R.expand(batch), T.expand(batch)
