@@ -78,7 +78,7 @@ def _value_check(fn):
 
     @functools.wraps(fn)
     def run(*args, **kwargs):
-        if _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling():
+        if value_checks_enabled():
             return fn(*args, **kwargs)
         return None
 

@@ -29,15 +29,6 @@ LAM = torch.linspace(380.0, 780.0, 41, dtype=F64)
 INCS = [(0.0, 0.0), (40.0, 0.0)]
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """The fits run hundreds of small renders: intra-op threads only add synchronisation
-    (on a loaded 2-core machine a 12-pixel render took 0.6 s with 2 threads, 4 ms with 1)."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
 
 @pytest.fixture(scope="module")
 def green_target():

@@ -29,14 +29,6 @@ INCS = [(0.0, 0.0), (30.0, 0.0), (60.0, 0.0)]
 SMALL = dict(incident_deg=INCS, n1=1.6, wavelength=LAM, cells=(6, 8, 10), period_step=5.0, short_iter=6, max_iter=10)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def _one_thread():
-    """Hundreds of small renders: intra-op threads only add synchronisation (see test_scatterogram_fit)."""
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
 
 @pytest.fixture(scope="module")
 def target():

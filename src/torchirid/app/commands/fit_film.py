@@ -97,7 +97,7 @@ def run(args) -> int:
         cube = read_cube(paths, angles_deg=args.angles)  # ValueError naming the file (→ exit 2)
     except (OSError, ImportError) as exc:  # an unreadable CUBE, or ENVI without 'spectral': one line too
         return _args.fail(NAME, exc)
-    top = float(torch.nan_to_num(cube.cube.double(), nan=0.0, posinf=0.0, neginf=0.0).max())
+    top = float(torch.nan_to_num(cube.cube, nan=0.0, posinf=0.0, neginf=0.0).max())  # (read_cube gives float64)
     if top > MAX_REFLECTANCE:
         # data in percent (or counts): the fit would chase n ≈ 100 and exit 0 with nonsense
         raise ValueError(f"the cube holds reflectances up to {top:g} (> {MAX_REFLECTANCE:g}): fit-film needs reflectance "
