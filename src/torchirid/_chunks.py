@@ -13,10 +13,15 @@ Bragg's real closed form chooses its guarded branch near critical angles from th
 the batch it is given; a block may take the other, equally accurate branch (≤ 5e-13 apart,
 both within 1e-12 of tmm).
 
+With a gradient, the autograd graph of a whole batch holds every intermediate (~1 kB per point
+for Bragg): batches above :data:`CHECKPOINT_POINTS` are evaluated in blocks under activation
+checkpointing, which keeps one block's graph alive at a time and recomputes it in the backward
+pass (about one more forward pass of time). Smaller batches with a gradient are evaluated at once.
+
 One knob: :func:`set_chunk_size` (process-wide; ``TORCHIRID_CHUNK_SIZE`` in the environment) or
-the :func:`chunk_size` context manager. ``None``/0 turns chunking off. With gradients, under
-``torch.func`` transforms or ``torch.compile`` (:func:`torchirid._checks.traceable`) the whole
-batch is evaluated at once.
+the :func:`chunk_size` context manager. ``None``/0 turns chunking off. Under ``torch.func``
+transforms or ``torch.compile`` (:func:`torchirid._checks.traceable`) the whole batch is
+evaluated at once.
 """
 
 from __future__ import annotations
@@ -32,8 +37,11 @@ from . import _checks
 
 __all__ = ["chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
 
-#: default block size in points (measured: docs/performance.md, benchmarks/throughput.py)
-DEFAULT_CHUNK_SIZE = 1 << 15
+#: default block size in points (measured: docs/performance.md, benchmarks/throughput.py). Four
+#: times torch's parallel grain (32 768 elements): every elementwise op of a block still splits
+#: over the intra-op threads (a block of exactly the grain runs on one thread), and a block's
+#: intermediates (~1 MB each in float64) stay within the L2/L3 caches of a laptop.
+DEFAULT_CHUNK_SIZE = 1 << 17
 
 
 def _initial() -> int | None:
@@ -59,7 +67,7 @@ def _check(points):
 
 
 def set_chunk_size(points: int | None = DEFAULT_CHUNK_SIZE) -> None:
-    """Points per block of the chunked kernels (default 32768); ``None`` or 0: no chunking.
+    """Points per block of the chunked kernels (default 131072); ``None`` or 0: no chunking.
 
     A batch of up to twice this many points is evaluated in one piece.
 
@@ -92,17 +100,43 @@ def _wants_grad(tensors) -> bool:
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in tensors)
 
 
-def evaluate(kernel, tensors, batch, **options) -> torch.Tensor:
+#: a block holds at least this many points however wide the kernel (each block costs ~0.5 ms of
+#: Python and dispatch; 64 points of the widest kernel, a 3 760-node quadrature per colour, keep
+#: ~15 MB per intermediate)
+MIN_BLOCK_POINTS = 64
+
+#: with a gradient, batches above this many points are evaluated block by block under
+#: activation checkpointing (one block's graph alive at a time, recomputed in the backward pass)
+CHECKPOINT_POINTS = 1 << 20
+
+
+def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int = 1, grad_inputs=(), **options):
     """``kernel(*tensors, **options)`` broadcast to ``batch``, block by block when that pays.
 
-    ``tensors`` broadcast to ``batch`` (right-aligned; None entries pass through); the kernel
-    must be elementwise in the batch and return one real tensor broadcastable to it.
+    ``tensors`` broadcast to ``batch`` (right-aligned, after dropping their ``core`` trailing
+    axes: ``core[i]`` per tensor, default 0; None entries and Python numbers pass through); the
+    kernel must be elementwise in the batch and return one real tensor, or a tuple of them,
+    broadcastable to ``batch`` followed by ``out_core`` trailing axes of its own (e.g. 1 for XYZ).
+    ``width`` is the kernel's inner work per point (e.g. quadrature nodes × wavelengths): a
+    block holds ``get_chunk_size() // width`` points (at least :data:`MIN_BLOCK_POINTS`), so
+    that its intermediates stay about the size of a block of a one-wide kernel.
+
+    Without a gradient, batches over twice that many points are evaluated in blocks into
+    preallocated outputs (under ``torch.inference_mode``). With a gradient, batches over
+    :data:`CHECKPOINT_POINTS` (and over twice the block size) are evaluated in blocks under
+    :func:`torch.utils.checkpoint.checkpoint`: only each block's inputs and outputs are kept for
+    the backward pass, which recomputes one block's graph at a time (about one more forward
+    pass of time, memory of one block's graph instead of the whole batch's).
     """
-    points = _STATE["points"]
+    batch = tuple(batch)
+    chunk = _STATE["points"]
+    points = None if chunk is None else max(min(chunk, MIN_BLOCK_POINTS), chunk // max(1, int(width)))
     total = math.prod(batch)
-    if (points is None or total <= 2 * points or _wants_grad(tensors) or _checks.traceable()
-            or len(batch) == 0):
-        return kernel(*tensors, **options).expand(batch)
+    core = (0,) * len(tensors) if core is None else tuple(core)
+    grad = _wants_grad(tensors) or _wants_grad(grad_inputs)
+    if (points is None or total <= 2 * points or (grad and total * width <= CHECKPOINT_POINTS)
+            or _checks.traceable() or len(batch) == 0):
+        return _expand(kernel(*tensors, **options), batch, out_core)
     nd = len(batch)
     # the outermost axis k whose inner block (axes after k) fits in one chunk; step along k
     inner = 1
@@ -111,26 +145,68 @@ def evaluate(kernel, tensors, batch, **options) -> torch.Tensor:
         inner *= batch[k]
         k -= 1
     step = max(1, points // inner)
+    blocks = [(*(slice(i, i + 1) for i in outer), slice(begin, min(begin + step, batch[k])))
+              for outer in itertools.product(*(range(n) for n in batch[:k]))
+              for begin in range(0, batch[k], step)]
+    if grad:
+        return _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options)
     out = None
-    for outer in itertools.product(*(range(n) for n in batch[:k])):
-        for begin in range(0, batch[k], step):
-            index = (*(slice(i, i + 1) for i in outer), slice(begin, min(begin + step, batch[k])))
-            args = [_take(t, index, nd) for t in tensors]
-            with torch.inference_mode():
-                part = kernel(*args, **options)
-            if out is None:
-                out = torch.empty(batch, dtype=part.dtype, device=part.device)
-            block = out[index]
-            block.copy_(part.expand(block.shape))
-    return out
+    for index in blocks:
+        args = [_take(t, index, nd, c) for t, c in zip(tensors, core)]
+        with torch.inference_mode():
+            part = kernel(*args, **options)
+        single = not isinstance(part, tuple)
+        parts = (part,) if single else part
+        if out is None:
+            out = tuple(torch.empty((*batch, *_tail(p, out_core)), dtype=p.dtype, device=p.device) for p in parts)
+        for o, p in zip(out, parts):
+            block = o[index]
+            block.copy_(p.expand(block.shape))
+    return out[0] if single else out
 
 
-def _take(t, index, nd):
+def _tail(t, out_core):
+    return tuple(t.shape[t.ndim - out_core:]) if out_core else ()
+
+
+def _expand(result, batch, out_core=0):
+    if isinstance(result, tuple):
+        return tuple(r.expand((*batch, *_tail(r, out_core))) for r in result)
+    return result.expand((*batch, *_tail(result, out_core)))
+
+
+def _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options):
+    """Blocks under activation checkpointing, concatenated along axis ``k`` (the leading axes of
+    a block have size 1, so the row-major concatenation reshapes to ``batch``)."""
+    from torch.utils.checkpoint import checkpoint
+
+    nd = len(batch)
+    pieces = []
+    for index in blocks:
+        args = [_take(t, index, nd, c) for t, c in zip(tensors, core)]
+        shape = tuple(_block_shape(batch, index))
+
+        def block(*a, shape=shape):  # (shape bound now: the backward pass recomputes later)
+            return _expand(kernel(*a, **options), shape, out_core)
+
+        part = checkpoint(block, *args, use_reentrant=False)
+        pieces.append(part if isinstance(part, tuple) else (part,))
+    out = tuple(torch.cat([p[i] for p in pieces], dim=k).reshape((*batch, *_tail(pieces[0][i], out_core)))
+                for i in range(len(pieces[0])))
+    return out if len(out) > 1 else out[0]
+
+
+def _block_shape(batch, index):
+    return [len(range(*s.indices(n))) for s, n in zip(index, batch)] + list(batch[len(index):])
+
+
+def _take(t, index, nd, core=0):
     """The block ``index`` (one slice per leading batch axis) of a tensor that broadcasts to a
-    batch of ``nd`` dims (right-aligned); its size-1 axes are kept whole."""
-    if not isinstance(t, torch.Tensor) or t.ndim == 0:
+    batch of ``nd`` dims (right-aligned, after its ``core`` trailing axes); its size-1 axes are
+    kept whole."""
+    if not isinstance(t, torch.Tensor) or t.ndim <= core:
         return t
-    offset = nd - t.ndim
+    offset = nd - (t.ndim - core)
     sel = []
     for axis, idx in enumerate(index):
         a = axis - offset

@@ -44,7 +44,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .fourier import (_check_names, prefiltered_fourier_sensitivity, lookup_prefiltered_sensitivity,
                       thin_film_fourier_terms)
 
@@ -129,6 +129,20 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         if bool((mn > 1.0 + 1e3 * torch.finfo(dtype).eps).any()):
             raise ValueError(f"light_mean must have norm <= 1 (a mean of unit directions); got max "
                              f"{mn.max().item():g}")
+    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
+    batch = _checks.broadcast_shapes(w.shape[:-1], mu.shape[:-1], cov.shape[:-2], nf.shape, d.shape, ns.shape,
+                                     n0.shape)
+    # block by block over large batches (torchirid._chunks): per colour P × M sensitivity values
+    # (× the quadrature's ~3760 nodes with sensitivity="exact")
+    width = 2 * max(terms, 1) * (3 if sensitivity == "lut" else 3760)
+    return _chunks.evaluate(_filtered_xyz, (w, mu, cov, nf, d, ns, n0), batch, core=(1, 1, 2, 0, 0, 0, 0),
+                            out_core=1, width=width, terms=terms, observer=observer, illuminant=illuminant,
+                            polarization=polarization, sensitivity=sensitivity)
+
+
+def _filtered_xyz(w, mu, cov, nf, d, n_substrate, n0, *, terms, observer, illuminant, polarization, sensitivity):
+    """Eq. 20–29 of :func:`filtered_thin_film_xyz` on one block of validated colours."""
+    dtype = w.dtype
     w = w / torch.linalg.vector_norm(w, dim=-1, keepdim=True)
 
     # eq. 20–21: the distribution of ⟨ω_i, ω_o⟩ (clamps: rounding only, |μ| ≤ 1 and Σ PSD)

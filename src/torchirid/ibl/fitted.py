@@ -40,7 +40,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from ..lut import LUT
 from .filtered import _check_sensitivity, _series_xyz
 from .fourier import _check_names, thin_film_fourier_terms
@@ -249,6 +249,20 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
     # (else K meets the film axes: a scalar cos θo with a batch of thicknesses did not broadcast)
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
+    # block by block over large batches (torchirid._chunks): per colour, K components × P × M
+    # sensitivity values (× the quadrature's nodes with sensitivity="exact")
+    K = table.values.shape[-2]
+    nodes = 3 if sensitivity == "lut" else 3760
+    return _chunks.evaluate(_fitted_xyz, (c, a, nf, d, n0, ns), full, out_core=1,
+                            width=K * 2 * max(terms, 1) * nodes, grad_inputs=(table.values,), table=table,
+                            terms=terms, observer=observer, illuminant=illuminant, polarization=polarization,
+                            sensitivity=sensitivity)
+
+
+def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, polarization, sensitivity):
+    """The body of :func:`fitted_thin_film_xyz` on one block of colours."""
+    dtype = c.dtype
     full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
     c, a = c.expand(full), a.expand(full)
     mix = table(cos_theta_o=c, sqrt_alpha=torch.sqrt(a))  # (*, K, 3)

@@ -68,7 +68,7 @@ import warnings
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
 from ..optics.fresnel import admittance, interface, normal_wavenumber
@@ -578,6 +578,24 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
     if sensitivity not in SENSITIVITY_MODES:
         raise ValueError(f"sensitivity must be one of {_checks.names(SENSITIVITY_MODES)}; got {sensitivity!r}")
     _check_names(observer, illuminant)
+    _checks.check_polarization(polarization)
+    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)
+    args = (_checks.as_real(cos_theta, "cos_theta", dtype, device), _checks.as_real(n_film, "n_film", dtype, device),
+            _checks.as_real(thickness, "thickness", dtype, device),
+            _checks.as_index(n_substrate, "n_substrate", dtype, device),
+            _checks.as_real(n_incident, "n_incident", dtype, device))
+    batch = _checks.broadcast_shapes(*(t.shape for t in args))
+    # block by block over large batches (torchirid._chunks); per colour the Ŝ evaluations hold
+    # P·M·3 values with the table and P·M·(quadrature nodes, ~3760) with the quadrature
+    nodes = 3 if sensitivity == "lut" else _quadrature(observer, illuminant, dtype, device)[0].numel()
+    per_colour = 2 * max(terms, 1) * nodes
+    return _chunks.evaluate(_fourier_xyz, args, batch, out_core=1, width=per_colour, terms=terms, observer=observer,
+                            illuminant=illuminant, polarization=polarization, sensitivity=sensitivity)
+
+
+def _fourier_xyz(cos_theta, n_film, thickness, n_substrate, n_incident, *, terms, observer, illuminant, polarization,
+                 sensitivity):
+    """The body of :func:`thin_film_xyz_fourier` on one block of colours."""
     C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident=n_incident,
                                           polarization=polarization)
     fn = fourier_sensitivity if sensitivity == "lut" else fourier_sensitivity_exact

@@ -25,7 +25,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from . import _geometry
 from ..lut import LUT
 from .filter import _hat_weights, _normal_cap, _quadrature, _quadrature_cos
@@ -143,6 +143,13 @@ def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFA
         _checks.broadcast_shapes(c.shape, lam.shape)
     except RuntimeError:
         raise ValueError(f"cos_theta {tuple(c.shape)} and wavelength {tuple(lam.shape)} do not broadcast") from None
+    # block by block over large batches (torchirid._chunks): ``nodes`` reflectances per point
+    params = tuple(v for v in (layer.n1, layer.n2, layer.d1, layer.d2, layer.alpha) if isinstance(v, torch.Tensor))
+    return _chunks.evaluate(_tau_block, (c, lam), _checks.broadcast_shapes(c.shape, lam.shape), width=nodes,
+                            grad_inputs=params, layer=layer, nodes=nodes)
+
+
+def _tau_block(c, lam, *, layer, nodes):
     return _tau(layer, c, lam, nodes)
 
 

@@ -1,4 +1,4 @@
-"""Thin ``nn.Module`` wrappers with learnable parameters, for fitting by gradient descent.
+r"""Thin ``nn.Module`` wrappers with learnable parameters, for fitting by gradient descent.
 
 Each module stores its physical parameters as ``nn.Parameter`` (float64 by default) and calls
 the functional core in ``forward(wavelength, cos_theta)``; options it does not set are left

@@ -30,7 +30,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from ._transfer_fast import reflect_transmit
 from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
 
@@ -184,6 +184,15 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     _checks.check_index(n, "indices")
     _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    # block by block over large batches (torchirid._chunks); n and d carry one trailing stack axis
+    return _chunks.evaluate(_multilayer_core, (lam, c, n, d), batch, core=(0, 0, 1, 1),
+                            polarization=polarization)
+
+
+def _multilayer_core(lam, c, n, d, *, polarization):
+    """(R, T) of validated inputs (the body of :func:`multilayer`, one block of the batch)."""
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    dtype = lam.dtype
     q, nc_b = stack_normal_wavenumbers(_checks.flush_grazing(c), n, _checks.complex_dtype(dtype))
     eta = align_polarization_axis(stack_admittances(q, nc_b, polarization), batch)  # [P, *Bq, L+2]
     r, t2 = interface_amplitudes(eta[..., :-1], eta[..., 1:])  # [P, *Bq, L+1]

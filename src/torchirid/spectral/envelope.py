@@ -36,7 +36,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from ..optics.bragg import yeh_reflectance_kernel
 from .cumulative import shipped_cumulative_cmf_lut
 from .piecewise import _check_domain, _embedded_mirror, _envelope, _fringe_mean, _parts
@@ -184,8 +184,18 @@ def bragg_xyz_envelope(cos_theta, n1, n2, d1, d2, cells, *, polarization: str = 
     dtype, device = A.dtype, A.device
     W = _hat_weights(samples, observer, illuminant, lo, hi, dtype, device)  # cached; read only
     omega = torch.linspace(2 * math.pi / hi, 2 * math.pi / lo, samples, dtype=dtype, device=device)
-    R = _fringe_averaged(omega, A, B, delta, C_coef, N)  # (P, *, K)
+    grazing = mirror["grazing"]
+    batch = _checks.broadcast_shapes(A.shape, B.shape, N.shape, delta.shape[1:], C_coef.shape[1:], grazing.shape)
+    # block by block over large batches (torchirid._chunks): P × K model reflectances per colour;
+    # the polarization axis moves last to ride along as a core axis
+    return _chunks.evaluate(_envelope_xyz, (A, B, delta.movedim(0, -1), C_coef.movedim(0, -1), N, grazing), batch,
+                            core=(0, 0, 1, 1, 0, 0), out_core=1, width=delta.shape[0] * samples, omega=omega, W=W)
+
+
+def _envelope_xyz(A, B, delta, C_coef, N, grazing, *, omega, W):
+    """XYZ of one block of mirrors (polarizations on the last axis of ``delta`` and ``C_coef``)."""
+    R = _fringe_averaged(omega, A, B, delta.movedim(-1, 0), C_coef.movedim(-1, 0), N)  # (P, *, K)
     xyz = R @ W  # (P, *, 3)
     out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
     white = W.sum(dim=0)  # XYZ of R ≡ 1 on this grid (Y = 1)
-    return torch.where(mirror["grazing"].unsqueeze(-1), white.expand_as(out), out)
+    return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
