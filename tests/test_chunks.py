@@ -77,12 +77,12 @@ def test_float32_and_gradients_unchanged():
 
 
 def test_knob():
-    assert ti.get_chunk_size() == 1 << 17
+    assert ti.get_chunk_size() == 1 << 15
     with ti.chunk_size(123):
         assert ti.get_chunk_size() == 123
         with ti.chunk_size(0):
             assert ti.get_chunk_size() is None
-    assert ti.get_chunk_size() == 1 << 17
+    assert ti.get_chunk_size() == 1 << 15
     for bad in (-1, 2.5, True, "1"):
         with pytest.raises(ValueError, match="points"):
             ti.set_chunk_size(bad)

@@ -28,6 +28,7 @@ from . import color, estimation, export, fitting, ibl, layered, lut, materials, 
 from ._cache import clear_caches
 from ._checks import set_value_checks, value_checks, value_checks_enabled
 from ._chunks import chunk_size, get_chunk_size, set_chunk_size
+from ._threads import get_small_work_threads, set_small_work_threads
 from ._compile import compile_enabled, set_compile
 from ._version import __version__
 from .color import delta_e, delta_e_2000, illuminant_spd, cmfs, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
@@ -152,6 +153,8 @@ __all__ = [
     "chunk_size",
     "get_chunk_size",
     "set_chunk_size",
+    "get_small_work_threads",
+    "set_small_work_threads",
     "value_checks",
     "value_checks_enabled",
 ]

@@ -33,15 +33,15 @@ import os
 
 import torch
 
-from . import _checks
+from . import _checks, _threads
 
 __all__ = ["chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
 
-#: default block size in points (measured: docs/performance.md, benchmarks/throughput.py). Four
-#: times torch's parallel grain (32 768 elements): every elementwise op of a block still splits
-#: over the intra-op threads (a block of exactly the grain runs on one thread), and a block's
-#: intermediates (~1 MB each in float64) stay within the L2/L3 caches of a laptop.
-DEFAULT_CHUNK_SIZE = 1 << 17
+#: default block size in points (measured: docs/performance.md, benchmarks/throughput.py). On
+#: 10⁷-point grids, paired against the 36k grid, blocks of 2¹⁵ points cost 0.97–1.14× the small
+#: grid's time per point and blocks of 2¹⁷ 1.6–2.0×: a 2¹⁷-point block's complex intermediates
+#: (2 MB each) are returned to the OS and faulted in again block after block by the C allocator.
+DEFAULT_CHUNK_SIZE = 1 << 15
 
 
 def _initial() -> int | None:
@@ -67,7 +67,7 @@ def _check(points):
 
 
 def set_chunk_size(points: int | None = DEFAULT_CHUNK_SIZE) -> None:
-    """Points per block of the chunked kernels (default 131072); ``None`` or 0: no chunking.
+    """Points per block of the chunked kernels (default 32768); ``None`` or 0: no chunking.
 
     A batch of up to twice this many points is evaluated in one piece.
 
@@ -136,7 +136,8 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     grad = _wants_grad(tensors) or _wants_grad(grad_inputs)
     if (points is None or total <= 2 * points or (grad and total * width <= CHECKPOINT_POINTS)
             or _checks.traceable() or len(batch) == 0):
-        return _expand(kernel(*tensors, **options), batch, out_core)
+        with _threads.limited(total * max(1, int(width))):  # one thread for small work (torchirid._threads)
+            return _expand(kernel(*tensors, **options), batch, out_core)
     nd = len(batch)
     # the outermost axis k whose inner block (axes after k) fits in one chunk; step along k
     inner = 1

@@ -56,7 +56,7 @@ import warnings
 
 import torch
 
-from .. import _checks
+from .. import _checks, _threads
 from ..color.convert import xyz_weights
 from ..optics.bragg import bragg_reflectance
 from .envelope import bragg_xyz_envelope
@@ -134,6 +134,47 @@ def bragg_xyz(
         >>> [round(v, 3) for v in xyz.tolist()]
         [0.203, 0.074, 0.772]
     """
+    # a few colours are many small ops: one torch thread (torchirid._threads; measured there)
+    with _threads.limited(_colours(cos_theta, n1, n2, d1, d2) * 256):
+        return _bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_incident=n_incident, polarization=polarization,
+                          method=method, observer=observer, illuminant=illuminant, samples=samples,
+                          samples_per_fringe=samples_per_fringe, max_samples=max_samples,
+                          wavelength_range=wavelength_range, subdivisions=subdivisions, weights=weights,
+                          correction=correction, tolerance=tolerance)
+
+
+def _colours(*xs) -> int:
+    """The number of colours asked for (an estimate for the thread policy; 1 if the shapes do
+    not broadcast — the body then reports the bad argument)."""
+    try:
+        return math.prod(_checks.broadcast_shapes(*(tuple(getattr(x, "shape", ())) for x in xs)))
+    except Exception:
+        return 1
+
+
+def _bragg_xyz(
+    cos_theta,
+    n1,
+    n2,
+    d1,
+    d2,
+    cells,
+    *,
+    n_incident=None,
+    polarization: str = "unpolarized",
+    method: str = "spectral",
+    observer: str = "CIE 1931 2",
+    illuminant: str = "D65",
+    samples: int | None = None,
+    samples_per_fringe: float = 192.0,
+    max_samples: int = 262144,
+    wavelength_range=(380.0, 780.0),
+    subdivisions: int = 8,
+    weights: str = "averaged",
+    correction="fitted",
+    tolerance: float = 1.0,
+) -> torch.Tensor:
+    """The body of :func:`bragg_xyz`."""
     _checks.check_polarization(polarization)
     if method not in BRAGG_XYZ_METHODS:
         raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")

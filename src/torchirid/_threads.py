@@ -1,0 +1,91 @@
+"""Torch threads for small workloads: one thread below a work threshold (issue 23.4).
+
+Measured on a 2-core machine (``benchmarks/threads.py``, docs/performance.md): for workloads of
+many small ops — one colour, one fitting step on an estimation-sized grid — two torch threads
+gain nothing on a quiet machine (1.0× the one-thread time) and cost 2.9–3.2× while one other
+process keeps a core busy: the ops that torch does parallelise then wait for a thread that the
+other process holds. Large grids gain from the second thread on a quiet machine (0.7–0.8×) and
+lose under load (1.8–3.5×), a choice only the user can make (``torch.set_num_threads``).
+
+Policy: every table-producing function (:func:`torchirid._chunks.evaluate`) runs a batch whose
+work is below :data:`SMALL_WORK` elements with :func:`get_small_work_threads` torch threads (1
+by default), and restores the previous count after. Set ``None`` (or
+``TORCHIRID_SMALL_WORK_THREADS=0``) to leave torch's setting alone. The thread count is
+process-wide in torch: while a small call runs, torch work of other Python threads also runs
+with one thread.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+
+import torch
+
+from . import _checks
+
+__all__ = ["get_small_work_threads", "set_small_work_threads", "limited"]
+
+#: work (points × inner width) below which a call runs with the small-work thread count: torch's
+#: parallel grain, below which its elementwise ops run on one thread anyway
+SMALL_WORK = 1 << 15
+
+
+def _initial() -> int | None:
+    text = os.environ.get("TORCHIRID_SMALL_WORK_THREADS", "").strip()
+    if not text:
+        return 1
+    try:
+        value = int(text)
+    except ValueError:
+        return 1
+    return value if value > 0 else None
+
+
+_LOCK = threading.Lock()
+_STATE = {"threads": _initial(), "depth": 0, "saved": None}
+
+
+def set_small_work_threads(threads: int | None = 1) -> None:
+    """Torch threads for calls whose work is below :data:`SMALL_WORK` elements (default 1);
+    ``None`` or 0: leave torch's thread count alone.
+
+    >>> import torchirid
+    >>> torchirid.set_small_work_threads(None); torchirid.get_small_work_threads() is None
+    True
+    >>> torchirid.set_small_work_threads()  # back to the default: one thread
+    """
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 0):
+        raise ValueError(f"threads must be an int >= 1, or 0 / None to leave torch's setting; got {threads!r}")
+    _STATE["threads"] = threads or None
+
+
+def get_small_work_threads() -> int | None:
+    """The thread count for small calls (None: torch's setting is left alone)."""
+    return _STATE["threads"]
+
+
+@contextlib.contextmanager
+def limited(work: int):
+    """Run the ``with`` block with the small-work thread count if ``work`` (elements) is below
+    :data:`SMALL_WORK`; nested and concurrent uses restore the count once the last one leaves."""
+    n = _STATE["threads"]
+    if n is None or work >= SMALL_WORK or _checks.traceable():
+        yield
+        return
+    with _LOCK:
+        if _STATE["depth"] == 0:
+            current = torch.get_num_threads()
+            _STATE["saved"] = current if current > n else None
+            if _STATE["saved"] is not None:
+                torch.set_num_threads(n)
+        _STATE["depth"] += 1
+    try:
+        yield
+    finally:
+        with _LOCK:
+            _STATE["depth"] -= 1
+            if _STATE["depth"] == 0 and _STATE["saved"] is not None:
+                torch.set_num_threads(_STATE["saved"])
+                _STATE["saved"] = None
