@@ -155,7 +155,7 @@ def plot(results, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6.4, 4.0), layout="constrained")
+    fig, ax = plt.subplots(figsize=(6.4, 4.6), layout="constrained")
     colours = {"bragg": "C0", "thin_film": "C1", "multilayer": "C2"}
     styles = {"chunked": "-o", "one piece": "--s", "compiled": ":^"}
     for (kernel, mode), rows in sorted(results.items()):
@@ -166,10 +166,30 @@ def plot(results, path):
     ax.set(xscale="log", yscale="log", xlabel="points per call", ylabel="ns per point (best of calls)",
            title="Throughput against grid size (float64, 2 threads, no gradient)")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
+    fig.legend(loc="outside lower center", ncol=3, fontsize=7)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=130)
     print(f"wrote {path}")
+
+
+def _results_from_table(text):
+    """{(kernel, mode): [row]} from the markdown table written by ``--write`` (for ``--replot``)."""
+    lines = [ln for ln in text.splitlines() if ln.startswith("| ") and not ln.startswith("| kernel")]
+    header = next(ln for ln in text.splitlines() if ln.startswith("| kernel"))
+    cols = [c.strip() for c in header.strip("|").split("|")]
+    results = {}
+    for ln in lines:
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        row = dict(zip(cols, cells))
+        for mode in ("chunked", "one piece", "compiled"):
+            value = row.get(f"{mode} ns/point", "–")
+            try:
+                ns = float(value)
+            except ValueError:
+                continue
+            results.setdefault((row["kernel"], mode), []).append(
+                {"points": int(row["points"].replace(",", "")), "ns": ns})
+    return results
 
 
 def main(argv=None):
@@ -186,7 +206,12 @@ def main(argv=None):
     ap.add_argument("--sizes", default=None, help="comma-separated sizes (default 1e4,36090,1e6,1e7[,1e8])")
     ap.add_argument("--write", action="store_true")
     ap.add_argument("--plot", default=None, metavar="FILE")
+    ap.add_argument("--replot", default=None, metavar="FILE",
+                    help="only redraw the plot into FILE from benchmarks/results/throughput.md")
     args = ap.parse_args(argv)
+    if args.replot:
+        plot(_results_from_table(RESULTS.read_text()), args.replot)
+        return
     if args.sizes:
         sizes = [int(float(s)) for s in args.sizes.split(",")]
     else:

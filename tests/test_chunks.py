@@ -143,6 +143,19 @@ def test_checkpointed_memory_is_bounded():
     assert torch.isfinite(d.grad)
 
 
+def _in_blocks(call):
+    """``call()`` with blocks of 4 points, checking that it was evaluated in blocks."""
+    import torchirid._chunks as chunks
+
+    blocks = []
+    real_take = chunks._take
+    with ti.chunk_size(4), pytest.MonkeyPatch.context() as mp:
+        mp.setattr(chunks, "_take", lambda *a: blocks.append(1) or real_take(*a))
+        got = call()
+    assert blocks, "the call was not evaluated in blocks"
+    return got
+
+
 def _colour_cases():
     from torchirid.ibl import filtered_thin_film_xyz, fitted_thin_film_xyz, thin_film_xyz_fourier
     from torchirid.layered import RoughBraggLayer
@@ -176,14 +189,7 @@ def test_colour_tables_chunked_equal_one_piece(name):
     case = _colour_cases()[name]
     with ti.chunk_size(None):
         ref = case()
-    import torchirid._chunks as chunks
-
-    blocks = []
-    real_take = chunks._take
-    with ti.chunk_size(4), pytest.MonkeyPatch.context() as mp:  # blocks of 4 points
-        mp.setattr(chunks, "_take", lambda *a: blocks.append(1) or real_take(*a))
-        got = case()
-    assert blocks, "the call was not evaluated in blocks"
+    got = _in_blocks(case)
     assert got.shape == ref.shape and got.dtype == ref.dtype
     torch.testing.assert_close(got, ref, rtol=0, atol=1e-14)
 
@@ -203,3 +209,22 @@ def test_fitted_table_gradient_survives_chunking():
         xyz = fitted_thin_film_xyz(c, 0.3, 1.3, d, 1.5, table=table, sensitivity="lut")
     xyz.sum().backward()
     assert values.grad is not None and bool(values.grad.abs().sum() > 0)
+
+
+@pytest.mark.parametrize("lut", [False, True])
+def test_single_reflection_brdf_chunked_equals_one_piece(lut):
+    """Direction pairs (a trailing vector axis in, a trailing wavelength axis out) in blocks."""
+    from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
+
+    s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 250.0, 250.0, 10, 0.1),
+                      RoughBraggLayer(1.0, 1.6, 120.0, 180.0, 6, 0.2)], base_albedo=0.3)
+    t = torch.linspace(0.0, 1.4, 9, dtype=F64)
+    wi = torch.stack([torch.sin(t), 0 * t, torch.cos(t)], -1)[:, None]
+    wo = torch.stack([-torch.sin(t) * 0.5, torch.sin(t) * 0.3, torch.cos(t)], -1)
+    wo = wo / torch.linalg.vector_norm(wo, dim=-1, keepdim=True)
+    lam = torch.linspace(400.0, 700.0, 16, dtype=F64)
+    with ti.chunk_size(None):
+        ref = single_reflection_brdf(lam, wi, wo, s, lut=lut)
+    got = _in_blocks(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut))
+    assert got.shape == ref.shape == (9, 9, 16)
+    torch.testing.assert_close(got, ref, rtol=0, atol=1e-14)

@@ -35,7 +35,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .._quadrature import gauss_legendre01
 from . import _geometry
 from ..lut import LUT
@@ -228,8 +228,17 @@ def single_reflection_brdf(
     rd = None
     if base_interreflection and structure.base_albedo > 0:
         rd = _base_return(structure, tables, lam)
-    out = _evaluate(structure, tables, wi, wo, rd)
+    # block by block over large batches of direction pairs (torchirid._chunks): W values per pair
+    params = tuple(v for layer in structure.layers for v in (layer.n1, layer.n2, layer.d1, layer.d2, layer.alpha)
+                   if isinstance(v, torch.Tensor))
+    out = _chunks.evaluate(_evaluate_block, (wi, wo), wi.shape[:-1], core=(1, 1), out_core=1, width=lam.numel(),
+                           grad_inputs=params + ((rd,) if rd is not None else ()), structure=structure,
+                           tables=tables, base_return=rd)
     return torch.where(_geometry.nan_rows(wi, wo).unsqueeze(-1), torch.nan, out)
+
+
+def _evaluate_block(wi, wo, *, structure, tables, base_return):
+    return _evaluate(structure, tables, wi, wo, base_return)
 
 
 def _half_vector(wi_h: torch.Tensor, wo_h: torch.Tensor) -> torch.Tensor:
