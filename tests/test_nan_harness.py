@@ -310,7 +310,9 @@ def test_the_table_covers_the_per_sample_api():
         "set_compile", "transmission_filter_lut", "transmissivity_lut", "load_scatterogram", "match_scatterogram",
         "scatterogram", "montecarlo_brdf", "sample_single_reflection", "shade_thin_film_environment",
         "hirayama_stacks", "film_reflectance_lut", "available_materials", "material_range", "delta_e",
-        "clear_caches", "chunk_size", "get_chunk_size", "set_chunk_size", "set_value_checks", "value_checks", "value_checks_enabled", "export_lut", "read_cube", "load_environment",  # files and set-up
+        "clear_caches", "chunk_size", "get_chunk_size", "set_chunk_size", "get_small_work_threads",
+        "set_small_work_threads", "set_value_checks", "value_checks", "value_checks_enabled", "export_lut",
+        "read_cube", "load_environment",  # files and set-up
         "prefilter_environment", "estimate_film"}  # whole images: tests/ibl, tests/estimation
     public = {n for n in ti.__all__ if inspect.isfunction(getattr(ti, n))}
     assert public - covered - elsewhere == set()

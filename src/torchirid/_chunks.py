@@ -30,6 +30,7 @@ import contextlib
 import itertools
 import math
 import os
+import threading
 
 import torch
 
@@ -135,7 +136,7 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     core = (0,) * len(tensors) if core is None else tuple(core)
     grad = _wants_grad(tensors) or _wants_grad(grad_inputs)
     if (points is None or total <= 2 * points or (grad and total * width <= CHECKPOINT_POINTS)
-            or _checks.traceable() or len(batch) == 0):
+            or _checks.traceable() or len(batch) == 0 or getattr(_INSIDE, "block", False)):
         with _threads.limited(total * max(1, int(width))):  # one thread for small work (torchirid._threads)
             return _expand(kernel(*tensors, **options), batch, out_core)
     nd = len(batch)
@@ -154,7 +155,7 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     out = None
     for index in blocks:
         args = [_take(t, index, nd, c) for t, c in zip(tensors, core)]
-        with torch.inference_mode():
+        with torch.inference_mode(), _inside_block():
             part = kernel(*args, **options)
         single = not isinstance(part, tuple)
         parts = (part,) if single else part
@@ -164,6 +165,21 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
             block = o[index]
             block.copy_(p.expand(block.shape))
     return out[0] if single else out
+
+
+#: per thread: whether a block's kernel is running (a chunked function called inside a block —
+#: e.g. the Bragg reflectance of a BRDF block, or a table built lazily there — runs at once)
+_INSIDE = threading.local()
+
+
+@contextlib.contextmanager
+def _inside_block():
+    before = getattr(_INSIDE, "block", False)
+    _INSIDE.block = True
+    try:
+        yield
+    finally:
+        _INSIDE.block = before
 
 
 def _tail(t, out_core):
@@ -188,7 +204,8 @@ def _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options):
         shape = tuple(_block_shape(batch, index))
 
         def block(*a, shape=shape):  # (shape bound now: the backward pass recomputes later)
-            return _expand(kernel(*a, **options), shape, out_core)
+            with _inside_block():
+                return _expand(kernel(*a, **options), shape, out_core)
 
         part = checkpoint(block, *args, use_reentrant=False)
         pieces.append(part if isinstance(part, tuple) else (part,))
