@@ -178,11 +178,13 @@ def _colour_cases():
         "filtered": lambda: filtered_thin_film_xyz(wo, mu, cov, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
         "transmissivity": lambda: integrated_transmissivity(lam, c, layer, nodes=64),
         "envelope": lambda: bragg_xyz_envelope(c, 1.0, 1.5, 125.0, d[:, None, None] * 0 + 375.0, 20),
+        "piecewise": lambda: ti.bragg_xyz(c, 1.0, 1.5, 125.0, d[:, None, None] * 0.5 + 300.0, 20,
+                                          method="piecewise"),
     }
 
 
 @pytest.mark.parametrize("name", ["fourier_lut", "fourier_exact", "fitted_lut", "fitted_exact", "filtered",
-                                  "transmissivity", "envelope"])
+                                  "transmissivity", "envelope", "piecewise"])
 def test_colour_tables_chunked_equal_one_piece(name):
     """The colour and transmissivity tables (trailing XYZ axis, inner quadratures: blocks of
     chunk_size // width points) equal their one-piece evaluation."""
@@ -229,3 +231,21 @@ def test_single_reflection_brdf_chunked_equals_one_piece(lut):
                                                     reflectance_angles=32))
     assert got.shape == ref.shape == (9, 9, 16)
     torch.testing.assert_close(got, ref, rtol=0, atol=1e-14)
+
+
+def test_ibl_ground_truths_chunked_equal_one_piece():
+    """uniform_thin_film_xyz and path_difference_moments over geometries × films in blocks (the
+    broadcast matmul of the one-piece path copied both to the full batch)."""
+    from torchirid.ibl import path_difference_moments, uniform_thin_film_xyz
+
+    c = torch.linspace(0.2, 1.0, 12, dtype=F64)[:, None]
+    d = torch.linspace(100.0, 700.0, 5, dtype=F64)
+    lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
+    for call in (lambda: uniform_thin_film_xyz(c, 0.2, 1.3, d, 1.5, bins=64, nodes=8, wavelength=lam),
+                 lambda: torch.stack(torch.broadcast_tensors(*path_difference_moments(c, 0.2, 1.3, d, bins=64,
+                                                                                      nodes=8)))):
+        with ti.chunk_size(None):
+            ref = call()
+        got = _in_blocks(call)
+        assert got.shape == ref.shape
+        torch.testing.assert_close(got, ref, rtol=0, atol=1e-14)

@@ -61,6 +61,7 @@ import math
 import torch
 
 from .. import _checks
+from .._chunks import evaluate as _chunk_evaluate
 from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import smith_g1_kernel, reflect
@@ -310,13 +311,20 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
     _checks.check_nonnegative(d, "thickness")
     if bool((nf < n0).any()):
         raise ValueError("n_film must be >= n_incident (a propagating wave in the film)")
+    # block by block over large batches (torchirid._chunks): bins + 1 weights per point
+    batch = _checks.broadcast_shapes(w.shape[:-1], nf.shape, n0.shape)
+    m1, var = _chunk_evaluate(_cos2_moments, (w, nf, n0), batch, core=(1, 0, 0), width=grid.numel(), grid=grid)
+    scale = 2.0 * nf * d
+    return scale * m1, scale * scale * var, m1, var
+
+
+def _cos2_moments(w, nf, n0, *, grid):
+    """Mean and variance of cos θ2 under the weights ``w`` on ``grid`` (one block)."""
     k = (n0 / nf)[..., None] ** 2
     c2 = torch.sqrt((1.0 - k * (1.0 - grid * grid)).clamp_min(0.0))  # (*, bins+1)
     m1 = (w * c2).sum(-1)
     m2 = (w * c2 * c2).sum(-1)
-    var = (m2 - m1 * m1).clamp_min(0.0)
-    scale = 2.0 * nf * d
-    return scale * m1, scale * scale * var, m1, var
+    return m1, (m2 - m1 * m1).clamp_min(0.0)
 
 
 def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
@@ -373,4 +381,11 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
                                   ns[sl, None, None], n_incident=n_incident, polarization=polarization)
         rows.append(R @ W)  # (f, bins+1, 3)
     F = torch.cat(rows).reshape(*film_shape, grid.numel(), 3)
+    # Σ_k w_k F_k over the broadcast of geometries and films, in blocks (a broadcast matmul would
+    # copy w and F to the full (*, bins+1, 3) batch first)
+    batch = _checks.broadcast_shapes(w.shape[:-1], film_shape)
+    return _chunk_evaluate(_mixture_xyz, (w, F), batch, core=(1, 2), out_core=1, width=3 * grid.numel())
+
+
+def _mixture_xyz(w, F):
     return torch.matmul(w[..., None, :], F)[..., 0, :]

@@ -252,6 +252,15 @@ def _brdf(structure, wi, wo, lam, kw) -> torch.Tensor:
     return torch.cat(out, 0).reshape(*shape, lam.numel())
 
 
+def _beam_xyz(structure, wi, wo, lam, kw, weights) -> torch.Tensor:
+    """XYZ ``(pixels, 3)`` of ``f_r cos θi`` integrated against ``weights``, chunk by chunk (each
+    chunk's spectra are reduced at once: the (pixels, W) spectra never exist whole)."""
+    step = max(1, _CHUNK_ELEMENTS // lam.numel())
+    wo = wo.reshape(-1, 3)
+    out = [(_brdf(structure, wi, wo[k:k + step], lam, kw) * wi[2]) @ weights for k in range(0, wo.shape[0], step)]
+    return torch.cat(out, 0) if out else torch.zeros(0, 3, dtype=lam.dtype, device=lam.device)
+
+
 _WARP = 4
 
 
@@ -446,8 +455,7 @@ def scatterogram(
                 raise ValueError(f"incident_deg theta must lie in [0, 90] degrees; got {float(th):g}")
         t, p = torch.deg2rad(th), torch.deg2rad(ph)
         wi = torch.stack([torch.sin(t) * torch.cos(p), torch.sin(t) * torch.sin(p), torch.cos(t)])
-        spectrum = _brdf(structure, wi, wo, lam, kw) * wi[2]
-        values = spectrum @ weights
+        values = _beam_xyz(structure, wi, wo, lam, kw, weights)
         params_incident = (float(th.detach()), float(ph.detach()))
 
     flat = torch.zeros(resolution * resolution, 3, dtype=values.dtype, device=device)

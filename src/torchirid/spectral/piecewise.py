@@ -41,7 +41,7 @@ import math
 
 import torch
 
-from .. import _checks, _compile
+from .. import _checks, _chunks, _compile
 from .correction import angular_correction
 from .cumulative import shipped_cumulative_cmf_lut
 from .landmarks import HALVINGS, _counts, clamped_landmarks, dispersion_parts
@@ -95,8 +95,15 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
         w_corr = angular_correction(mirror["cos"], mirror["n1"], mirror["n2"], coefficients=_coefficients(correction))
     else:  # the fringe-averaged weights do not use the correction
         w_corr = torch.ones((), dtype=dtype, device=device)
-    xyz = _piecewise_xyz(mirror["A"], mirror["B"], mirror["delta"], mirror["C_coef"], w_corr, omega_min, omega_max,
-                         subdivisions, table, weights, mirror["N"])
+    # block by block over large batches (torchirid._chunks): per colour P × (landmark boxes) values;
+    # the polarization axis moves last to ride along as a core axis
+    A, B, N = mirror["A"], mirror["B"], mirror["N"]
+    delta, C_coef = mirror["delta"], mirror["C_coef"]
+    batch = _checks.broadcast_shapes(A.shape, B.shape, N.shape, delta.shape[1:], C_coef.shape[1:], w_corr.shape)
+    xyz = _chunks.evaluate(_piecewise_block, (A, B, delta.movedim(0, -1), C_coef.movedim(0, -1), w_corr, N), batch,
+                           core=(0, 0, 1, 1, 0, 0), out_core=2, width=delta.shape[0] * 64, omega_min=omega_min,
+                           omega_max=omega_max, subdivisions=subdivisions, table=table,
+                           weights=weights).movedim(-2, 0)
     out = xyz[0] if xyz.shape[0] == 1 else 0.5 * (xyz[0] + xyz[1])
     if invalid is not None:
         out = torch.where(invalid.unsqueeze(-1), float("nan"), out)
@@ -266,6 +273,13 @@ def _lookup_rows(packed, omega0, step, x):
     i = pos.clamp(0, cells - 1).to(torch.int64)  # floor (≥ 0); x at (or by rounding just past) the ends: f = 1 or ~0
     rows = packed.index_select(0, i.reshape(-1)).reshape(x.shape + (packed.shape[-1],))
     return rows, pos - i
+
+
+def _piecewise_block(A, B, delta, C_coef, w_corr, N, *, omega_min, omega_max, subdivisions, table, weights):
+    """XYZ ``(*, P, 3)`` of one block of mirrors (polarizations last in ``delta``, ``C_coef``)."""
+    xyz = _piecewise_xyz(A, B, delta.movedim(-1, 0), C_coef.movedim(-1, 0), w_corr, omega_min, omega_max,
+                         subdivisions, table, weights, N)
+    return xyz.movedim(0, -2)
 
 
 def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, weights="averaged", N=None):
