@@ -41,6 +41,8 @@ RANKS = {
     # products
     "ibl": 4, "estimation": 4, "export": 4,
     "fitting": 5,
+    # scale-out beside the products: distributes library calls (imports lut only)
+    "scale": 5,
     # the curated public API
     "<root>": 6,
     # the application

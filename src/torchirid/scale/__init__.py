@@ -1,0 +1,11 @@
+"""Scale-out beside the products: library calls distributed on Dask, no physics here (issue 24).
+
+:func:`build_table` evaluates any broadcasting library function over a grid of named axes in
+chunks — in this process, on an embedded ``LocalCluster`` or on any Dask scheduler — into a
+resumable Zarr store; :func:`load_table` / :func:`open_table` read it back. Needs the ``scale``
+extra (dask, distributed, zarr); not imported by ``import torchirid``.
+"""
+
+from .tables import TableBuild, build_table, load_table, open_table, table_chunks
+
+__all__ = ["TableBuild", "build_table", "load_table", "open_table", "table_chunks"]
