@@ -186,7 +186,7 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
         ...                 "thickness": [100.0, 300.0]}, path, chunks=2,
         ...                 kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
         >>> b.computed, tuple(load_table(path).values.shape)
-        (4, (3, 2))
+        (2, (3, 2))
     """
     zarr = _zarr()
     qualified = _qualified(fn)
