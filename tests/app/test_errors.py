@@ -39,6 +39,7 @@ PARSE_ERRORS = {
     "render-sphere": ["--tau", "nan"],
     "thin-film": ["--alpha", "nan"],
     "fit-film": ["cube.npz", "--bandwidth", "nan"],
+    "build-table": ["thin_film_reflectance", "--axis", "wavelength=nan:700:5"],
 }
 
 #: one bad argument per subcommand that parses and is refused afterwards (by the command or the
@@ -51,6 +52,7 @@ LATE_ERRORS = {
     "render-sphere": (["--preset", "custom", "--substrate", "1.5", "--size", "4"], "size"),
     "thin-film": (["--n-film", "0.5"], "n-film"),
     "fit-film": (["missing-cube.npz"], "missing-cube"),
+    "build-table": (["thin_film_reflectance", "--axis", "wavelength=400:700:5", "--set", "bogus=1"], "bogus"),
 }
 
 
@@ -114,6 +116,10 @@ ERROR_CLASSES = {
     "thin-film": {"nan": ["--alpha", "nan"], "negative": ["--thickness", "-10"], "unit": ["--thickness", "3e-7"]},
     "fit-film": {"nan": ["c.npz", "--bandwidth", "nan"], "negative": ["c.npz", "--bandwidth", "-4"],
                  "unit": ["c.npz", "--thickness-range", "2e-8", "2e-6"]},
+    "build-table": {k: ["thin_film_reflectance", "--axis", axis, "--set", "cos_theta=1", "--set", "n_film=1.3",
+                        "--set", "n_substrate=1.5", "--set", "thickness=100"]
+                    for k, axis in (("nan", "wavelength=400:nan:5"), ("negative", "wavelength=-400:700:5"),
+                                    ("unit", "wavelength=4e-7:7e-7:5"))},
 }
 
 

@@ -205,17 +205,21 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
     if dtype not in (torch.float32, torch.float64):
         raise ValueError(f"dtype must be torch.float32 or torch.float64; got {dtype!r}")
     dtype_name = str(dtype).removeprefix("torch.")
+    _probe(fn, qualified, grids, kwargs, channels, dtype)
     digest = _content_hash(qualified, kwargs, grids, sizes, dtype_name)
     path = Path(os.fspath(store))
     shape = tuple(g.size for g in grids.values())
     grid_chunks = tuple(math.ceil(n / c) for n, c in zip(shape, sizes))
+    group = None
     if (path / "zarr.json").exists() or (path / ".zgroup").exists():
         group = zarr.open_group(str(path), mode="r+")
         found = group.attrs.get("content_hash")
         if found != digest:
-            raise ValueError(f"store {str(path)!r} holds a different table build (content hash {found!r}); "
-                             "remove it or pass another store")
-    else:
+            if "done" in group and bool(np.asarray(group["done"][...]).any()):
+                raise ValueError(f"store {str(path)!r} holds a different table build (content hash {found!r}); "
+                                 "remove it or pass another store")
+            group = None  # a different build that finished no chunk (e.g. it failed at once): start over
+    if group is None:
         group = zarr.open_group(str(path), mode="w")
         for name, g in grids.items():
             group.create_array(f"axis_{name}", data=g)
@@ -235,6 +239,25 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
     if todo:
         _run(todo, str(path), client, scheduler, workers, timeout, progress, finished, total)
     return TableBuild(path, len(todo), total - len(todo))
+
+
+def _probe(fn, qualified, grids, kwargs, channels, dtype):
+    """One call at the first node of every axis, before anything is written: arguments that
+    ``fn`` does not take, bad values there, and a ``channels`` that is not ``fn``'s trailing
+    output shape are reported now, not by the first chunk."""
+    k = len(grids)
+    args = {name: torch.as_tensor(g[:1], dtype=dtype).reshape(*([1] * j), 1, *([1] * (k - j - 1)))
+            for j, (name, g) in enumerate(grids.items())}
+    try:
+        with torch.no_grad():
+            out = fn(**args, **kwargs)
+    except TypeError as e:  # a missing or unknown argument
+        raise ValueError(f"{qualified}: {e}") from None
+    if not isinstance(out, torch.Tensor):
+        raise ValueError(f"{qualified} must return one tensor; got {type(out).__name__}")
+    trailing = tuple(out.shape[k:])
+    if out.ndim < k or trailing != channels:
+        raise ValueError(f"channels must be {qualified}'s trailing output shape {trailing}; got {channels}")
 
 
 def _run(todo, store, client, scheduler, workers, timeout, progress, finished, total):

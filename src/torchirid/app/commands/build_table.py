@@ -1,0 +1,118 @@
+"""``torchirid build-table``: any public broadcasting function over a grid of named axes, in
+chunks, into a resumable Zarr store — in this process, on a local Dask cluster or on a Dask
+scheduler (:func:`torchirid.scale.build_table`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from .. import _args
+
+NAME = "build-table"
+
+__all__ = ["NAME", "add_parser", "run"]
+
+#: the public functions a table can be built of (broadcasting, per-point)
+FUNCTIONS = ("bragg_reflectance", "bragg_xyz", "thin_film_reflectance", "thin_film_xyz_fourier",
+             "fitted_thin_film_xyz", "uniform_thin_film_xyz")
+#: their trailing output shape
+CHANNELS = {"bragg_xyz": (3,), "thin_film_xyz_fourier": (3,), "fitted_thin_film_xyz": (3,),
+            "uniform_thin_film_xyz": (3,)}
+
+
+def _axis(text: str):
+    """``NAME=START:STOP:COUNT`` → (name, (start, stop, count))."""
+    name, sep, spec = text.partition("=")
+    parts = spec.split(":")
+    if not sep or not name.isidentifier() or len(parts) != 3:
+        raise argparse.ArgumentTypeError(f"expected NAME=START:STOP:COUNT (e.g. cos_theta=0:1:91); got {text!r}")
+    start, stop = _args.number(parts[0]), _args.number(parts[1])
+    count = _args.count(parts[2])
+    return name, (start, stop, count)
+
+
+def _setting(text: str):
+    """``NAME=VALUE`` (VALUE a JSON value or a bare string) → (name, value)."""
+    name, sep, raw = text.partition("=")
+    if not sep or not name.isidentifier():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE (e.g. n1=1.0 or method=envelope); got {text!r}")
+    try:
+        value = json.loads(raw)
+    except ValueError:
+        value = raw
+    return name, value
+
+
+def add_parser(subparsers):
+    """Register ``build-table`` (``func=run``); returns its parser."""
+    p = _args.add_command_parser(
+        subparsers,
+        NAME,
+        help="a table of a library function over named axes, chunked and resumable, on Dask → Zarr store",
+        description=(
+            "Evaluate a public torchirid function over the grid of its --axis arguments, in\n"
+            "chunks, into a Zarr store (--out). The other arguments are fixed with --set. A\n"
+            "build that is stopped resumes from its finished chunks when run again with the\n"
+            "same arguments. Chunks run in this process (default), on a local Dask cluster\n"
+            "(--scheduler local --workers N) or on a Dask scheduler (--scheduler tcp://HOST:PORT).\n"
+            "Example:\n"
+            "  torchirid build-table bragg_xyz --axis cos_theta=0.05:1:96 --axis d1=50:250:81 \\\n"
+            "      --set n1=1.0 --set n2=1.5 --set d2=375 --set cells=20 --set method=envelope --out bragg.zarr"
+        ),
+    )
+    p.add_argument("function", choices=FUNCTIONS, help="the library function")
+    p.add_argument("--axis", type=_axis, action="append", required=True, metavar="NAME=START:STOP:COUNT",
+                   help="a table axis: COUNT values of argument NAME from START to STOP (repeat per axis)")
+    p.add_argument("--set", type=_setting, action="append", default=[], metavar="NAME=VALUE",
+                   help="a fixed argument (a number, list or string; repeat)")
+    p.add_argument("--chunks", type=_args.count, default=64, help="nodes per chunk along every axis (default 64)")
+    p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="'local' (an embedded Dask cluster) or a scheduler address; default: this process")
+    p.add_argument("--workers", type=_args.count, default=2, help="worker processes of --scheduler local")
+    p.add_argument("--timeout", type=_args.positive, default=10.0, help="seconds to reach --scheduler")
+    p.add_argument("--out", required=True, metavar="STORE", help="the Zarr store (a directory)")
+    _args.add_output_options(p, figures=False)
+    p.set_defaults(func=run, parser=p)
+    return p
+
+
+@_args.reports_bad_arguments(NAME)
+def run(args) -> int:
+    """Build (or resume) the table. Exit status: 0; 1 (scheduler unreachable, write); 2 (bad argument)."""
+    import numpy as np
+    import torch
+
+    import torchirid
+
+    try:
+        from ...scale import build_table
+    except ImportError as e:
+        return _args.fail(NAME, f"needs the scale extra (dask, distributed, zarr): {e}", status=1)
+    axes = {}
+    for name, (start, stop, count) in args.axis:
+        if name in axes:
+            raise ValueError(f"--axis {name} given twice")
+        axes[name] = np.linspace(start, stop, count)
+    settings = dict(args.set)
+    bar = _args.progress_bar(f"{NAME} {args.function}", unit="chunk", quiet=args.quiet)
+
+    def progress(done, total):
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    dtype = torch.float32 if args.dtype == "float32" else torch.float64
+    try:
+        result = build_table(getattr(torchirid, args.function), axes, args.out, chunks=args.chunks, kwargs=settings,
+                             channels=CHANNELS.get(args.function, ()), dtype=dtype, scheduler=args.scheduler,
+                             workers=args.workers, progress=progress, timeout=args.timeout)
+    except TypeError as e:  # an --axis or --set name the function does not take
+        raise ValueError(f"{args.function}: {e}") from None
+    except OSError as e:
+        return _args.fail(NAME, e, status=1)
+    finally:
+        bar.close()
+    print(f"{result.computed} chunks computed, {result.skipped} found done; wrote {result.store}")
+    return 0
