@@ -6,6 +6,7 @@ resumable Zarr store; :func:`load_table` / :func:`open_table` read it back. Need
 extra (dask, distributed, zarr); not imported by ``import torchirid``.
 """
 
-from .tables import TableBuild, build_table, load_table, open_table, table_chunks
+from .tables import WORKER_ENVIRON, TableBuild, build_table, load_table, local_cluster, open_table, table_chunks
 
-__all__ = ["TableBuild", "build_table", "load_table", "open_table", "table_chunks"]
+__all__ = ["WORKER_ENVIRON", "TableBuild", "build_table", "load_table", "local_cluster", "open_table",
+           "table_chunks"]
