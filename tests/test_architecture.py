@@ -295,3 +295,11 @@ def test_reflectance_functions_take_wavelength_then_geometry():
         assert list(inspect.signature(fn).parameters)[:2] == ["wavelength", "cos_theta"], fn.__name__
     for fn in (layered.single_reflection_brdf, layered.single_reflection_pdf, layered.montecarlo_brdf):
         assert list(inspect.signature(fn).parameters)[:4] == ["wavelength", "wi", "wo", "structure"], fn.__name__
+
+
+def test_test_module_basenames_are_unique():
+    """tests/ has no __init__.py files: pytest imports test modules by basename, so two files of
+    one name in different folders fail collection (tests/layered and tests/scale once did)."""
+    root = Path(__file__).resolve().parent
+    names = [p.name for p in root.rglob("test_*.py")]
+    assert sorted({n for n in names if names.count(n) > 1}) == []
