@@ -9,6 +9,9 @@ this process (no Dask) and on ``torchirid.scale.local_cluster`` of 1 and 2 worke
 process); wall time of the build
 (cluster start excluded), median of ``--repeats`` builds into fresh stores.
 
+Monte Carlo: ``montecarlo_brdf_blocks`` (2 layers over a Lambertian base, 16 direction pairs ×
+8 wavelengths, 4 096 paths per pair in 8 seeded blocks), wall time in the same three places.
+
 Per-chunk overhead: the same with a trivial function (``thin_film_reflectance`` of one point
 per chunk, 200 chunks): (time per chunk on the cluster) − (time per chunk in process).
 
@@ -32,7 +35,8 @@ import numpy as np
 import torch
 
 import torchirid as ti
-from torchirid.scale import build_table, local_cluster
+from torchirid.layered import LayeredBragg, RoughBraggLayer
+from torchirid.scale import build_table, local_cluster, montecarlo_brdf_blocks
 
 
 def _timed_builds(fn, axes, chunks, kwargs, channels, repeats, client=None):
@@ -42,6 +46,23 @@ def _timed_builds(fn, axes, chunks, kwargs, channels, repeats, client=None):
             t = time.perf_counter()
             build_table(fn, axes, Path(d) / "t.zarr", chunks=chunks, kwargs=kwargs, channels=channels, client=client)
             times.append(time.perf_counter() - t)
+    return statistics.median(times)
+
+
+def _timed_montecarlo(repeats, client=None):
+    """``montecarlo_brdf_blocks``: 2 layers over a Lambertian base, 16 direction pairs × 8
+    wavelengths, 4 096 paths per pair in 8 blocks (``transmission="microfacet"``)."""
+    s = LayeredBragg([RoughBraggLayer(1.0, 1.5, 100.0, 100.0, 5, 0.2), RoughBraggLayer(1.0, 1.6, 90.0, 120.0, 8, 0.1)],
+                     base_albedo=0.5)
+    t = torch.linspace(0.0, 1.2, 16, dtype=torch.float64)
+    wi = torch.stack([torch.sin(t), 0 * t, torch.cos(t)], -1)
+    wo = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64)
+    lam = torch.linspace(400.0, 700.0, 8, dtype=torch.float64)
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        montecarlo_brdf_blocks(lam, wi, wo, s, samples=4096, blocks=8, client=client, transmission="microfacet")
+        times.append(time.perf_counter() - start)
     return statistics.median(times)
 
 
@@ -58,19 +79,24 @@ def main(argv=None):
     trivial_kwargs = {"cos_theta": 1.0, "n_film": 1.33, "thickness": 300.0, "n_substrate": 1.5}
     rows = {}
     rows["in process"] = (_timed_builds(ti.bragg_xyz, axes, 8, kwargs, (3,), args.repeats),
-                          _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats))
+                          _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats),
+                          _timed_montecarlo(args.repeats))
     for workers in (1, 2):
         with local_cluster(workers) as cluster, Client(cluster) as client:
             client.run(torch.set_num_threads, 1)
             rows[f"LocalCluster, {workers} worker{'s' if workers > 1 else ''}"] = (
                 _timed_builds(ti.bragg_xyz, axes, 8, kwargs, (3,), args.repeats, client),
-                _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats, client))
+                _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats, client),
+                _timed_montecarlo(args.repeats, client))
     base = rows["in process"][0]
     one = rows["LocalCluster, 1 worker"][0]
-    print("| where | table build (s) | speed-up vs in process | vs 1 worker | trivial chunks: ms per chunk |")
-    print("|---|---:|---:|---:|---:|")
-    for name, (t, triv) in rows.items():
-        print(f"| {name} | {t:.2f} | {base / t:.2f}× | {one / t:.2f}× | {triv / 200 * 1e3:.2f} |")
+    mc_base, mc_one = rows["in process"][2], rows["LocalCluster, 1 worker"][2]
+    print("| where | table build (s) | speed-up vs in process | vs 1 worker | trivial chunks: ms per chunk "
+          "| Monte Carlo (s) | speed-up vs in process | vs 1 worker |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|")
+    for name, (t, triv, mc) in rows.items():
+        print(f"| {name} | {t:.2f} | {base / t:.2f}× | {one / t:.2f}× | {triv / 200 * 1e3:.2f} | {mc:.2f} | "
+              f"{mc_base / mc:.2f}× | {mc_one / mc:.2f}× |")
     chunks = 24
     t_chunk = base / chunks
     overhead = max(rows["LocalCluster, 2 workers"][1], rows["LocalCluster, 1 worker"][1]) / 200 - \

@@ -238,7 +238,8 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
     if progress is not None:
         progress(finished, total)
     if todo:
-        _run(todo, str(path), client, scheduler, workers, timeout, progress, finished, total)
+        # an absolute path: workers may run in another directory (a shared filesystem is assumed)
+        _run(todo, str(path.resolve()), client, scheduler, workers, timeout, progress, finished, total)
     return TableBuild(path, len(todo), total - len(todo))
 
 
