@@ -132,28 +132,22 @@ def measured(threads: int, points: int) -> dict:
         "multilayer L=40": lambda: ti.multilayer(lam, c, *s40),
     }
     torch.set_num_threads(threads)
-    out = {}
-    with torch.no_grad():
-        for name, f in calls.items():
+
+    def ns_per_point(f):  # best of 5 calls after a warm-up
+        with torch.no_grad():
             f()
             ts = []
             for _ in range(5):
                 t = time.perf_counter()
                 f()
                 ts.append(time.perf_counter() - t)
-            out[name] = min(ts) / n * 1e9
+        return min(ts) / n * 1e9
+
+    out = {name: ns_per_point(f) for name, f in calls.items()}
     out["multilayer, per film"] = (out.pop("multilayer L=40") - out.pop("multilayer L=10")) / 30
     ti.set_compile(True)  # the compiled closed form: how close a fused loop gets
     try:
-        with torch.no_grad():
-            f = calls["bragg (Yeh, N = 20)"]
-            f()
-            ts = []
-            for _ in range(5):
-                t = time.perf_counter()
-                f()
-                ts.append(time.perf_counter() - t)
-        out["bragg (Yeh, N = 20), compiled"] = min(ts) / n * 1e9
+        out["bragg (Yeh, N = 20), compiled"] = ns_per_point(calls["bragg (Yeh, N = 20)"])
     finally:
         ti.set_compile(False)
     return out

@@ -18,6 +18,7 @@ with one thread.
 from __future__ import annotations
 
 import contextlib
+import functools
 import os
 import threading
 
@@ -25,7 +26,7 @@ import torch
 
 from . import _checks
 
-__all__ = ["get_small_work_threads", "set_small_work_threads", "limited"]
+__all__ = ["get_small_work_threads", "set_small_work_threads", "limited", "limited_by"]
 
 #: work (points × inner width) below which a call runs with the small-work thread count: torch's
 #: parallel grain, below which its elementwise ops run on one thread anyway
@@ -89,3 +90,18 @@ def limited(work: int):
             if _STATE["depth"] == 0 and _STATE["saved"] is not None:
                 torch.set_num_threads(_STATE["saved"])
                 _STATE["saved"] = None
+
+
+def limited_by(work):
+    """Decorator: run ``fn(*args, **kwargs)`` under :func:`limited` with
+    ``work(*args, **kwargs)`` elements (a cheap estimate from the arguments)."""
+
+    def wrap(fn):
+        @functools.wraps(fn)
+        def run(*args, **kwargs):
+            with limited(work(*args, **kwargs)):
+                return fn(*args, **kwargs)
+
+        return run
+
+    return wrap

@@ -45,8 +45,8 @@ import math
 import torch
 
 from .. import _checks, _chunks
-from .fourier import (_check_names, prefiltered_fourier_sensitivity, lookup_prefiltered_sensitivity,
-                      thin_film_fourier_terms)
+from .fourier import (_check_names, _sensitivity_width, prefiltered_fourier_sensitivity,
+                      lookup_prefiltered_sensitivity, thin_film_fourier_terms)
 
 #: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
 #: or ``"lut"`` (Kneiphof's 2-D table, bilinear, built in memory on first use).
@@ -133,8 +133,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
     batch = _checks.broadcast_shapes(w.shape[:-1], mu.shape[:-1], cov.shape[:-2], nf.shape, d.shape, ns.shape,
                                      n0.shape)
     # block by block over large batches (torchirid._chunks): per colour P × M sensitivity values
-    # (× the quadrature's ~3760 nodes with sensitivity="exact")
-    width = 2 * max(terms, 1) * (3 if sensitivity == "lut" else 3760)
+    width = 2 * max(terms, 1) * _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
     return _chunks.evaluate(_filtered_xyz, (w, mu, cov, nf, d, ns, n0), batch, core=(1, 1, 2, 0, 0, 0, 0),
                             out_core=1, width=width, terms=terms, observer=observer, illuminant=illuminant,
                             polarization=polarization, sensitivity=sensitivity)

@@ -43,7 +43,7 @@ import torch
 from .. import _checks, _chunks
 from ..lut import LUT
 from .filtered import _check_sensitivity, _series_xyz
-from .fourier import _check_names, thin_film_fourier_terms
+from .fourier import _check_names, _sensitivity_width, thin_film_fourier_terms
 from .uniform import _check_masking, cos_theta1_distribution
 from .._cache import cached
 
@@ -253,7 +253,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     # block by block over large batches (torchirid._chunks): per colour, K components × P × M
     # sensitivity values (× the quadrature's nodes with sensitivity="exact")
     K = table.values.shape[-2]
-    nodes = 3 if sensitivity == "lut" else 3760
+    nodes = _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
     return _chunks.evaluate(_fitted_xyz, (c, a, nf, d, n0, ns), full, out_core=1,
                             width=K * 2 * max(terms, 1) * nodes, grad_inputs=(table.values,), table=table,
                             terms=terms, observer=observer, illuminant=illuminant, polarization=polarization,

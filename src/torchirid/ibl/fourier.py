@@ -141,6 +141,12 @@ def _quadrature(observer, illuminant, dtype, device):
             torch.as_tensor(w, dtype=dtype, device=device))
 
 
+def _sensitivity_width(sensitivity: str, observer: str, illuminant: str, dtype, device) -> int:
+    """Work per Ŝ value for the block evaluation (:mod:`torchirid._chunks`): 3 (X, Y, Z) from a
+    table, the quadrature's node count (3 760 for CIE 1931 2° / D65) by quadrature."""
+    return 3 if sensitivity == "lut" else _quadrature(observer, illuminant, dtype, device)[0].numel()
+
+
 def _check_names(observer, illuminant):
     check_observer(observer)
     check_illuminant(illuminant)
@@ -586,9 +592,8 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
             _checks.as_real(n_incident, "n_incident", dtype, device))
     batch = _checks.broadcast_shapes(*(t.shape for t in args))
     # block by block over large batches (torchirid._chunks); per colour the Ŝ evaluations hold
-    # P·M·3 values with the table and P·M·(quadrature nodes, ~3760) with the quadrature
-    nodes = 3 if sensitivity == "lut" else _quadrature(observer, illuminant, dtype, device)[0].numel()
-    per_colour = 2 * max(terms, 1) * nodes
+    # P·M sensitivity values per colour, each _sensitivity_width() wide
+    per_colour = 2 * max(terms, 1) * _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
     return _chunks.evaluate(_fourier_xyz, args, batch, out_core=1, width=per_colour, terms=terms, observer=observer,
                             illuminant=illuminant, polarization=polarization, sensitivity=sensitivity)
 

@@ -229,8 +229,7 @@ def single_reflection_brdf(
     if base_interreflection and structure.base_albedo > 0:
         rd = _base_return(structure, tables, lam)
     # block by block over large batches of direction pairs (torchirid._chunks): W values per pair
-    params = tuple(v for layer in structure.layers for v in (layer.n1, layer.n2, layer.d1, layer.d2, layer.alpha)
-                   if isinstance(v, torch.Tensor))
+    params = tuple(t for layer in structure.layers for t in layer.tensors())
     out = _chunks.evaluate(_evaluate_block, (wi, wo), wi.shape[:-1], core=(1, 1), out_core=1, width=lam.numel(),
                            grad_inputs=params + ((rd,) if rd is not None else ()), structure=structure,
                            tables=tables, base_return=rd)

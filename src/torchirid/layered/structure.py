@@ -91,6 +91,10 @@ class RoughBraggLayer:
 
         return {name: plain(getattr(self, name)) for name in ("n1", "n2", "d1", "d2", "cells", "alpha", "n_incident")}
 
+    def tensors(self) -> tuple[torch.Tensor, ...]:
+        """The parameters given as tensors (those a gradient can flow to)."""
+        return tuple(v for v in (self.n1, self.n2, self.d1, self.d2, self.alpha) if isinstance(v, torch.Tensor))
+
     def reflectance(self, wavelength, cos_theta) -> torch.Tensor:
         """Unpolarized Yeh reflectance R_λ of one mirror lit from the host at ``cos_theta``
         (the cosine in the host medium; broadcast with ``wavelength`` in nm)."""

@@ -144,9 +144,8 @@ def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFA
     except RuntimeError:
         raise ValueError(f"cos_theta {tuple(c.shape)} and wavelength {tuple(lam.shape)} do not broadcast") from None
     # block by block over large batches (torchirid._chunks): ``nodes`` reflectances per point
-    params = tuple(v for v in (layer.n1, layer.n2, layer.d1, layer.d2, layer.alpha) if isinstance(v, torch.Tensor))
     return _chunks.evaluate(_tau_block, (c, lam), _checks.broadcast_shapes(c.shape, lam.shape), width=nodes,
-                            grad_inputs=params, layer=layer, nodes=nodes)
+                            grad_inputs=layer.tensors(), layer=layer, nodes=nodes)
 
 
 def _tau_block(c, lam, *, layer, nodes):

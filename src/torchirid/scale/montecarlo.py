@@ -101,21 +101,11 @@ def montecarlo_brdf_blocks(wavelength, wi, wo, structure, *, samples: int = 1024
 
 
 def _distributed(args, client, scheduler, workers, timeout, progress, blocks):
-    from distributed import Client, as_completed
+    from distributed import as_completed
 
-    from .tables import local_cluster
+    from .tables import _connected
 
-    own = None
-    if client is None:
-        if scheduler == "local":
-            own = local_cluster(workers)
-            client = Client(own)
-        else:
-            try:
-                client = Client(scheduler, timeout=timeout)
-            except (OSError, TimeoutError) as e:
-                raise OSError(f"no Dask scheduler answered at {scheduler!r} within {timeout:g} s ({e})") from None
-    try:
+    with _connected(client, scheduler, workers, timeout) as client:
         futures = [client.submit(_block, *a, pure=False) for a in args]
         done = 0
         for _ in as_completed(futures):
@@ -123,7 +113,3 @@ def _distributed(args, client, scheduler, workers, timeout, progress, blocks):
             if progress is not None:
                 progress(done, blocks)
         return [f.result() for f in futures]  # in block order: the merge does not depend on timing
-    finally:
-        if own is not None:
-            client.close()
-            own.close()

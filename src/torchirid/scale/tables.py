@@ -24,6 +24,7 @@ parameters), or :func:`open_table` → a lazy Dask array.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import itertools
@@ -291,19 +292,9 @@ def _run(todo, store, client, scheduler, workers, timeout, progress, finished, t
             if progress is not None:
                 progress(finished, total)
         return
-    from distributed import Client, as_completed
+    from distributed import as_completed
 
-    own = None
-    if client is None:
-        if scheduler == "local":
-            own = local_cluster(workers)
-            client = Client(own)
-        else:
-            try:
-                client = Client(scheduler, timeout=timeout)
-            except (OSError, TimeoutError) as e:
-                raise OSError(f"no Dask scheduler answered at {scheduler!r} within {timeout:g} s ({e})") from None
-    try:
+    with _connected(client, scheduler, workers, timeout) as client:
         futures = [client.submit(_chunk_task, store, idx, key=f"torchirid-chunk-{store}-{idx}", pure=False)
                    for idx in todo]
         for fut in as_completed(futures):
@@ -311,10 +302,31 @@ def _run(todo, store, client, scheduler, workers, timeout, progress, finished, t
             finished += 1
             if progress is not None:
                 progress(finished, total)
+
+
+@contextlib.contextmanager
+def _connected(client, scheduler, workers: int = 2, timeout: float = 10.0):
+    """The ``distributed.Client`` to run on: ``client`` itself, or one on a new
+    :func:`local_cluster` (``scheduler="local"``) or at the address ``scheduler`` — closed (with
+    its cluster) on leaving. OSError if the address does not answer within ``timeout`` s."""
+    from distributed import Client
+
+    if client is not None:
+        yield client
+        return
+    cluster = local_cluster(workers) if scheduler == "local" else None
+    try:
+        own = Client(cluster if cluster is not None else scheduler, timeout=timeout)
+    except (OSError, TimeoutError) as e:
+        if cluster is not None:
+            cluster.close()
+        raise OSError(f"no Dask scheduler answered at {scheduler!r} within {timeout:g} s ({e})") from None
+    try:
+        yield own
     finally:
-        if own is not None:
-            client.close()
-            own.close()
+        own.close()
+        if cluster is not None:
+            cluster.close()
 
 
 def _version() -> str:

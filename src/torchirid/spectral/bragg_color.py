@@ -80,7 +80,20 @@ def _wavelengths(method, K, wavelength_range, dtype, device):
     return torch.flip(2 * math.pi / omega, dims=(0,))  # uniform in ω, increasing in λ
 
 
+def _colours(*args, **kwargs) -> int:
+    """The work of a ``bragg_xyz`` call for the thread policy: colours × 256 (1 colour if the
+    mirror arguments are missing or do not broadcast — the call then reports them)."""
+    names = ("cos_theta", "n1", "n2", "d1", "d2")
+    values = list(args[:5]) + [kwargs.get(n) for n in names[len(args[:5]):]]
+    try:
+        return math.prod(_checks.broadcast_shapes(*(tuple(getattr(x, "shape", ())) for x in values))) * 256
+    except Exception:
+        return 256
+
+
+# a few colours are many small ops: one torch thread (torchirid._threads; measured there)
 @_checks.inference_when_no_grad  # (no gradient wanted: every method runs in inference mode)
+@_threads.limited_by(_colours)
 def bragg_xyz(
     cos_theta,
     n1,
@@ -134,47 +147,6 @@ def bragg_xyz(
         >>> [round(v, 3) for v in xyz.tolist()]
         [0.203, 0.074, 0.772]
     """
-    # a few colours are many small ops: one torch thread (torchirid._threads; measured there)
-    with _threads.limited(_colours(cos_theta, n1, n2, d1, d2) * 256):
-        return _bragg_xyz(cos_theta, n1, n2, d1, d2, cells, n_incident=n_incident, polarization=polarization,
-                          method=method, observer=observer, illuminant=illuminant, samples=samples,
-                          samples_per_fringe=samples_per_fringe, max_samples=max_samples,
-                          wavelength_range=wavelength_range, subdivisions=subdivisions, weights=weights,
-                          correction=correction, tolerance=tolerance)
-
-
-def _colours(*xs) -> int:
-    """The number of colours asked for (an estimate for the thread policy; 1 if the shapes do
-    not broadcast — the body then reports the bad argument)."""
-    try:
-        return math.prod(_checks.broadcast_shapes(*(tuple(getattr(x, "shape", ())) for x in xs)))
-    except Exception:
-        return 1
-
-
-def _bragg_xyz(
-    cos_theta,
-    n1,
-    n2,
-    d1,
-    d2,
-    cells,
-    *,
-    n_incident=None,
-    polarization: str = "unpolarized",
-    method: str = "spectral",
-    observer: str = "CIE 1931 2",
-    illuminant: str = "D65",
-    samples: int | None = None,
-    samples_per_fringe: float = 192.0,
-    max_samples: int = 262144,
-    wavelength_range=(380.0, 780.0),
-    subdivisions: int = 8,
-    weights: str = "averaged",
-    correction="fitted",
-    tolerance: float = 1.0,
-) -> torch.Tensor:
-    """The body of :func:`bragg_xyz`."""
     _checks.check_polarization(polarization)
     if method not in BRAGG_XYZ_METHODS:
         raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")
