@@ -88,6 +88,28 @@ def test_knob():
             ti.set_chunk_size(bad)
 
 
+def test_the_default_block_size_follows_the_inputs_device(monkeypatch):
+    from torchirid import _chunks
+
+    assert ti.get_chunk_size("cuda") == _chunks.DEVICE_CHUNK_SIZE > ti.get_chunk_size("cpu") == 1 << 15
+    with ti.chunk_size(5000):  # a set size holds on every device
+        assert ti.get_chunk_size("cuda") == ti.get_chunk_size() == 5000
+    seen = []
+
+    def kernel(x):
+        seen.append((x.device.type, x.numel()))
+        return 2 * x
+
+    monkeypatch.setattr(_chunks, "default_chunk_size", lambda device=None: {"cpu": 1000, "meta": 10_000}[
+        torch.device(device).type])
+    for dev in ("cpu", "meta"):
+        x = torch.zeros(100, 1000, device=dev)
+        out = _chunks.evaluate(kernel, (x,), x.shape)
+        assert out.device.type == dev and out.shape == x.shape
+    assert {s for s in seen if s[0] == "cpu"} == {("cpu", 1000)}
+    assert {s for s in seen if s[0] == "meta"} == {("meta", 10_000)}
+
+
 @pytest.mark.parametrize("name", ["thin_film", "multilayer", "bragg"])
 def test_gradients_checkpointed_equal_one_piece(name, monkeypatch):
     """With a gradient, batches over CHECKPOINT_POINTS run in checkpointed blocks: the values and

@@ -19,7 +19,9 @@ checkpointing, which keeps one block's graph alive at a time and recomputes it i
 pass (about one more forward pass of time). Smaller batches with a gradient are evaluated at once.
 
 One knob: :func:`set_chunk_size` (process-wide; ``TORCHIRID_CHUNK_SIZE`` in the environment) or
-the :func:`chunk_size` context manager. ``None``/0 turns chunking off. Under ``torch.func``
+the :func:`chunk_size` context manager. ``None``/0 turns chunking off; the default, ``"auto"``,
+takes the block size from the inputs' device (:func:`default_chunk_size`: cache-sized blocks on
+the CPU, much larger ones on GPUs, where a block's cost is its kernel launches). Under ``torch.func``
 transforms or ``torch.compile`` (:func:`torchirid._checks.traceable`) the whole batch is
 evaluated at once.
 """
@@ -36,7 +38,7 @@ import torch
 
 from . import _checks, _threads
 
-__all__ = ["chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
+__all__ = ["chunk_size", "default_chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
 
 #: default block size in points (measured: docs/performance.md, benchmarks/throughput.py). On
 #: 10⁷-point grids, paired against the 36k grid, blocks of 2¹⁵ points cost 0.97–1.14× the small
@@ -44,15 +46,24 @@ __all__ = ["chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
 #: (2 MB each) are returned to the OS and faulted in again block after block by the C allocator.
 DEFAULT_CHUNK_SIZE = 1 << 15
 
+#: default block size on accelerators (CUDA, MPS, ...): there a block costs a few µs of kernel
+#: launches per op whatever its size and the intermediates live in GPU memory, not a CPU cache,
+#: so blocks are as large as memory comfortably allows (2²¹ points: 32 MB per complex128
+#: intermediate). Measured on an H200: docs/performance.md, "GPU".
+DEVICE_CHUNK_SIZE = 1 << 21
 
-def _initial() -> int | None:
+#: the block size when none was set: per device type (:func:`default_chunk_size`)
+AUTO = "auto"
+
+
+def _initial() -> int | str | None:
     text = os.environ.get("TORCHIRID_CHUNK_SIZE", "").strip()
     if not text:
-        return DEFAULT_CHUNK_SIZE
+        return AUTO
     try:
         value = int(text)
     except ValueError:
-        return DEFAULT_CHUNK_SIZE
+        return AUTO
     return value if value > 0 else None
 
 
@@ -60,33 +71,46 @@ _STATE = {"points": _initial()}
 
 
 def _check(points):
-    if points is None:
-        return None
+    if points is None or points == AUTO:
+        return points
     if isinstance(points, bool) or not isinstance(points, int) or points < 0:
-        raise ValueError(f"points must be an int >= 1 (points per block), or 0 / None for no chunking; got {points!r}")
+        raise ValueError(f"points must be an int >= 1 (points per block), 0 / None for no chunking, or 'auto' "
+                         f"(the default per device); got {points!r}")
     return points or None
 
 
-def set_chunk_size(points: int | None = DEFAULT_CHUNK_SIZE) -> None:
-    """Points per block of the chunked kernels (default 32768); ``None`` or 0: no chunking.
+def set_chunk_size(points: int | str | None = AUTO) -> None:
+    """Points per block of the chunked kernels; ``None`` or 0: no chunking.
 
-    A batch of up to twice this many points is evaluated in one piece.
+    ``"auto"`` (the default): :func:`default_chunk_size` of the inputs' device — 32768 points on
+    the CPU (cache-sized intermediates), 2²¹ on accelerators. An int applies to every device. A
+    batch of up to twice the block size is evaluated in one piece.
 
     >>> import torchirid
     >>> torchirid.set_chunk_size(1 << 16); torchirid.get_chunk_size()
     65536
-    >>> torchirid.set_chunk_size()  # back to the default
+    >>> torchirid.set_chunk_size()  # back to the default: per device
+    >>> torchirid.get_chunk_size(), torchirid.get_chunk_size("cuda")
+    (32768, 2097152)
     """
     _STATE["points"] = _check(points)
 
 
-def get_chunk_size() -> int | None:
-    """The current block size in points (None: chunking off)."""
-    return _STATE["points"]
+def default_chunk_size(device=None) -> int:
+    """The block size used when none is set: :data:`DEFAULT_CHUNK_SIZE` on the CPU (and for
+    ``device=None``), :data:`DEVICE_CHUNK_SIZE` on any other device type."""
+    kind = torch.device(device).type if device is not None else "cpu"
+    return DEFAULT_CHUNK_SIZE if kind in ("cpu", "meta") else DEVICE_CHUNK_SIZE
+
+
+def get_chunk_size(device=None) -> int | None:
+    """The block size in points on ``device`` (default: the CPU's); None: chunking off."""
+    points = _STATE["points"]
+    return default_chunk_size(device) if points == AUTO else points
 
 
 @contextlib.contextmanager
-def chunk_size(points: int | None):
+def chunk_size(points: int | str | None):
     """Context manager: the block size inside the ``with`` block (:func:`set_chunk_size`)."""
     points = _check(points)
     before = _STATE["points"]
@@ -131,6 +155,8 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     """
     batch = tuple(batch)
     chunk = _STATE["points"]
+    if chunk == AUTO:
+        chunk = default_chunk_size(next((t.device for t in tensors if isinstance(t, torch.Tensor)), None))
     points = None if chunk is None else max(min(chunk, MIN_BLOCK_POINTS), chunk // max(1, int(width)))
     total = math.prod(batch)
     core = (0,) * len(tensors) if core is None else tuple(core)

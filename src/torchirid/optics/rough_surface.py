@@ -146,7 +146,7 @@ def _recurse(eta, e1, e2, seed):
         ge2 = gamma * e2[..., j]
         den = 1 + rj * ge2
         degenerate = den == 0
-        if bool(degenerate.any()):
+        if _checks.traceable() or bool(degenerate.any()):
             # guard (as in multilayer): 0/0 only at grazing, where the film is invisible
             safe = torch.where(degenerate, torch.ones_like(den), den)
             gamma = torch.where(degenerate, torch.zeros_like(den), (rj + ge2) / safe)

@@ -123,7 +123,10 @@ MIN_FRINGES = 8.0
 
 def _check_domain(mirror, method: str) -> None:
     """RuntimeWarning when some colours have fewer than :data:`MIN_FRINGES` fringes in the range
-    (the fringe average is then not what the CMFs see; measured ΔE2000 up to ~30)."""
+    (the fringe average is then not what the CMFs see; measured ΔE2000 up to ~30). A value check:
+    off under ``set_value_checks(False)``, like the others (it reads the values back to the host)."""
+    if not _checks.value_checks_enabled():
+        return
     lo, hi = mirror["range"]
     with torch.no_grad():
         F = mirror["N"] * (mirror["A"] + mirror["B"]) * (2 * (1 / lo - 1 / hi))
@@ -177,7 +180,7 @@ def _embedded_mirror(cos_theta, n1, n2, d1, d2, cells, polarization, wavelength_
     _checks.check_nonnegative(d2, "d2")
     lo, hi = _checks.check_wavelength_range(wavelength_range)
     s2 = n1 * n1 * (1 - c * c)
-    if bool((n2 * n2 - s2 < 0).any()):
+    if _checks.value_checks_enabled() and bool((n2 * n2 - s2 < 0).any()):
         raise ValueError(f"the {method} method needs light propagating in n2 (no total internal reflection); "
                          "use method='spectral'")
     grazing = c == 0  # R = 1 at every wavelength: the colour of the perfect reflector
