@@ -9,7 +9,10 @@ never read tensor values back to the host (a meta tensor has no values to read),
 synchronisation count checks the same on a real device.
 
 The references are the CPU float64 results: float64 on CUDA rounds differently (fused
-multiply-adds, other libm), so values agree to 1e-9 relative, not bit for bit.
+multiply-adds, other libm), so values agree to 1e-8 relative, not bit for bit, and gradients to
+1e-6: the layered functions interpolate tabulated transmissivities in angle, and a query that
+falls on a node takes its segment (so its slope) by rounding. Measured worst on an H200 (torch
+2.11, CUDA 13): 2e-9 relative in values, 2e-7 in gradients (``layered.single_reflection_pdf``).
 """
 
 from __future__ import annotations
@@ -23,7 +26,8 @@ import torchirid as ti
 from api_cases import CASES, pick
 from tensors import F64
 
-RTOL, ATOL = 1e-9, 1e-12
+RTOL, ATOL = 1e-8, 1e-12
+GRAD_RTOL = 1e-6
 
 
 def on(value, device):
@@ -39,13 +43,13 @@ def on(value, device):
     return value
 
 
-def assert_close_on(out, ref, device, what):
+def assert_close_on(out, ref, device, what, rtol=RTOL):
     assert out.device.type == device.type, f"{what}: result on {out.device}, inputs on {device}"
     assert out.dtype == ref.dtype, f"{what}: {out.dtype} on {device}, {ref.dtype} on the CPU"
     assert out.shape == ref.shape, what
     got = out.detach().cpu()
     err = (got - ref.detach()).abs()
-    tol = ATOL + RTOL * ref.detach().abs()
+    tol = ATOL + rtol * ref.detach().abs()
     assert bool((err <= tol).all()), f"{what}: max |Δ| {float(err.max()):.3g} on {device}"
 
 
@@ -75,7 +79,7 @@ def test_gradients_are_computed_on_the_device(name, device):
     ref = grad(torch.device("cpu"))
     if ref is None:
         pytest.skip(f"{name} does not depend on {arg} differentiably")
-    assert_close_on(grad(device), ref, device, f"d {name} / d {arg}")
+    assert_close_on(grad(device), ref, device, f"d {name} / d {arg}", rtol=GRAD_RTOL)
 
 
 # -- whole scenes and fits ---------------------------------------------------------------------

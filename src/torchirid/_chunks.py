@@ -46,11 +46,13 @@ __all__ = ["chunk_size", "default_chunk_size", "evaluate", "get_chunk_size", "se
 #: (2 MB each) are returned to the OS and faulted in again block after block by the C allocator.
 DEFAULT_CHUNK_SIZE = 1 << 15
 
-#: default block size on accelerators (CUDA, MPS, ...): there a block costs a few µs of kernel
-#: launches per op whatever its size and the intermediates live in GPU memory, not a CPU cache,
-#: so blocks are as large as memory comfortably allows (2²¹ points: 32 MB per complex128
-#: intermediate). Measured on an H200: docs/performance.md, "GPU".
-DEVICE_CHUNK_SIZE = 1 << 21
+#: default block size on accelerators (CUDA, MPS, ...): there a block costs its kernel launches
+#: (~10 µs per op whatever its size; a 10-film multilayer launches hundreds) and the
+#: intermediates live in GPU memory, not a CPU cache, so blocks are as large as memory
+#: comfortably allows: 2²⁴ points, 256 MB per complex128 intermediate. Measured on an H200 at
+#: 10⁸ points (docs/performance.md, "GPU"): 2²⁴-point blocks cost 1.08–1.26× one piece, 2²¹-point
+#: blocks 2.4–6.7×, the CPU's 2¹⁵ ~100×.
+DEVICE_CHUNK_SIZE = 1 << 24
 
 #: the block size when none was set: per device type (:func:`default_chunk_size`)
 AUTO = "auto"
@@ -83,7 +85,7 @@ def set_chunk_size(points: int | str | None = AUTO) -> None:
     """Points per block of the chunked kernels; ``None`` or 0: no chunking.
 
     ``"auto"`` (the default): :func:`default_chunk_size` of the inputs' device — 32768 points on
-    the CPU (cache-sized intermediates), 2²¹ on accelerators. An int applies to every device. A
+    the CPU (cache-sized intermediates), 2²⁴ on accelerators. An int applies to every device. A
     batch of up to twice the block size is evaluated in one piece.
 
     >>> import torchirid
@@ -91,7 +93,7 @@ def set_chunk_size(points: int | str | None = AUTO) -> None:
     65536
     >>> torchirid.set_chunk_size()  # back to the default: per device
     >>> torchirid.get_chunk_size(), torchirid.get_chunk_size("cuda")
-    (32768, 2097152)
+    (32768, 16777216)
     """
     _STATE["points"] = _check(points)
 
