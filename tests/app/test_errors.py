@@ -40,6 +40,8 @@ PARSE_ERRORS = {
     "thin-film": ["--alpha", "nan"],
     "fit-film": ["cube.npz", "--bandwidth", "nan"],
     "build-table": ["thin_film_reflectance", "--axis", "wavelength=nan:700:5"],
+    "fit-batch": ["film", "c.npz", "--timeout", "nan"],
+    "montecarlo": ["--incident", "nan", "0", "--exit", "30", "0"],
 }
 
 #: one bad argument per subcommand that parses and is refused afterwards (by the command or the
@@ -53,6 +55,8 @@ LATE_ERRORS = {
     "thin-film": (["--n-film", "0.5"], "n-film"),
     "fit-film": (["missing-cube.npz"], "missing-cube"),
     "build-table": (["thin_film_reflectance", "--axis", "wavelength=400:700:5", "--set", "bogus=1"], "bogus"),
+    "fit-batch": (["film", "c.npz", "--set", "bogus=1"], "bogus"),
+    "montecarlo": (["--incident", "95", "0", "--exit", "30", "0"], "THETA"),
 }
 
 
@@ -120,6 +124,11 @@ ERROR_CLASSES = {
                         "--set", "n_substrate=1.5", "--set", "thickness=100"]
                     for k, axis in (("nan", "wavelength=400:nan:5"), ("negative", "wavelength=-400:700:5"),
                                     ("unit", "wavelength=4e-7:7e-7:5"))},
+    "fit-batch": {"nan": ["film", "c.npz", "--timeout", "nan"], "negative": ["film", "c.npz", "--workers", "-2"],
+                  "unit": ["film", "c.npz", "--set", "thickness_range=[2e-8,2e-6]"]},
+    "montecarlo": {k: ["--incident", "30", "0", "--exit", "30", "0", *extra]
+                   for k, extra in (("nan", ["--wavelengths", "400", "nan", "5"]), ("negative", ["--samples", "-5"]),
+                                    ("unit", ["--wavelengths", "4e-7", "7e-7", "5"]))},
 }
 
 

@@ -67,3 +67,28 @@ def test_bit_identical_on_a_local_cluster():
                                        progress=lambda d, t: seen.append((d, t)), **OPTS)
     assert torch.equal(here[0], there[0]) and torch.equal(here[1], there[1])
     assert seen[-1] == (6, 6)
+
+
+def test_cli_montecarlo_in_process_and_on_a_local_cluster(tmp_path, capsys):
+    """``torchirid montecarlo``: the blocks' estimate, the same bits in process and on 2 workers."""
+    import json
+
+    import numpy as np
+
+    from torchirid.app.cli import main
+    from torchirid.layered.presets import jewel_beetle
+
+    argv = ["montecarlo", "--preset", "red", "--incident", "20", "0", "--exit", "20", "180", "--exit", "40", "150",
+            "--wavelengths", "450", "650", "3", "--samples", "64", "--blocks", "4", "--seed", "7", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "a.json")]) == 0
+    assert "2 direction pairs × 3 wavelengths, 64 paths each in 4 blocks" in capsys.readouterr().out
+    a = json.loads((tmp_path / "a.json").read_text())
+    assert np.array(a["brdf"]).shape == (2, 3) and a["settings"]["seed"] == 7
+    wi = torch.tensor(a["wi"], dtype=F64).expand(2, 3)
+    ref, err = montecarlo_brdf_blocks(torch.tensor(a["wavelength_nm"], dtype=F64), wi, torch.tensor(a["wo"], dtype=F64),
+                                      jewel_beetle("red"), samples=64, blocks=4, seed=7)
+    assert a["brdf"] == ref.tolist() and a["stderr"] == err.tolist()
+    pytest.importorskip("distributed", reason="needs dask.distributed")
+    assert main([*argv, "--scheduler", "local", "--workers", "2", "--out", str(tmp_path / "b.npz")]) == 0
+    b = np.load(tmp_path / "b.npz")
+    assert b["brdf"].tolist() == a["brdf"] and b["stderr"].tolist() == a["stderr"]

@@ -237,6 +237,41 @@ def progress_bar(desc: str, total: int | None = None, unit: str = "step", *, qui
     return tqdm(total=total, desc=desc, unit=unit, **kwargs)
 
 
+def setting(text: str):
+    """``NAME=VALUE`` (VALUE a JSON value — number, list, true/false — or a bare string) → (name, value)."""
+    import json
+
+    name, sep, raw = text.partition("=")
+    if not sep or not name.isidentifier():
+        raise argparse.ArgumentTypeError(f"expected NAME=VALUE (e.g. n1=1.0 or method=envelope); got {text!r}")
+    try:
+        value = json.loads(raw)
+    except ValueError:
+        value = raw
+    return name, value
+
+
+def add_scheduler_options(parser: argparse.ArgumentParser, unit: str) -> None:
+    """``--scheduler`` ('local' or a Dask address; default this process), ``--workers`` and
+    ``--timeout``: where the ``unit``s of a scale-out command run (:mod:`torchirid.scale`)."""
+    parser.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                        help=f"where the {unit}s run: 'local' (an embedded Dask cluster) or a scheduler address "
+                             "(tcp://HOST:PORT); default: this process")
+    parser.add_argument("--workers", type=count, default=2, help="worker processes of --scheduler local (default 2)")
+    parser.add_argument("--timeout", type=positive, default=10.0, help="seconds to reach --scheduler (default 10)")
+
+
+def progress_callback(bar):
+    """``progress(done, total)`` that moves a :func:`progress_bar` (the :mod:`torchirid.scale` callbacks)."""
+
+    def progress(done, total):
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    return progress
+
+
 def add_output_options(parser: argparse.ArgumentParser, *, figures: bool = True) -> None:
     """``--quiet`` (no progress bar) and, for commands that draw, ``--format png[,pdf,svg]``."""
     parser.add_argument("--quiet", action="store_true", help="no progress bar (there is none when stderr is not a terminal)")

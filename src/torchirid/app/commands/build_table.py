@@ -5,7 +5,6 @@ scheduler (:func:`torchirid.scale.build_table`)."""
 from __future__ import annotations
 
 import argparse
-import json
 
 from .. import _args
 
@@ -32,18 +31,6 @@ def _axis(text: str):
     return name, (start, stop, count)
 
 
-def _setting(text: str):
-    """``NAME=VALUE`` (VALUE a JSON value or a bare string) → (name, value)."""
-    name, sep, raw = text.partition("=")
-    if not sep or not name.isidentifier():
-        raise argparse.ArgumentTypeError(f"expected NAME=VALUE (e.g. n1=1.0 or method=envelope); got {text!r}")
-    try:
-        value = json.loads(raw)
-    except ValueError:
-        value = raw
-    return name, value
-
-
 def add_parser(subparsers):
     """Register ``build-table`` (``func=run``); returns its parser."""
     p = _args.add_command_parser(
@@ -64,14 +51,11 @@ def add_parser(subparsers):
     p.add_argument("function", choices=FUNCTIONS, help="the library function")
     p.add_argument("--axis", type=_axis, action="append", required=True, metavar="NAME=START:STOP:COUNT",
                    help="a table axis: COUNT values of argument NAME from START to STOP (repeat per axis)")
-    p.add_argument("--set", type=_setting, action="append", default=[], metavar="NAME=VALUE",
+    p.add_argument("--set", type=_args.setting, action="append", default=[], metavar="NAME=VALUE",
                    help="a fixed argument (a number, list or string; repeat)")
     p.add_argument("--chunks", type=_args.count, default=64, help="nodes per chunk along every axis (default 64)")
     p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="'local' (an embedded Dask cluster) or a scheduler address; default: this process")
-    p.add_argument("--workers", type=_args.count, default=2, help="worker processes of --scheduler local")
-    p.add_argument("--timeout", type=_args.positive, default=10.0, help="seconds to reach --scheduler")
+    _args.add_scheduler_options(p, "chunk")
     p.add_argument("--out", required=True, metavar="STORE", help="the Zarr store (a directory)")
     _args.add_output_options(p, figures=False)
     p.set_defaults(func=run, parser=p)
@@ -97,12 +81,7 @@ def run(args) -> int:
         axes[name] = np.linspace(start, stop, count)
     settings = dict(args.set)
     bar = _args.progress_bar(f"{NAME} {args.function}", unit="chunk", quiet=args.quiet)
-
-    def progress(done, total):
-        bar.total = total
-        bar.n = done
-        bar.refresh()
-
+    progress = _args.progress_callback(bar)
     dtype = torch.float32 if args.dtype == "float32" else torch.float64
     try:
         result = build_table(getattr(torchirid, args.function), axes, args.out, chunks=args.chunks, kwargs=settings,

@@ -1,0 +1,249 @@
+r"""Batch fitting on Dask: many measurements fitted independently, one result table (issue 24.3).
+
+:func:`fit_batch` fits every file of a list — hyperspectral cubes with
+:func:`torchirid.estimation.estimate_film` (``kind="film"``) or measured scatterograms with
+:func:`torchirid.fitting.match_scatterogram` (``kind="scatterogram"``) — in this process, on an
+embedded ``LocalCluster`` or on any Dask scheduler, and returns one record per file, in the
+order given. A file that cannot be read or fitted gives a record with ``status="error"`` and the
+error's one-line message; the others finish. A worker process that dies is Dask's to handle:
+its items are rescheduled on the others (``distributed.scheduler.allowed-failures`` times), then
+reported as errors like any other. :func:`write_results` writes the records as JSON, CSV or
+Parquet (by the file's suffix).
+
+Every record has ``item`` (the path), ``status`` (``"ok"`` / ``"error"``), ``error`` (None or
+``"ExceptionType: message"``) and ``seconds`` (the item's wall time on its worker); the fit's
+figures follow (:data:`FIELDS`), None where the item failed.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+__all__ = ["FIELDS", "KINDS", "fit_batch", "fit_item", "write_results"]
+
+#: the kinds of fit, and the columns each adds to the common ones (item, status, error, seconds)
+FIELDS = {
+    "film": ("n", "index_model", "index_params", "thickness_mean_nm", "thickness_std_nm", "thickness_min_nm",
+             "thickness_max_nm", "rms_mean", "pixels", "pixels_valid"),
+    "scatterogram": ("period_nm", "delta", "n1", "n2", "cells", "alpha", "exposure", "loss", "delta_e2000",
+                     "iterations"),
+}
+KINDS = tuple(FIELDS)
+COMMON = ("item", "status", "error", "seconds")
+
+
+def _film(path: str, read: dict, fit: dict) -> dict:
+    from ..estimation import estimate_film
+    from ..estimation.cube_io import read_cube
+
+    cube = read_cube(path, **read)
+    n_substrate = fit.pop("n_substrate", 1.64)
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, n_substrate, **fit)
+    d = est.thickness[est.thickness.isfinite()].double()
+    rms = est.rms[est.rms.isfinite()].double()
+    return {"n": float(est.n), "index_model": est.index_model,
+            "index_params": [float(v) for v in est.params.flatten().tolist()] if est.params.numel() <= 8 else None,
+            "thickness_mean_nm": float(d.mean()) if d.numel() else None,
+            "thickness_std_nm": float(d.std()) if d.numel() > 1 else None,
+            "thickness_min_nm": float(d.min()) if d.numel() else None,
+            "thickness_max_nm": float(d.max()) if d.numel() else None,
+            "rms_mean": float(rms.mean()) if rms.numel() else None,
+            "pixels": int(est.thickness.numel()), "pixels_valid": int(d.numel())}
+
+
+def _scatterogram(path: str, read: dict, fit: dict) -> dict:
+    from ..fitting import load_scatterogram, match_scatterogram
+
+    image = load_scatterogram(path, **read)
+    fit.setdefault("projection", image.projection)
+    r = match_scatterogram(image.xyz, image.mask, **fit)
+    return {"period_nm": r.period, "delta": r.delta, "n1": r.n1, "n2": r.n2, "cells": r.cells, "alpha": r.alpha,
+            "exposure": r.exposure, "loss": r.loss, "delta_e2000": r.delta_e2000, "iterations": r.iterations}
+
+
+_FITS: dict[str, Callable[[str, dict, dict], dict]] = {"film": _film, "scatterogram": _scatterogram}
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or "(no message)"
+    return f"{type(exc).__name__}: {text[:500]}"
+
+
+def _record(kind: str, item: str, status: str, error: str | None, seconds: float | None, values: dict | None) -> dict:
+    rec = {"item": item, "status": status, "error": error, "seconds": seconds}
+    rec.update({k: (values or {}).get(k) for k in FIELDS[kind]})
+    return rec
+
+
+def fit_item(kind: str, item, read: dict | None = None, fit: dict | None = None) -> dict:
+    """Fit one file and return its record; any exception becomes a record with ``status="error"``
+    (what runs on a worker: it never raises for a bad input)."""
+    start = time.perf_counter()
+    try:
+        values = _FITS[kind](os.fspath(item), dict(read or {}), dict(fit or {}))
+    except Exception as exc:  # noqa: BLE001 — one bad input is reported, the batch goes on
+        return _record(kind, os.fspath(item), "error", _one_line(exc), time.perf_counter() - start, None)
+    return _record(kind, os.fspath(item), "ok", None, time.perf_counter() - start, values)
+
+
+#: the reader and the fit of each kind, and the arguments a file supplies (not settable)
+_CALLS = {"film": ("torchirid.estimation.cube_io:read_cube", "torchirid.estimation:estimate_film",
+                   {"path", "cube", "wavelength", "cos_theta"}),
+          "scatterogram": ("torchirid.fitting:load_scatterogram", "torchirid.fitting:match_scatterogram",
+                           {"path", "target_xyz", "mask"})}
+#: settings in nm given as (min, max) pairs: checked before any file is read
+NM_RANGES = ("thickness_range", "period_range")
+MIN_LENGTH_NM = 0.01
+
+
+def _preflight(kind: str, read: dict, fit: dict) -> None:
+    """Refuse settings that would fail every item, before any is read: names the reader or the
+    fit does not take (or that the file supplies) and (min, max) ranges in nm that are not."""
+    import importlib
+    import inspect
+
+    *calls, from_file = _CALLS[kind]
+    for target, options, what in zip(calls, (read, fit), ("read", "fit")):
+        module, name = target.split(":")
+        params = inspect.signature(getattr(importlib.import_module(module), name)).parameters
+        for key in options:
+            if key in from_file or key not in params:
+                why = "comes from each file" if key in from_file else f"is not an argument of {name}"
+                raise ValueError(f"{what} setting {key!r} {why}")
+    for key in NM_RANGES:
+        value = fit.get(key)
+        if value is None:
+            continue
+        try:
+            lo, hi = (float(v) for v in value)
+        except (TypeError, ValueError):
+            raise ValueError(f"{key} must be a (min, max) pair in nm; got {value!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
+            raise ValueError(f"{key} must be a (min, max) pair in nm with 0 < min < max; got {value!r}")
+        if lo < MIN_LENGTH_NM:
+            raise ValueError(f"{key} must be in nm; got {value!r} (metres or micrometres? 300 nm is 300, not 3e-7)")
+
+
+def _check(kind, items, read, fit):
+    if kind not in _FITS:
+        raise ValueError(f"kind must be one of {', '.join(map(repr, KINDS))}; got {kind!r}")
+    if isinstance(items, (str, bytes, os.PathLike)) or not isinstance(items, Sequence):
+        raise ValueError(f"items must be a list of file paths; got {type(items).__name__}")
+    if len(items) == 0:
+        raise ValueError("items must name at least one file")
+    for name, value in (("read", read), ("fit", fit)):
+        if value is not None and not isinstance(value, dict):
+            raise ValueError(f"{name} must be a dict of keyword arguments; got {type(value).__name__}")
+    _preflight(kind, read or {}, fit or {})
+    return [os.fspath(i) for i in items]
+
+
+def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = None, client=None,
+              scheduler: str | None = None, workers: int = 2, timeout: float = 10.0, progress=None) -> list[dict]:
+    r"""Fit every file of ``items`` independently; one record per file, in order.
+
+    Args:
+        kind: ``"film"`` (a hyperspectral cube per file: .npz or ENVI .hdr, fitted with
+            :func:`~torchirid.estimation.estimate_film`) or ``"scatterogram"`` (a PNG / OpenEXR
+            scatterogram per file, matched with :func:`~torchirid.fitting.match_scatterogram`).
+        items: the file paths.
+        read: keyword arguments of the reader (``read_cube``: ``angles_deg``;
+            ``load_scatterogram``: ``projection``, ``resolution``, ``exposure``, …).
+        fit: keyword arguments of the fit (``estimate_film``: ``n_substrate`` (default 1.64),
+            ``index_model_name``, ``thickness_range``, …; ``match_scatterogram``:
+            ``incident_deg``, ``cells``, ``period_range``, …).
+        client, scheduler, workers, timeout: where the fits run, as
+            :func:`torchirid.scale.build_table` (default: this process, one after the other).
+        progress: ``progress(done, total)`` as items finish.
+
+    Returns:
+        A list of dicts (:data:`FIELDS`): ``status`` is ``"ok"`` or ``"error"`` (with ``error``
+        the one-line reason); the batch does not stop at a bad item.
+
+    Raises:
+        ValueError: before any file is read, for settings that would fail every item: a name
+            the reader or the fit does not take, a ``thickness_range`` / ``period_range`` that
+            is not a (min, max) pair in nm.
+
+    Example:
+        >>> import tempfile, pathlib
+        >>> from torchirid.estimation import synthetic_cube, write_npz
+        >>> folder = pathlib.Path(tempfile.mkdtemp())
+        >>> c = synthetic_cube("mgf2_400", height=4, width=4, seed=1)
+        >>> write_npz(folder / "a.npz", c.cube, c.wavelength, c.angles_deg)
+        >>> recs = fit_batch("film", [folder / "a.npz", folder / "missing.npz"])
+        >>> [(r["status"], r["n"] is not None and abs(r["n"] - 1.38) < 0.02) for r in recs]  # MgF2: n = 1.38
+        [('ok', True), ('error', False)]
+        >>> recs[1]["error"]  # doctest: +ELLIPSIS
+        "ValueError: cube file '...missing.npz' does not exist"
+    """
+    paths = _check(kind, items, read, fit)
+    total = len(paths)
+    if client is None and scheduler is None:
+        out = []
+        for path in paths:
+            out.append(fit_item(kind, path, read, fit))
+            if progress is not None:
+                progress(len(out), total)
+        return out
+    from distributed import as_completed
+
+    from .tables import _connected
+
+    with _connected(client, scheduler, workers, timeout) as client:
+        futures = [client.submit(fit_item, kind, p, read, fit, pure=False) for p in paths]
+        where = {f.key: i for i, f in enumerate(futures)}
+        records: list[dict | None] = [None] * total
+        for done, fut in enumerate(as_completed(futures), 1):
+            i = where[fut.key]
+            try:
+                records[i] = fut.result()
+            except Exception as exc:  # noqa: BLE001 — e.g. KilledWorker after the allowed retries
+                records[i] = _record(kind, paths[i], "error", _one_line(exc), None, None)
+            if progress is not None:
+                progress(done, total)
+        return records
+
+
+def _finite(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, list):
+        return [_finite(v) for v in value]
+    return value
+
+
+def write_results(records: Sequence[dict], path) -> Path:
+    """Write the records as one table: ``.json`` (a list of objects, strict JSON: non-finite
+    numbers as null), ``.csv`` (one row per item; list values joined with ``;``) or ``.parquet``
+    (needs ``pyarrow``). Returns the path."""
+    path = Path(os.fspath(path))
+    suffix = path.suffix.lower()
+    if suffix not in (".json", ".csv", ".parquet"):
+        raise ValueError(f"the result table must end in .json, .csv or .parquet; got {str(path)!r}")
+    rows = [{k: _finite(v) for k, v in r.items()} for r in records]
+    columns = list(dict.fromkeys(k for r in rows for k in r))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if suffix == ".json":
+        path.write_text(json.dumps(rows, indent=1, allow_nan=False) + "\n")
+    elif suffix == ".csv":
+        with path.open("w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=columns)
+            w.writeheader()
+            for r in rows:
+                w.writerow({k: ";".join(map(str, v)) if isinstance(v, list) else ("" if v is None else v)
+                            for k, v in r.items()})
+    else:
+        try:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+        except ImportError:
+            raise ValueError("writing .parquet needs pyarrow (pip install pyarrow); or write .json / .csv") from None
+        pq.write_table(pa.Table.from_pylist(rows), str(path))
+    return path
