@@ -21,7 +21,7 @@ start=$SECONDS
 } 2>&1 | tee "$OUT/gpu_info.txt"
 
 echo "== 1. device-sensitive tests (CPU and CUDA)"
-timeout "${TESTS_S:-180}" python3 -m pytest -q -p no:cacheprovider -o addopts="" -rs \
+timeout -s INT "${TESTS_S:-180}" python3 -m pytest -q -p no:cacheprovider -o addopts="" -rs \
     tests/test_devices.py tests/test_chunks.py tests/estimation/test_conventions.py 2>&1 \
     | tee "$OUT/device_tests.log" | tail -25
 echo "== 2. GPU benchmark ($((SECONDS - start)) s so far)"
@@ -29,7 +29,9 @@ timeout "${BENCH_S:-220}" python3 benchmarks/gpu.py --out "$OUT/gpu.md" 2>&1 | t
 left=$(( ${TOTAL_S:-560} - (SECONDS - start) ))
 echo "== 3. the rest of the suite with CUDA visible (${left} s left)"
 if (( left > 60 )); then
-    CI=true OMP_NUM_THREADS=2 timeout "$left" python3 -m pytest -q -p no:cacheprovider -o addopts="-ra" -n "${WORKERS:-12}" \
-        tests --ignore=tests/scale --ignore=tests/test_devices.py 2>&1 | tee "$OUT/suite.log" | tail -30
+    # SIGINT at the limit: pytest stops and still lists the failures so far (-rf, one line each)
+    CI=true OMP_NUM_THREADS=2 timeout -s INT "$left" python3 -m pytest -q -p no:cacheprovider -o addopts="" -rf \
+        --tb=line -n "${WORKERS:-12}" tests --ignore=tests/scale --ignore=tests/test_devices.py 2>&1 \
+        | grep -v -E "^[.FsxE]+ *(\[ *[0-9]+%\])?$" | tee "$OUT/suite.log" | tail -40
 fi
 echo "== done in $((SECONDS - start)) s"

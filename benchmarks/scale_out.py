@@ -12,6 +12,9 @@ process); wall time of the build
 Monte Carlo: ``montecarlo_brdf_blocks`` (2 layers over a Lambertian base, 16 direction pairs ×
 8 wavelengths, 4 096 paths per pair in 8 seeded blocks), wall time in the same three places.
 
+Batch fitting: ``fit_batch("film", …)`` of 8 synthetic hyperspectral cubes (MgF2 films, 6 × 6
+pixels, 5 angles, written as .npz), one ``estimate_film`` each, wall time in the same three places.
+
 Per-chunk overhead: the same with a trivial function (``thin_film_reflectance`` of one point
 per chunk, 200 chunks): (time per chunk on the cluster) − (time per chunk in process).
 
@@ -36,7 +39,7 @@ import torch
 
 import torchirid as ti
 from torchirid.layered import LayeredBragg, RoughBraggLayer
-from torchirid.scale import build_table, local_cluster, montecarlo_brdf_blocks
+from torchirid.scale import build_table, fit_batch, local_cluster, montecarlo_brdf_blocks
 
 
 def _timed_builds(fn, axes, chunks, kwargs, channels, repeats, client=None):
@@ -66,6 +69,27 @@ def _timed_montecarlo(repeats, client=None):
     return statistics.median(times)
 
 
+def _cubes(folder: Path, count: int = 8) -> list[Path]:
+    import torchirid.estimation as E
+
+    paths = []
+    for i in range(count):
+        c = E.synthetic_cube("mgf2_400" if i % 2 else "mgf2_600", height=6, width=6, seed=i)
+        E.write_npz(folder / f"cube{i}.npz", c.cube, c.wavelength, c.angles_deg)
+        paths.append(folder / f"cube{i}.npz")
+    return paths
+
+
+def _timed_fits(paths, repeats, client=None):
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        recs = fit_batch("film", paths, client=client)
+        times.append(time.perf_counter() - start)
+        assert all(r["status"] == "ok" for r in recs), [r["error"] for r in recs]
+    return statistics.median(times)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=3)
@@ -78,25 +102,30 @@ def main(argv=None):
     trivial_axes = {"wavelength": np.linspace(400.0, 700.0, 200)}
     trivial_kwargs = {"cos_theta": 1.0, "n_film": 1.33, "thickness": 300.0, "n_substrate": 1.5}
     rows = {}
+    cube_dir = tempfile.TemporaryDirectory()
+    cubes = _cubes(Path(cube_dir.name))
     rows["in process"] = (_timed_builds(ti.bragg_xyz, axes, 8, kwargs, (3,), args.repeats),
                           _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats),
-                          _timed_montecarlo(args.repeats))
+                          _timed_montecarlo(args.repeats), _timed_fits(cubes, args.repeats))
     for workers in (1, 2):
         with local_cluster(workers) as cluster, Client(cluster) as client:
             client.run(torch.set_num_threads, 1)
             rows[f"LocalCluster, {workers} worker{'s' if workers > 1 else ''}"] = (
                 _timed_builds(ti.bragg_xyz, axes, 8, kwargs, (3,), args.repeats, client),
                 _timed_builds(ti.thin_film_reflectance, trivial_axes, 1, trivial_kwargs, (), args.repeats, client),
-                _timed_montecarlo(args.repeats, client))
+                _timed_montecarlo(args.repeats, client), _timed_fits(cubes, args.repeats, client))
     base = rows["in process"][0]
     one = rows["LocalCluster, 1 worker"][0]
     mc_base, mc_one = rows["in process"][2], rows["LocalCluster, 1 worker"][2]
+    fit_base, fit_one = rows["in process"][3], rows["LocalCluster, 1 worker"][3]
     print("| where | table build (s) | speed-up vs in process | vs 1 worker | trivial chunks: ms per chunk "
-          "| Monte Carlo (s) | speed-up vs in process | vs 1 worker |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|")
-    for name, (t, triv, mc) in rows.items():
+          "| Monte Carlo (s) | speed-up vs in process | vs 1 worker | 8 film fits (s) | speed-up vs in process "
+          "| vs 1 worker |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for name, (t, triv, mc, fits) in rows.items():
         print(f"| {name} | {t:.2f} | {base / t:.2f}× | {one / t:.2f}× | {triv / 200 * 1e3:.2f} | {mc:.2f} | "
-              f"{mc_base / mc:.2f}× | {mc_one / mc:.2f}× |")
+              f"{mc_base / mc:.2f}× | {mc_one / mc:.2f}× | {fits:.2f} | {fit_base / fits:.2f}× | {fit_one / fits:.2f}× |")
+    cube_dir.cleanup()
     chunks = 24
     t_chunk = base / chunks
     overhead = max(rows["LocalCluster, 2 workers"][1], rows["LocalCluster, 1 worker"][1]) / 200 - \
