@@ -41,8 +41,10 @@ RANKS = {
     # products
     "ibl": 4, "estimation": 4, "export": 4,
     "fitting": 5,
-    # scale-out beside the products: distributes library calls (imports lut only)
-    "scale": 5,
+    # scale-out above the products: distributes library calls (table builds, Monte Carlo, fits)
+    "scale": 5.5,
+    # real time: textures for shaders fitted to the products' exact colours
+    "realtime": 5,
     # the curated public API
     "<root>": 6,
     # the application

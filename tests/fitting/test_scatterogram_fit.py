@@ -20,7 +20,8 @@ from torchirid.fitting import (
     save_scatterogram_png,
     scatterogram_loss,
 )
-from torchirid.fitting.measured import _read_png, _rgb_to_xyz_matrix, _write_png
+from torchirid.color import linear_srgb_to_xyz
+from torchirid.fitting.measured import _read_png, _write_png
 from torchirid.layered.presets import jewel_beetle
 from torchirid.layered import scatterogram, scatterogram_directions
 
@@ -115,7 +116,7 @@ def test_match_value_errors(green_target):
 # ---------------------------------------------------------------------------- PNG
 def _in_gamut_xyz(res, seed=0):
     lin = 0.05 + 0.85 * torch.rand(res, res, 3, dtype=F64, generator=torch.Generator().manual_seed(seed))
-    return lin @ _rgb_to_xyz_matrix(F64).T
+    return linear_srgb_to_xyz(lin)
 
 
 @pytest.mark.parametrize("bits, tol", [(16, 1e-4), (8, 1e-2)])
@@ -265,7 +266,7 @@ def test_exr_invalid_pixels_leave_mask(tmp_path):
     assert image.params["saturation"] == 10.0
     # the half-float G channel is read as stored
     lin = torch.as_tensor(np.stack([channels[c].astype(np.float64) for c in "RGB"], -1))
-    expect = lin @ _rgb_to_xyz_matrix(F64).T
+    expect = linear_srgb_to_xyz(lin)
     ok = image.mask
     torch.testing.assert_close(image.xyz[ok], expect[ok], rtol=1e-6, atol=1e-9)
 

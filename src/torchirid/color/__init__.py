@@ -8,6 +8,7 @@ from .convert import (
     spectrum_to_xyz,
     xyz_to_lab,
     xyz_to_linear_srgb,
+    linear_srgb_to_xyz,
     xyz_to_srgb,
     xyz_weights,
 )
@@ -29,6 +30,7 @@ __all__ = [
     "white_point_xyz",
     "xyz_to_lab",
     "xyz_to_linear_srgb",
+    "linear_srgb_to_xyz",
     "xyz_to_srgb",
     "xyz_weights",
 ]

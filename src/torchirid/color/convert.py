@@ -30,12 +30,14 @@ IEC matrix.
 
 from __future__ import annotations
 
+
 import torch
 import torch.nn.functional as F
 from kornia.color import linear_rgb_to_rgb as _kornia_linear_rgb_to_rgb
 from kornia.color import xyz_to_rgb as _kornia_xyz_to_rgb
 
 from .. import _checks
+from .._cache import cached
 from .colorimetry import _product_tensor, _white_tensor, check_illuminant, check_observer
 
 __all__ = [
@@ -44,6 +46,7 @@ __all__ = [
     "xyz_to_lab",
     "lab_to_xyz",
     "xyz_to_linear_srgb",
+    "linear_srgb_to_xyz",
     "linear_srgb_to_srgb",
     "xyz_to_srgb",
 ]
@@ -364,6 +367,35 @@ def xyz_to_linear_srgb(xyz) -> torch.Tensor:
     xyz = _as_tensor(xyz, "xyz")
     _check_channels(xyz, "xyz", "X, Y, Z")
     return _via_kornia(_kornia_xyz_to_rgb, xyz)
+
+
+def linear_srgb_to_xyz(rgb) -> torch.Tensor:
+    r"""Linear sRGB → CIE XYZ (D65 white at ``Y = 1``): the exact inverse of
+    :func:`xyz_to_linear_srgb` (``M^{-1}``, so a round trip returns the input to rounding; kornia's
+    own ``rgb_to_xyz`` matrix is a different rounding of the standard and is not used).
+
+    Args:
+        rgb: ``(*, 3)`` linear RGB (any values: out-of-gamut colours are negative or above 1).
+
+    Returns:
+        ``(*, 3)`` XYZ, dtype/device of ``rgb``.
+
+    Example:
+        >>> import torch
+        >>> rgb = torch.tensor([0.2, -0.01, 1.3], dtype=torch.float64)
+        >>> torch.allclose(xyz_to_linear_srgb(linear_srgb_to_xyz(rgb)), rgb, rtol=0, atol=1e-15)
+        True
+    """
+    rgb = _as_tensor(rgb, "rgb")
+    _check_channels(rgb, "rgb", "R, G, B")
+    return rgb @ _srgb_to_xyz_matrix(rgb.dtype, rgb.device).T
+
+
+@cached(maxsize=None)
+@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+def _srgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
+    m = xyz_to_linear_srgb(torch.eye(3, dtype=torch.float64)).T  # column k: the image of XYZ basis vector k
+    return torch.linalg.inv(m).to(dtype=dtype, device=device)
 
 
 def linear_srgb_to_srgb(rgb) -> torch.Tensor:

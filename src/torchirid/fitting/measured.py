@@ -26,7 +26,7 @@ import torch
 
 from .. import _checks
 from .._io import atomic_write, check_readable, file_error, import_openexr, read_exr, reading  # noqa: F401
-from ..color import linear_srgb_to_srgb, xyz_to_linear_srgb
+from ..color import linear_srgb_to_srgb, linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..layered.scatterograms import PROJECTIONS, projection_radius, scatterogram_directions
 
 __all__ = ["ScatterogramImage", "load_scatterogram", "save_scatterogram_exr", "save_scatterogram_png"]
@@ -139,12 +139,6 @@ def _srgb_decode(v: torch.Tensor) -> torch.Tensor:
     return torch.where(v <= 0.04045, v / 12.92, ((v.clamp_min(0.04045) + 0.055) / 1.055) ** 2.4)
 
 
-def _rgb_to_xyz_matrix(dtype) -> torch.Tensor:
-    """The exact inverse of :func:`~torchirid.color.xyz_to_linear_srgb`'s matrix (round trips)."""
-    m = xyz_to_linear_srgb(torch.eye(3, dtype=dtype)).T  # row j of the result is M e_j
-    return torch.linalg.inv(m)
-
-
 @dataclass(frozen=True)
 class ScatterogramImage:
     """A scatterogram read from an image file, on the library's grid.
@@ -249,7 +243,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     if min(valid.shape) < 2:
         raise file_error(_PNG_WHAT, path, f"is {valid.shape[1]} x {valid.shape[0]} pixels; a scatterogram image "
                                           "needs at least 2 x 2 (a disc to resample)")
-    xyz_img = linear @ _rgb_to_xyz_matrix(f64).T * float(exposure)  # (H, W, 3)
+    xyz_img = linear_srgb_to_xyz(linear) * float(exposure)  # (H, W, 3)
     return _resample(xyz_img, valid, path=path, projection=projection, center=center, radius_px=radius_px,
                      resolution=resolution, grid_projection=grid_projection, rotation_deg=rotation_deg,
                      exposure=exposure, file_params=file_params)

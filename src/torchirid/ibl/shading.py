@@ -49,12 +49,11 @@ import math
 import torch
 
 from .. import _checks
-from ..color.convert import xyz_to_linear_srgb
+from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from .dfg import shipped_dfg_lut
 from .filtered import _check_sensitivity, _vectors, filtered_thin_film_xyz
 from .fourier import _check_names, thin_film_xyz_fourier
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
-from .._cache import cached
 
 __all__ = ["shade_thin_film_environment", "SHADING_METHODS", "SHADING_OUTPUTS"]
 
@@ -63,14 +62,6 @@ __all__ = ["shade_thin_film_environment", "SHADING_METHODS", "SHADING_OUTPUTS"]
 SHADING_METHODS = ("kneiphof", "belcour_barla")
 #: Colour space of the result.
 SHADING_OUTPUTS = ("rgb", "xyz")
-
-
-@cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
-def _rgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
-    eye = torch.eye(3, dtype=torch.float64)
-    m = xyz_to_linear_srgb(eye).T  # column k = image of the k-th XYZ basis vector
-    return torch.linalg.inv(m).to(dtype=dtype, device=device)
 
 
 def _safe_norm2(x, y):
@@ -221,5 +212,5 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         xyz = thin_film_xyz_fourier(cos_o, n_film, thickness, n_substrate, **kw)
     rgb = xyz_to_linear_srgb(xyz) * radiance * albedo[..., None]
     if output == "xyz":
-        return rgb @ _rgb_to_xyz_matrix(dtype, device).T
+        return linear_srgb_to_xyz(rgb)
     return rgb

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-__all__ = ["FIELDS", "KINDS", "fit_batch", "fit_item", "write_results"]
+__all__ = ["FIELDS", "KINDS", "check_batch", "fit_batch", "fit_item", "write_results"]
 
 #: the kinds of fit, and the columns each adds to the common ones (item, status, error, seconds)
 FIELDS = {
@@ -130,7 +130,9 @@ def _preflight(kind: str, read: dict, fit: dict) -> None:
             raise ValueError(f"{key} must be in nm; got {value!r} (metres or micrometres? 300 nm is 300, not 3e-7)")
 
 
-def _check(kind, items, read, fit):
+def check_batch(kind, items, read=None, fit=None) -> list[str]:
+    """Check a batch before any file is read (:func:`fit_batch` does it first): ``kind``, the
+    list of ``items`` (returned as strings) and the ``read`` / ``fit`` settings; ValueError otherwise."""
     if kind not in _FITS:
         raise ValueError(f"kind must be one of {', '.join(map(repr, KINDS))}; got {kind!r}")
     if isinstance(items, (str, bytes, os.PathLike)) or not isinstance(items, Sequence):
@@ -183,7 +185,7 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
         >>> recs[1]["error"]  # doctest: +ELLIPSIS
         "ValueError: cube file '...missing.npz' does not exist"
     """
-    paths = _check(kind, items, read, fit)
+    paths = check_batch(kind, items, read, fit)
     total = len(paths)
     if client is None and scheduler is None:
         out = []

@@ -50,9 +50,9 @@ def run(args) -> int:
     the table), 1 (scheduler unreachable, write failed), 2 (bad argument)."""
     from pathlib import Path
 
-    from ...scale.fits import _check, fit_batch, write_results
+    from ...scale.fits import check_batch, fit_batch, write_results
 
-    _check(args.kind, args.files, dict(args.read), dict(args.set))  # settings that would fail every file
+    check_batch(args.kind, args.files, dict(args.read), dict(args.set))  # settings that would fail every file
     out = Path(args.out)
     if out.suffix.lower() not in (".json", ".csv", ".parquet"):
         raise ValueError(f"--out must end in .json, .csv or .parquet; got {args.out!r}")
