@@ -1,0 +1,13 @@
+"""Real time: small colour textures for shaders, fitted by autograd (issue 25).
+
+:func:`fit_texture` builds a texture of one material family — a thin film over (cos θ, d), a
+Bragg mirror over (cos θ, Λ, δ), a rough film under uniform light over (cos θ_o, α, d) — whose
+node values minimise the CIEDE2000 error of the hardware-interpolated texture against the exact
+spectral colour (:mod:`torchirid.realtime.textures`).
+"""
+
+from .textures import (FAMILIES, TextureFit, TextureSamples, bragg_wavelength, exact_colour, fit_texture, texture_coordinate, texture_lut,
+                       texture_samples)
+
+__all__ = ["FAMILIES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture", "texture_coordinate", "texture_lut",
+           "texture_samples"]

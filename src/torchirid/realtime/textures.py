@@ -1,0 +1,303 @@
+r"""Small colour textures for real-time renderers, their node values fitted by autograd (issue 25.1).
+
+A fragment shader that samples a float texture with hardware (bi/tri)linear filtering sees the
+multilinear interpolation of the texel values, with texel ``i`` of an axis of ``n`` texels at
+the texture coordinate ``u = (i + ½) / n``. A texture over ``[lo, hi]`` per axis therefore
+reproduces :meth:`torchirid.lut.LUT.interp` of a :class:`~torchirid.lut.LUT` whose axis grids
+are ``n`` uniform nodes from ``lo`` to ``hi``, when the shader maps a coordinate ``x`` to
+``u = ((x − lo) / (hi − lo) · (n − 1) + ½) / n`` (:func:`texture_coordinate`; clamped at the
+edges like ``CLAMP_TO_EDGE``).
+
+*Sampled* textures store the exact colour at the nodes. Between nodes their error is that of
+linear interpolation of a function that, for iridescent colours, oscillates: fringes narrower
+than two texels alias. *Fitted* textures store the node values that minimise the colour error
+of the **interpolated** texture against the exact colour over dense samples of the domain:
+
+.. math::
+
+    \min_V \; \frac{1}{M}\sum_{m=1}^{M} \Delta E_{00}\!\left(\mathrm{Lab}(\mathcal{I}_V(x_m)),\,
+    \mathrm{Lab}(c(x_m))\right)^2
+
+with :math:`\mathcal{I}_V` the multilinear interpolation of node values :math:`V` (linear sRGB,
+D65, white Y = 1), :math:`c` the exact colour (spectral integration) and :math:`x_m` uniform
+random samples (a fixed seed). L-BFGS from the sampled values; autograd through
+:meth:`LUT.interp <torchirid.lut.LUT.interp>` and :func:`~torchirid.color.delta_e_2000`. The
+errors are reported on a second, independent sample set (:class:`TextureFit`).
+
+Families (:data:`FAMILIES`): ``"thin_film"`` RGB over (cos θ, d) of one film on one base,
+``"bragg"`` RGB over (cos θ, λ_B, δ) of a Bragg mirror of N cells, ``"rough_thin_film"`` RGB over
+(cos θ_o, α, d) under uniform light (Kneiphof et al.'s setting). The Bragg texture's second axis
+is the Bragg wavelength λ_B (:func:`bragg_wavelength`) rather than the period: an axis warp
+that follows the colour (measured: 2 048 texels over (cos θ, Λ, δ) left a mean ΔE2000 of 4.3
+fitted, 5.7 sampled; over (cos θ, λ_B, δ) see docs/performance.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import torch
+
+from ..color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
+from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
+from ..lut import LUT
+
+__all__ = ["FAMILIES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture", "texture_coordinate",
+           "texture_lut", "texture_samples"]
+
+F64 = torch.float64
+
+
+def texture_coordinate(x, lo: float, hi: float, n: int):
+    """The texture coordinate ``u`` in [½/n, 1 − ½/n] of ``x`` on an axis of ``n`` texels over
+    ``[lo, hi]`` (``x`` clamped to the range): what the shaders compute before ``texture()``."""
+    t = ((torch.as_tensor(x) - lo) / (hi - lo)).clamp(0.0, 1.0)
+    return (t * (n - 1) + 0.5) / n
+
+
+# --- the exact colours of the families ----------------------------------------------------------
+
+def _wavelengths(device=None):
+    return torch.linspace(380.0, 780.0, 401, dtype=F64, device=device)
+
+
+def _thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0):
+    from ..optics import thin_film_reflectance
+
+    cos_theta, d = x[..., 0], x[..., 1]
+    lam = _wavelengths(x.device)
+    R = thin_film_reflectance(lam, cos_theta[..., None], n_film, d[..., None], n_substrate, n_incident=n_incident)
+    return spectrum_to_xyz(R, lam)
+
+
+def bragg_wavelength(cos_theta, period, delta, n1: float, n2: float, n_incident: float | None = None):
+    r"""The first-order Bragg wavelength (nm) of a mirror of period Λ, δ the fraction in n2:
+
+    .. math:: \lambda_B = 2\Lambda\left[(1-\delta)\, n_1\cos\theta_1 + \delta\, n_2\cos\theta_2\right],
+        \quad n_i \cos\theta_i = \sqrt{n_i^2 - n_0^2 (1 - \cos^2\theta)},
+
+    with θ the angle in the incident medium n_0 (``n_incident``; default n1, the mirror
+    embedded in n1 as :func:`~torchirid.bragg_xyz` has it).
+
+    The Bragg texture's second axis (an axis warp): a mirror's colour depends on Λ and cos θ
+    mostly through λ_B, so texels spent along λ_B follow the colour; the shaders compute it the
+    same way before the lookup.
+    """
+    n0 = n1 if n_incident is None else n_incident
+    s2 = n0 * n0 * (1 - cos_theta * cos_theta)
+    q1 = torch.sqrt(torch.clamp(n1 * n1 - s2, min=0.0))
+    q2 = torch.sqrt(torch.clamp(n2 * n2 - s2, min=0.0))
+    return 2 * period * ((1 - delta) * q1 + delta * q2)
+
+
+def _bragg(x, *, cells: int, n1: float, n2: float, n_incident: float | None = None):
+    from ..spectral import bragg_xyz
+
+    cos_theta, lam_b, delta = x[..., 0], x[..., 1], x[..., 2]
+    period = lam_b / bragg_wavelength(cos_theta, 1.0, delta, n1, n2, n_incident)
+    # δ: the fraction of the period in the n2 layer (Fourneau et al. Table 3)
+    return bragg_xyz(cos_theta, n1, n2, period * (1 - delta), period * delta, cells, n_incident=n_incident,
+                     method="spectral")
+
+
+def _rough_thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0):
+    from ..ibl import uniform_thin_film_xyz
+
+    return uniform_thin_film_xyz(x[..., 0], x[..., 1], n_film, x[..., 2], n_substrate, n_incident=n_incident)
+
+
+#: family → (axis names, units, exact XYZ function of points (*, k) and the family's parameters)
+FAMILIES: dict[str, tuple[tuple[str, ...], tuple[str, ...], Callable]] = {
+    "thin_film": (("cos_theta", "thickness"), ("1", "nm"), _thin_film),
+    "bragg": (("cos_theta", "bragg_wavelength", "delta"), ("1", "nm", "1"), _bragg),
+    "rough_thin_film": (("cos_theta_o", "alpha", "thickness"), ("1", "1", "nm"), _rough_thin_film),
+}
+
+
+def exact_colour(family: str, points: torch.Tensor, parameters: Mapping) -> torch.Tensor:
+    """Linear sRGB (D65, white Y = 1) of ``family`` at ``points`` (``(*, k)``, the family's axes
+    in order), evaluated spectrally — the reference the textures are fitted to."""
+    if family not in FAMILIES:
+        raise ValueError(f"family must be one of {', '.join(map(repr, FAMILIES))}; got {family!r}")
+    xyz = FAMILIES[family][2](points, **dict(parameters))
+    return xyz_to_linear_srgb(xyz)
+
+
+# --- fitting ------------------------------------------------------------------------------------
+
+@dataclass
+class TextureFit:
+    """A fitted texture and its measured colour errors.
+
+    Attributes:
+        lut: the fitted texture: a :class:`~torchirid.lut.LUT` of linear sRGB (``(*sizes, 3)``)
+            on uniform axis grids; export it with :func:`torchirid.export.export_lut`.
+        sampled: the same grid holding the exact colour at the nodes (the baseline).
+        errors: ΔE2000 on the validation samples: ``{"fitted": {"mean", "p95", "max"},
+            "sampled": {…}}``.
+        texels: the number of texels (RGB each).
+        seconds: wall time of the fit.
+        history: the training loss (mean ΔE00²) per L-BFGS step.
+    """
+
+    lut: LUT
+    sampled: LUT
+    errors: dict
+    texels: int
+    seconds: float
+    history: list = field(default_factory=list, repr=False)
+
+
+def _lab(rgb):
+    return xyz_to_lab(linear_srgb_to_xyz(rgb))
+
+
+def _stats(de: torch.Tensor) -> dict:
+    de = de.detach().double()
+    return {"mean": float(de.mean()), "p95": float(torch.quantile(de, 0.95)), "max": float(de.max())}
+
+
+def _samples(ranges, count, seed, device):
+    g = torch.Generator().manual_seed(seed)
+    u = torch.rand(count, len(ranges), generator=g, dtype=F64).to(device)
+    lo = torch.tensor([r[0] for r in ranges], dtype=F64, device=device)
+    hi = torch.tensor([r[1] for r in ranges], dtype=F64, device=device)
+    return lo + u * (hi - lo)
+
+
+@dataclass
+class TextureSamples:
+    """Training and validation samples of a family's exact colour over a domain (reusable
+    across texture sizes: the exact colour is the expensive part). Attributes: ``train_x``
+    ``(M, k)``, ``train_rgb`` ``(M, 3)``, ``valid_x``, ``valid_rgb``, ``ranges``."""
+
+    train_x: torch.Tensor
+    train_rgb: torch.Tensor
+    valid_x: torch.Tensor
+    valid_rgb: torch.Tensor
+    ranges: tuple
+
+
+def texture_samples(family: str, ranges, parameters: Mapping, *, samples: int = 20_000, validation: int = 20_000,
+                    seed: int = 0, exact: Callable | None = None) -> TextureSamples:
+    """Uniform random samples of the domain (seeds ``seed`` and ``seed + 1``) and their exact colours."""
+    ranges = _check_ranges(family, ranges)
+    for count, name in ((samples, "samples"), (validation, "validation")):
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            raise ValueError(f"{name} must be an int >= 1; got {count!r}")
+    exact = exact or (lambda p: exact_colour(family, p, parameters))
+    with torch.no_grad():
+        tx, vx = _samples(ranges, samples, seed, None), _samples(ranges, validation, seed + 1, None)
+        return TextureSamples(tx, exact(tx), vx, exact(vx), ranges)
+
+
+def _check_ranges(family, ranges):
+    if family not in FAMILIES:
+        raise ValueError(f"family must be one of {', '.join(map(repr, FAMILIES))}; got {family!r}")
+    names = FAMILIES[family][0]
+    try:
+        ranges = tuple((float(lo), float(hi)) for lo, hi in ranges)
+    except (TypeError, ValueError):
+        raise ValueError(f"ranges must give {len(names)} (lo, hi) pairs; got {ranges!r}") from None
+    if len(ranges) != len(names) or any(not (math.isfinite(lo) and math.isfinite(hi) and lo < hi) for lo, hi in ranges):
+        raise ValueError(f"ranges must give {len(names)} (lo, hi) pairs with lo < hi ({', '.join(names)}); "
+                         f"got {ranges!r}")
+    return ranges
+
+
+def texture_lut(family: str, values: torch.Tensor, ranges, parameters: Mapping, *, builder: str) -> LUT:
+    """A LUT of ``values`` (``(*sizes, 3)`` linear sRGB) on the family's axes, uniform over ``ranges``."""
+    names, units, _ = FAMILIES[family]
+    sizes = values.shape[:-1]
+    axes = {n: torch.linspace(float(lo), float(hi), int(s), dtype=values.dtype, device=values.device)
+            for n, (lo, hi), s in zip(names, ranges, sizes)}
+    return LUT(values, axes, builder=builder, parameters={"family": family, **dict(parameters)},
+               units={**dict(zip(names, units)), "values": "linear sRGB (D65, white Y = 1)"})
+
+
+def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int | TextureSamples = 20_000,
+                validation: int = 20_000, iterations: int = 60, seed: int = 0, exact: Callable | None = None,
+                progress=None) -> TextureFit:
+    r"""Fit the node values of a ``family`` texture of ``sizes`` texels over ``ranges``.
+
+    Args:
+        family: one of :data:`FAMILIES`.
+        sizes: texels per axis, in the family's axis order (each ≥ 2).
+        ranges: ``(lo, hi)`` per axis, in the axis' units (cos θ in [0, 1], nm, …).
+        parameters: the family's fixed parameters: ``thin_film`` and ``rough_thin_film``:
+            ``n_film``, ``n_substrate`` (complex for a metal), ``n_incident``; ``bragg``:
+            ``cells``, ``n1``, ``n2``, ``n_incident`` (the axes: cos θ, λ_B in nm, δ).
+        samples: training samples (uniform in the domain, seed ``seed``), or the samples of
+            :func:`texture_samples` (then ``validation`` and ``seed`` are theirs).
+        validation: independent validation samples (seed ``seed + 1``) for :attr:`TextureFit.errors`.
+        iterations: L-BFGS iterations (strong-Wolfe line search).
+        seed: the sample seed.
+        exact: the reference ``points (*, k) → linear sRGB`` (default :func:`exact_colour`).
+        progress: ``progress(step, loss)`` after each L-BFGS step.
+
+    Returns:
+        :class:`TextureFit`: the fitted and the sampled textures and their ΔE2000 statistics.
+
+    Example:
+        >>> fit = fit_texture("thin_film", (8, 16), ((0.2, 1.0), (100.0, 400.0)),
+        ...                   {"n_film": 1.33, "n_substrate": 1.5}, samples=2000, validation=2000,
+        ...                   iterations=10)
+        >>> fit.lut.values.shape, fit.texels
+        (torch.Size([8, 16, 3]), 128)
+        >>> fit.errors["fitted"]["mean"] < fit.errors["sampled"]["mean"]
+        True
+    """
+    import time
+
+    ranges = _check_ranges(family, ranges)
+    names = FAMILIES[family][0]
+    sizes = tuple(sizes)
+    if len(sizes) != len(names) or any(isinstance(s, bool) or not isinstance(s, int) or s < 2 for s in sizes):
+        raise ValueError(f"sizes must give {len(names)} ints >= 2 (texels along {', '.join(names)}); got {sizes!r}")
+    if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
+        raise ValueError(f"iterations must be an int >= 1; got {iterations!r}")
+    exact = exact or (lambda p: exact_colour(family, p, parameters))
+    start = time.perf_counter()
+    if not isinstance(samples, TextureSamples):
+        samples = texture_samples(family, ranges, parameters, samples=samples, validation=validation, seed=seed,
+                                  exact=exact)
+    elif samples.ranges != ranges:
+        raise ValueError(f"samples were drawn over {samples.ranges}, not over ranges={ranges}")
+    builder = f"torchirid.realtime.fit_texture({family!r})"
+    grid = torch.stack(torch.meshgrid(*[torch.linspace(lo, hi, n, dtype=F64) for (lo, hi), n in zip(ranges, sizes)],
+                                      indexing="ij"), -1)
+    with torch.no_grad():
+        node_rgb = exact(grid.reshape(-1, len(names))).reshape(*sizes, 3)
+        train_x, valid_x = samples.train_x, samples.valid_x
+        train_lab, valid_lab = _lab(samples.train_rgb), _lab(samples.valid_rgb)
+    sampled = texture_lut(family, node_rgb.clone(), ranges, parameters, builder=builder + " sampled")
+    values = node_rgb.clone().requires_grad_(True)
+    coords = train_x.unbind(-1)
+
+    def loss_fn():
+        lut = texture_lut(family, values, ranges, parameters, builder=builder)
+        de = delta_e_2000(_lab(lut.interp(*coords)), train_lab)
+        return (de * de).mean()
+
+    opt = torch.optim.LBFGS([values], lr=1.0, max_iter=iterations, history_size=20, line_search_fn="strong_wolfe",
+                            tolerance_grad=1e-10, tolerance_change=1e-12)
+    history = []
+
+    def closure():
+        opt.zero_grad()
+        loss = loss_fn()
+        loss.backward()
+        history.append(float(loss.detach()))
+        if progress is not None:
+            progress(len(history), history[-1])
+        return loss
+
+    opt.step(closure)
+    fitted = texture_lut(family, values.detach().clone(), ranges, parameters, builder=builder)
+    vc = valid_x.unbind(-1)
+    with torch.no_grad():
+        errors = {"fitted": _stats(delta_e_2000(_lab(fitted.interp(*vc)), valid_lab)),
+                  "sampled": _stats(delta_e_2000(_lab(sampled.interp(*vc)), valid_lab))}
+    return TextureFit(fitted, sampled, errors, math.prod(sizes), time.perf_counter() - start, history)

@@ -1,0 +1,125 @@
+"""Shader textures fitted by autograd (issue 25.1): the fitted texture beats the sampled one on
+independent samples, the lookup is what a GPU's linear filtering computes, and the exact colours
+and the Bragg axis warp against closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+import torchirid as ti
+from torchirid.realtime import (bragg_wavelength, exact_colour, fit_texture, texture_coordinate, texture_lut,
+                                texture_samples)
+
+F64 = torch.float64
+FILM = {"n_film": 1.33, "n_substrate": 1.5}
+FILM_RANGES = ((0.1, 1.0), (100.0, 500.0))
+
+
+@pytest.fixture(scope="module")
+def film_fit():
+    return fit_texture("thin_film", (6, 12), FILM_RANGES, FILM, samples=3000, validation=3000, iterations=40)
+
+
+def test_fitted_texture_beats_sampled_nodes_on_new_samples(film_fit):
+    f, s = film_fit.errors["fitted"], film_fit.errors["sampled"]
+    assert f["mean"] < 0.7 * s["mean"] and f["p95"] < s["p95"], film_fit.errors
+    assert film_fit.texels == 72 and film_fit.lut.values.shape == (6, 12, 3)
+    assert film_fit.history[-1] < 0.5 * film_fit.history[0]  # the loss went down
+    assert list(film_fit.lut.axes) == ["cos_theta", "thickness"] and film_fit.lut.units["thickness"] == "nm"
+    assert film_fit.lut.parameters["family"] == "thin_film" and film_fit.lut.parameters["n_film"] == 1.33
+
+
+def test_sampled_texture_holds_the_exact_colour_at_the_nodes(film_fit):
+    lut = film_fit.sampled
+    c, d = torch.meshgrid(*lut.axes.values(), indexing="ij")
+    exact = exact_colour("thin_film", torch.stack([c, d], -1), FILM)
+    torch.testing.assert_close(lut.values, exact, rtol=0, atol=1e-12)
+    torch.testing.assert_close(lut.interp(c, d), exact, rtol=0, atol=1e-12)
+
+
+def _gl_linear(values: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """What GL_LINEAR with CLAMP_TO_EDGE returns for texture coordinates ``u`` (…, k) on a texture
+    of texels ``values`` (n_1, …, n_k, C): texel centres at (i + ½)/n, weights from u·n − ½."""
+    sizes = values.shape[:-1]
+    k = len(sizes)
+    x = [np.clip(u[..., j] * sizes[j] - 0.5, 0, sizes[j] - 1) for j in range(k)]
+    i0 = [np.minimum(np.floor(xj).astype(int), sizes[j] - 2) for j, xj in enumerate(x)]
+    t = [xj - ij for xj, ij in zip(x, i0)]
+    out = 0.0
+    for corner in range(2**k):
+        bits = [(corner >> (k - 1 - j)) & 1 for j in range(k)]
+        w = np.prod([tj if b else 1 - tj for tj, b in zip(t, bits)], axis=0)
+        out = out + w[..., None] * values[tuple(ij + b for ij, b in zip(i0, bits))]
+    return out
+
+
+def test_lookup_is_what_linear_filtering_computes(film_fit):
+    """The shader maps x to u = texture_coordinate(x); a GL linear fetch at u equals LUT.interp."""
+    lut = film_fit.lut
+    g = torch.Generator().manual_seed(3)
+    x = torch.rand(500, 2, generator=g, dtype=F64) * torch.tensor([1.2, 500.0], dtype=F64) - torch.tensor(
+        [0.1, 50.0], dtype=F64)  # some outside the ranges: clamped like CLAMP_TO_EDGE
+    sizes = lut.values.shape[:-1]
+    u = np.stack([texture_coordinate(x[:, j], *FILM_RANGES[j], sizes[j]).numpy() for j in range(2)], -1)
+    np.testing.assert_allclose(_gl_linear(lut.values.numpy(), u), lut.interp(x[:, 0], x[:, 1]).numpy(),
+                               rtol=0, atol=1e-12)
+    assert float(texture_coordinate(torch.tensor(0.1), 0.1, 1.0, 6)) == pytest.approx(0.5 / 6)
+    assert float(texture_coordinate(torch.tensor(1.0), 0.1, 1.0, 6)) == pytest.approx(5.5 / 6)
+
+
+def test_exact_film_colour_without_a_film_is_the_fresnel_grey():
+    rgb = exact_colour("thin_film", torch.tensor([[1.0, 0.0]], dtype=F64), FILM)
+    r0 = ((1.5 - 1.0) / (1.5 + 1.0)) ** 2
+    torch.testing.assert_close(rgb, torch.full((1, 3), r0, dtype=F64), rtol=0, atol=2e-4)  # (white 1.0001)
+
+
+def test_bragg_wavelength_is_the_reflection_peak():
+    """λ_B = 2(n1 d1 cos θ1 + n2 d2 cos θ2): the first-order band of a 20-cell mirror is there."""
+    for cos_theta in (1.0, 0.6):
+        period, delta = 250.0, 0.4
+        lam_b = float(bragg_wavelength(torch.tensor(cos_theta, dtype=F64), period, delta, 1.0, 1.5))
+        if cos_theta == 1.0:
+            assert lam_b == pytest.approx(2 * (1.0 * 150.0 + 1.5 * 100.0))
+        lam = torch.linspace(0.8 * lam_b, 1.2 * lam_b, 801, dtype=F64)
+        R = ti.bragg_reflectance(lam, cos_theta, 1.0, 1.5, period * (1 - delta), period * delta, 20)
+        peak = float(lam[R.argmax()])
+        assert abs(peak - lam_b) / lam_b < 0.01 and float(R.max()) > 0.8  # (unpolarized: p is weaker off normal)
+
+
+def test_bragg_texture_is_fitted_over_the_warped_axis():
+    P = {"cells": 8, "n1": 1.59, "n2": 1.67}
+    R = ((0.2, 1.0), (350.0, 800.0), (0.3, 0.7))
+    S = texture_samples("bragg", R, P, samples=2000, validation=1000)
+    fit = fit_texture("bragg", (3, 24, 3), R, P, samples=S, iterations=20)
+    assert list(fit.lut.axes) == ["cos_theta", "bragg_wavelength", "delta"]
+    assert fit.errors["fitted"]["mean"] < fit.errors["sampled"]["mean"]
+    # a point of the texture domain is the mirror of period λ_B / (2 n̄ cos θ̄)
+    x = torch.tensor([[0.8, 600.0, 0.5]], dtype=F64)
+    period = 600.0 / float(bragg_wavelength(torch.tensor(0.8, dtype=F64), 1.0, 0.5, 1.59, 1.67))
+    want = ti.color.xyz_to_linear_srgb(ti.bragg_xyz(torch.tensor(0.8, dtype=F64), 1.59, 1.67, period / 2, period / 2, 8))
+    torch.testing.assert_close(exact_colour("bragg", x, P)[0], want, rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: fit_texture("soap", (4, 4), FILM_RANGES, FILM), "family"),
+    (lambda: fit_texture("thin_film", (4,), FILM_RANGES, FILM), "sizes"),
+    (lambda: fit_texture("thin_film", (4, 1), FILM_RANGES, FILM), "sizes"),
+    (lambda: fit_texture("thin_film", (4, 4), ((1.0, 0.1), (100.0, 500.0)), FILM), "ranges"),
+    (lambda: fit_texture("thin_film", (4, 4), FILM_RANGES, FILM, iterations=0), "iterations"),
+    (lambda: texture_samples("thin_film", FILM_RANGES, FILM, samples=0), "samples"),
+    (lambda: fit_texture("thin_film", (4, 4), FILM_RANGES, FILM,
+                         samples=texture_samples("thin_film", ((0.0, 1.0), (100.0, 500.0)), FILM, samples=5,
+                                                 validation=5)), "drawn over"),
+])
+def test_bad_arguments(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_texture_lut_carries_the_family_axes():
+    lut = texture_lut("thin_film", torch.zeros(3, 4, 3, dtype=F64), FILM_RANGES, FILM, builder="test")
+    assert [float(g[0]) for g in lut.axes.values()] == [0.1, 100.0] and math.isclose(float(lut.axes["thickness"][-1]), 500.0)
