@@ -11,8 +11,8 @@ import pytest
 import torch
 
 import torchirid as ti
-from torchirid.realtime import (bragg_wavelength, exact_colour, fit_texture, texture_coordinate, texture_lut,
-                                texture_samples)
+from torchirid.realtime import (bragg_wavelength, exact_colour, fit_texture, lookup, texture_coordinate, texture_lut,
+                                texture_samples, to_texture)
 
 F64 = torch.float64
 FILM = {"n_film": 1.33, "n_substrate": 1.5}
@@ -29,16 +29,19 @@ def test_fitted_texture_beats_sampled_nodes_on_new_samples(film_fit):
     assert f["mean"] < 0.7 * s["mean"] and f["p95"] < s["p95"], film_fit.errors
     assert film_fit.texels == 72 and film_fit.lut.values.shape == (6, 12, 3)
     assert film_fit.history[-1] < 0.5 * film_fit.history[0]  # the loss went down
-    assert list(film_fit.lut.axes) == ["cos_theta", "thickness"] and film_fit.lut.units["thickness"] == "nm"
+    assert list(film_fit.lut.axes) == ["sqrt_cos_theta", "thickness"] and film_fit.lut.units["thickness"] == "nm"
+    assert film_fit.lut.units["sqrt_cos_theta"] == "sqrt(1)"
     assert film_fit.lut.parameters["family"] == "thin_film" and film_fit.lut.parameters["n_film"] == 1.33
 
 
 def test_sampled_texture_holds_the_exact_colour_at_the_nodes(film_fit):
     lut = film_fit.sampled
-    c, d = torch.meshgrid(*lut.axes.values(), indexing="ij")
-    exact = exact_colour("thin_film", torch.stack([c, d], -1), FILM)
+    s, d = torch.meshgrid(*lut.axes.values(), indexing="ij")  # texels uniform in sqrt(cos θ)
+    assert float(s[0, 0]) == pytest.approx(math.sqrt(0.1)) and float(s[-1, 0]) == pytest.approx(1.0)
+    points = torch.stack([s * s, d], -1)
+    exact = exact_colour("thin_film", points, FILM)
     torch.testing.assert_close(lut.values, exact, rtol=0, atol=1e-12)
-    torch.testing.assert_close(lut.interp(c, d), exact, rtol=0, atol=1e-12)
+    torch.testing.assert_close(lookup(lut, "thin_film", points), exact, rtol=0, atol=1e-12)
 
 
 def _gl_linear(values: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -58,14 +61,17 @@ def _gl_linear(values: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 
 def test_lookup_is_what_linear_filtering_computes(film_fit):
-    """The shader maps x to u = texture_coordinate(x); a GL linear fetch at u equals LUT.interp."""
+    """The shader maps x to u = texture_coordinate(warp(x)); a GL linear fetch at u is the lookup."""
     lut = film_fit.lut
     g = torch.Generator().manual_seed(3)
     x = torch.rand(500, 2, generator=g, dtype=F64) * torch.tensor([1.2, 500.0], dtype=F64) - torch.tensor(
         [0.1, 50.0], dtype=F64)  # some outside the ranges: clamped like CLAMP_TO_EDGE
+    x[:, 0] = x[:, 0].clamp(0.0, 1.0)  # (a cosine)
     sizes = lut.values.shape[:-1]
-    u = np.stack([texture_coordinate(x[:, j], *FILM_RANGES[j], sizes[j]).numpy() for j in range(2)], -1)
-    np.testing.assert_allclose(_gl_linear(lut.values.numpy(), u), lut.interp(x[:, 0], x[:, 1]).numpy(),
+    w = to_texture("thin_film", x)
+    lo_hi = [(math.sqrt(0.1), 1.0), FILM_RANGES[1]]
+    u = np.stack([texture_coordinate(w[:, j], *lo_hi[j], sizes[j]).numpy() for j in range(2)], -1)
+    np.testing.assert_allclose(_gl_linear(lut.values.numpy(), u), lookup(lut, "thin_film", x).numpy(),
                                rtol=0, atol=1e-12)
     assert float(texture_coordinate(torch.tensor(0.1), 0.1, 1.0, 6)) == pytest.approx(0.5 / 6)
     assert float(texture_coordinate(torch.tensor(1.0), 0.1, 1.0, 6)) == pytest.approx(5.5 / 6)
@@ -95,7 +101,7 @@ def test_bragg_texture_is_fitted_over_the_warped_axis():
     R = ((0.2, 1.0), (350.0, 800.0), (0.3, 0.7))
     S = texture_samples("bragg", R, P, samples=2000, validation=1000)
     fit = fit_texture("bragg", (3, 24, 3), R, P, samples=S, iterations=20)
-    assert list(fit.lut.axes) == ["cos_theta", "bragg_wavelength", "delta"]
+    assert list(fit.lut.axes) == ["sqrt_cos_theta", "bragg_wavelength", "delta"]
     assert fit.errors["fitted"]["mean"] < fit.errors["sampled"]["mean"]
     # a point of the texture domain is the mirror of period λ_B / (2 n̄ cos θ̄)
     x = torch.tensor([[0.8, 600.0, 0.5]], dtype=F64)
@@ -122,4 +128,24 @@ def test_bad_arguments(call, match):
 
 def test_texture_lut_carries_the_family_axes():
     lut = texture_lut("thin_film", torch.zeros(3, 4, 3, dtype=F64), FILM_RANGES, FILM, builder="test")
-    assert [float(g[0]) for g in lut.axes.values()] == [0.1, 100.0] and math.isclose(float(lut.axes["thickness"][-1]), 500.0)
+    assert [float(g[0]) for g in lut.axes.values()] == [math.sqrt(0.1), 100.0]
+    assert math.isclose(float(lut.axes["thickness"][-1]), 500.0) and lut.parameters["ranges"][0] == [0.1, 1.0]
+
+
+@pytest.mark.parametrize("name", ["thin_film_soap", "thin_film_on_glass", "bragg_n6", "bragg_n8", "bragg_n10"])
+def test_shipped_textures_hold_their_stated_errors(name):
+    """Each shipped texture, scored again on fresh samples (another seed) against the exact
+    colour: its mean ΔE2000 is within 30 % (+0.05) of the one stored when it was built."""
+    from torchirid.color import delta_e_2000, linear_srgb_to_xyz, xyz_to_lab
+    from torchirid.realtime import shipped_texture
+
+    lut = shipped_texture(name)
+    family, ranges = lut.parameters["family"], lut.parameters["ranges"]
+    params = {k: lut.parameters[k] for k in ("n_film", "n_substrate", "n_incident", "cells", "n1", "n2")
+              if k in lut.parameters}
+    s = texture_samples(family, ranges, params, samples=1, validation=1500, seed=77)
+    lab = lambda rgb: xyz_to_lab(linear_srgb_to_xyz(rgb))  # noqa: E731
+    de = delta_e_2000(lab(lookup(lut.to(torch.float64), family, s.valid_x)), lab(s.valid_rgb))
+    stated = lut.parameters["errors_de2000"]["fitted"]["mean"]
+    assert float(de.mean()) < 1.3 * stated + 0.05, (float(de.mean()), stated)
+    assert stated < lut.parameters["errors_de2000"]["sampled"]["mean"]

@@ -6,8 +6,8 @@ node values minimise the CIEDE2000 error of the hardware-interpolated texture ag
 spectral colour (:mod:`torchirid.realtime.textures`).
 """
 
-from .textures import (FAMILIES, TextureFit, TextureSamples, bragg_wavelength, exact_colour, fit_texture, texture_coordinate, texture_lut,
-                       texture_samples)
+from .textures import (AXIS_WARPS, FAMILIES, SHIPPED_TEXTURES, TextureFit, TextureSamples, bragg_wavelength, exact_colour, fit_texture,
+                       lookup, shipped_texture, texture_axes, texture_coordinate, texture_lut, texture_samples, to_texture)
 
-__all__ = ["FAMILIES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture", "texture_coordinate", "texture_lut",
-           "texture_samples"]
+__all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
+           "lookup", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples", "to_texture"]

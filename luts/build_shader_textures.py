@@ -1,0 +1,69 @@
+"""Build the shipped shader textures of torchirid.realtime (issue 25): node values fitted by autograd.
+
+    PYTHONPATH=src python luts/build_shader_textures.py [--out DIR] [--iterations 80]
+
+Writes into src/torchirid/data/textures/ (float32 LUT files, ~10–100 KiB each):
+
+* ``thin_film_soap.npz``: a soap film (n = 1.33 in air), 16 × 64 texels over
+  (sqrt cos θ ∈ [0, 1], d ∈ [100, 800] nm);
+* ``thin_film_on_glass.npz``: an n = 1.45 film on glass (n = 1.52), the same grid;
+* ``bragg_n{6,8,10}.npz``: jewel-beetle mirrors (n1 = 1.59, n2 = 1.67, lit from air as Fourneau
+  et al.'s presets) of N = 6, 8, 10 cells, 8 × 64 × 4 texels over (sqrt cos θ ∈ [0, 1] in air,
+  λ_B ∈ [300, 1100] nm, δ ∈ [0.3, 0.7]).
+
+Each file's parameters hold the family, its ranges and its measured ΔE2000 (fitted and sampled,
+on 20 000 independent samples). Export one for a shader with
+``torchirid.export.export_lut(LUT.load(path), "bragg_n8", format="exr")``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import torch
+
+from torchirid.lut import LUT
+from torchirid.realtime import fit_texture
+
+ROOT = Path(__file__).resolve().parents[1]
+
+FILM_RANGES = ((0.0, 1.0), (100.0, 800.0))
+BRAGG_RANGES = ((0.0, 1.0), (300.0, 1100.0), (0.3, 0.7))
+TEXTURES = {
+    "thin_film_soap": ("thin_film", (16, 64), FILM_RANGES, {"n_film": 1.33, "n_substrate": 1.0}),
+    "thin_film_on_glass": ("thin_film", (16, 64), FILM_RANGES, {"n_film": 1.45, "n_substrate": 1.52}),
+    **{f"bragg_n{n}": ("bragg", (8, 64, 4), BRAGG_RANGES, {"cells": n, "n1": 1.59, "n2": 1.67, "n_incident": 1.0})
+       for n in (6, 8, 10)},
+}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", type=Path, default=ROOT / "src/torchirid/data/textures")
+    ap.add_argument("--iterations", type=int, default=80)
+    ap.add_argument("--only", default=None, help="comma-separated names (default: all)")
+    args = ap.parse_args(argv)
+    names = args.only.split(",") if args.only else list(TEXTURES)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in names:
+        family, sizes, ranges, parameters = TEXTURES[name]
+        t = time.perf_counter()
+        many = family == "thin_film"  # (the Bragg mirror's spectral colour costs ~1 ms per sample)
+        fit = fit_texture(family, sizes, ranges, parameters, samples=40_000 if many else 20_000,
+                          validation=20_000 if many else 10_000, iterations=args.iterations)
+        lut = LUT(fit.lut.values.to(torch.float32), fit.lut.axes, builder=f"luts/build_shader_textures.py {name}",
+                  parameters={**fit.lut.parameters, "errors_de2000": fit.errors, "iterations": args.iterations},
+                  units=fit.lut.units)
+        path = lut.save(args.out / f"{name}.npz")
+        e = fit.errors
+        print(f"{path.name}: {fit.texels} texels, ΔE2000 fitted mean {e['fitted']['mean']:.2f} / p95 "
+              f"{e['fitted']['p95']:.2f} / max {e['fitted']['max']:.2f} (sampled {e['sampled']['mean']:.2f} / "
+              f"{e['sampled']['p95']:.2f} / {e['sampled']['max']:.2f}), {path.stat().st_size / 1024:.0f} KiB, "
+              f"{time.perf_counter() - t:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
