@@ -76,6 +76,21 @@ EOF
     printf '%s\n' "$want" >"$STAMP"
 }
 
+# System tools some tests use, installed where this machine lets us (root with apt-get): Khronos'
+# GLSL reference compiler for the shader test. Without it that test skips with its reason.
+ensure_test_tools() {
+    if command -v glslangValidator >/dev/null 2>&1; then
+        return 0
+    fi
+    if [[ "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
+        echo "run.sh: installing glslang-tools (apt-get; the GLSL compile test)" >&2
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get install -y -q glslang-tools >/dev/null 2>&1 \
+            || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q glslang-tools >/dev/null 2>&1; } \
+            || echo "run.sh: could not install glslang-tools; the GLSL compile test will skip" >&2
+    fi
+}
+
 cmd="${1:-}"
 case "$cmd" in
     "")
@@ -86,6 +101,7 @@ case "$cmd" in
     test)
         shift
         ensure_venv
+        ensure_test_tools
         "$PY" -m pytest -q "$@"
         ;;
     -h | --help | help)

@@ -46,7 +46,7 @@ from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..lut import LUT
 
 __all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
-           "lookup", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples",
+           "glsl_source", "lookup", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples",
            "to_texture"]
 
 F64 = torch.float64
@@ -177,6 +177,14 @@ def shipped_texture(name: str) -> LUT:
     path = resources.files("torchirid") / "data" / "textures" / f"{name}.npz"
     with resources.as_file(path) as p:
         return LUT.load(p, builder=f"luts/build_shader_textures.py {name}")
+
+
+def glsl_source() -> str:
+    """The shader functions (GLSL ES 3.00) that evaluate these textures inside the GGX BRDF:
+    ``torchirid/realtime/glsl/torchirid.glsl`` (no ``#version`` line: prepend your own)."""
+    from importlib import resources
+
+    return (resources.files("torchirid") / "realtime" / "glsl" / "torchirid.glsl").read_text(encoding="utf-8")
 
 
 # --- fitting ------------------------------------------------------------------------------------
