@@ -44,17 +44,27 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "src/torchirid/data/textures")
     ap.add_argument("--iterations", type=int, default=80)
     ap.add_argument("--only", default=None, help="comma-separated names (default: all)")
+    ap.add_argument("--samples", type=int, default=None,
+                    help="training samples (default 40 000 for films, 20 000 for Bragg mirrors)")
+    ap.add_argument("--validation", type=int, default=None,
+                    help="validation samples (default 20 000 for films, 10 000 for Bragg mirrors)")
     args = ap.parse_args(argv)
     names = args.only.split(",") if args.only else list(TEXTURES)
+    unknown = [n for n in names if n not in TEXTURES]
+    if unknown:
+        ap.error(f"--only: unknown texture(s) {unknown}; choose from {', '.join(TEXTURES)}")
     args.out.mkdir(parents=True, exist_ok=True)
     for name in names:
         family, sizes, ranges, parameters = TEXTURES[name]
         t = time.perf_counter()
         many = family == "thin_film"  # (the Bragg mirror's spectral colour costs ~1 ms per sample)
-        fit = fit_texture(family, sizes, ranges, parameters, samples=40_000 if many else 20_000,
-                          validation=20_000 if many else 10_000, iterations=args.iterations)
+        samples = args.samples or (40_000 if many else 20_000)
+        validation = args.validation or (20_000 if many else 10_000)
+        fit = fit_texture(family, sizes, ranges, parameters, samples=samples, validation=validation,
+                          iterations=args.iterations)
         lut = LUT(fit.lut.values.to(torch.float32), fit.lut.axes, builder=f"luts/build_shader_textures.py {name}",
-                  parameters={**fit.lut.parameters, "errors_de2000": fit.errors, "iterations": args.iterations},
+                  parameters={**fit.lut.parameters, "errors_de2000": fit.errors, "iterations": args.iterations,
+                              "samples": samples, "validation": validation},
                   units=fit.lut.units)
         path = lut.save(args.out / f"{name}.npz")
         e = fit.errors
