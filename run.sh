@@ -76,9 +76,17 @@ EOF
     printf '%s\n' "$want" >"$STAMP"
 }
 
-# System tools some tests use, installed where this machine lets us (root with apt-get): Khronos'
-# GLSL reference compiler for the shader test. Without it that test skips with its reason.
+# Tools some tests use, installed where this machine lets us: Khronos' GLSL reference compiler
+# (Debian's glslang-tools, as root with apt-get) for the shader test, and Khronos' glTF validator
+# (npm's gltf-validator, pinned, into .venv/node_modules) for the glTF export test. Without them
+# those tests skip with their reason.
+GLTF_VALIDATOR_PIN="gltf-validator@2.0.0-dev.3.10"
 ensure_test_tools() {
+    if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/gltf-validator/package.json" ]]; then
+        echo "run.sh: installing $GLTF_VALIDATOR_PIN (npm; the glTF validator test)" >&2
+        npm install --prefix "$VENV" --no-audit --no-fund --silent "$GLTF_VALIDATOR_PIN" >/dev/null 2>&1 \
+            || echo "run.sh: could not install $GLTF_VALIDATOR_PIN; the glTF validator test will skip" >&2
+    fi
     if command -v glslangValidator >/dev/null 2>&1; then
         return 0
     fi
