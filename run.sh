@@ -77,7 +77,8 @@ EOF
 }
 
 # Tools some tests use, installed where this machine lets us: Khronos' GLSL reference compiler
-# (Debian's glslang-tools, as root with apt-get) for the shader test, and Khronos' glTF validator
+# (Debian's glslang-tools) and a browser (Debian's chromium, driven by the Python playwright
+# package of the dev extra) for the shader tests, as root with apt-get; Khronos' glTF validator
 # (npm's gltf-validator, pinned, into .venv/node_modules) for the glTF export test. Without them
 # those tests skip with their reason.
 GLTF_VALIDATOR_PIN="gltf-validator@2.0.0-dev.3.10"
@@ -87,15 +88,15 @@ ensure_test_tools() {
         npm install --prefix "$VENV" --no-audit --no-fund --silent "$GLTF_VALIDATOR_PIN" >/dev/null 2>&1 \
             || echo "run.sh: could not install $GLTF_VALIDATOR_PIN; the glTF validator test will skip" >&2
     fi
-    if command -v glslangValidator >/dev/null 2>&1; then
-        return 0
-    fi
-    if [[ "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
-        echo "run.sh: installing glslang-tools (apt-get; the GLSL compile test)" >&2
+    local missing=()
+    command -v glslangValidator >/dev/null 2>&1 || missing+=(glslang-tools)
+    command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+    if (( ${#missing[@]} )) && [[ "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
+        echo "run.sh: installing ${missing[*]} (apt-get; the GLSL compile and browser tests)" >&2
         export DEBIAN_FRONTEND=noninteractive
-        apt-get install -y -q glslang-tools >/dev/null 2>&1 \
-            || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q glslang-tools >/dev/null 2>&1; } \
-            || echo "run.sh: could not install glslang-tools; the GLSL compile test will skip" >&2
+        apt-get install -y -q "${missing[@]}" >/dev/null 2>&1 \
+            || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q "${missing[@]}" >/dev/null 2>&1; } \
+            || echo "run.sh: could not install ${missing[*]}; the tests that need them will skip" >&2
     fi
 }
 
