@@ -166,6 +166,9 @@ def test_no_import_cycle_inside_the_package():
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, polarization="x"), "polarization"),
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta, 2 + 1j), "n_substrate"),
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, n_range=(2.0, 1.5)), "n_range"),
+    (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, thickness_range=(2e-8, 2e-6)),
+     r"thickness_range must be in nm"),  # metres
+    (lambda c: E.peak_method(c.cube, c.wavelength, c.cos_theta, 1.64, thickness_range=(0.0, 0.002)), "in nm"),
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, bandwidth=-1.0), "bandwidth"),
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta.flip(0), 1.64), "sorted"),
     (lambda c: E.estimate_film(c.cube, c.wavelength, c.cos_theta + 1, 1.64), "cos_theta"),

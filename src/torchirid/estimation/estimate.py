@@ -250,7 +250,7 @@ def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name,
     band = dict(band, n_incident=real_index(band["n_incident"], "n_incident", y, incident=True))
     ns = real_index(n_substrate, "n_substrate", y)
     n_range = value_range(n_range, "n_range", positive=True)
-    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False, nm=True)
     weight(smoothness, "smoothness")
     _checks.check_int(sample, "sample")
     _checks.check_int(iterations, "iterations", minimum=0)

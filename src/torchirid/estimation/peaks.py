@@ -360,7 +360,7 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
     """
     _checks.check_polarization(polarization)
     max_candidates = _checks.check_int(max_candidates, "max_candidates")
-    lo, hi = value_range(thickness_range, "thickness_range", positive=False)
+    lo, hi = value_range(thickness_range, "thickness_range", positive=False, nm=True)
     tr = tensor(tracks)
     nf = real_index(n_film, "n_film", tr)
     ns = real_index(n_substrate, "n_substrate", tr)
@@ -451,7 +451,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     ns = real_index(n_substrate, "n_substrate", y)
     n0 = real_index(n_incident, "n_incident", y, incident=True)
     n_range = value_range(n_range, "n_range", positive=True)
-    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False, nm=True)
     n_film = None if n_film is None else real_index(n_film, "n_film", y)
     if window is not None and 2 * _checks.check_int(window, "window") + 1 > lam.numel():
         raise ValueError(f"window must be an integer >= 1 with 2*window+1 <= B; got {window!r}")

@@ -541,7 +541,7 @@ def grid_scan(cube, wavelength, cos_theta, n_substrate, n_grid, *, thickness_ran
     band_settings(bandwidth, passband, polarization)
     ns = real_index(n_substrate, "n_substrate", y)
     n_incident = real_index(n_incident, "n_incident", y, incident=True)
-    thickness_range = value_range(thickness_range, "thickness_range", positive=False)
+    thickness_range = value_range(thickness_range, "thickness_range", positive=False, nm=True)
     _checks.check_numbers(n_grid=n_grid)
     n_grid = _checks.as_real(n_grid, "n_grid", y.dtype, y.device).reshape(-1)
     _checks.check_index(n_grid, "n_grid")
