@@ -297,6 +297,20 @@ def check_wavelength(t: torch.Tensor, name: str = "wavelength") -> None:
                      f"got {bad:g} (metres or micrometres? 500 nm is 500.0, not 5e-7 or 0.5)")
 
 
+#: The shortest length (nm) taken at face value where a user gives lengths by hand (command-line
+#: options, (min, max) ranges): anything shorter and > 0 is almost surely metres or micrometres
+#: (a 300 nm film written 3e-7 or 0.3).
+MIN_LENGTH_NM = 0.01
+
+
+def check_length_unit(values, name: str, shown=None) -> None:
+    """ValueError naming ``name`` if any of the lengths ``values`` (nm, floats) lies in
+    (0, :data:`MIN_LENGTH_NM`): a unit mistake. ``shown``: what to quote (default the values)."""
+    if any(0 < v < MIN_LENGTH_NM for v in values):
+        raise ValueError(f"{name} must be in nm; got {values if shown is None else shown!r} "
+                         "(metres or micrometres? 300 nm is 300, not 3e-7 or 0.3)")
+
+
 def check_wavelength_range(wavelength_range, name: str = "wavelength_range") -> tuple[float, float]:
     """``(lo, hi)`` as floats with MIN_WAVELENGTH_NM ≤ lo < hi ≤ MAX_WAVELENGTH_NM nm, else ValueError.
 

@@ -15,6 +15,8 @@ import math
 import os
 import sys
 
+from .. import _checks
+
 PROG = "torchirid"
 #: exit status of a bad argument (argparse's own), and of a failed write
 USAGE_ERROR = 2
@@ -139,9 +141,8 @@ def nonnegative(text: str) -> float:
     return value
 
 
-#: the shortest length (nm) taken at face value on the command line: anything shorter and > 0 is
-#: almost surely metres or micrometres (a 300 nm film written 3e-7)
-MIN_LENGTH_NM = 0.01
+#: the shortest length (nm) taken at face value on the command line (the library's)
+MIN_LENGTH_NM = _checks.MIN_LENGTH_NM
 
 
 def _length(text: str, allow_zero: bool) -> float:

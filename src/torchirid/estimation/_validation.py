@@ -43,14 +43,9 @@ def real_index(x, name: str, like: torch.Tensor, *, incident: bool = False) -> f
     return float(np.asarray(x).reshape(()))
 
 
-#: the shortest length (nm) taken at face value in a range: anything shorter and > 0 is almost
-#: surely metres or micrometres (a 2 µm film written 2e-6), as on the command line
-MIN_LENGTH_NM = 0.01
-
-
 def value_range(pair, name: str, *, positive: bool, nm: bool = False) -> tuple[float, float]:
     """``(min, max)`` of two real numbers with min < max and min > 0 (``positive``) or ≥ 0; with
-    ``nm`` (a length range) no bound in (0, :data:`MIN_LENGTH_NM`) nm: a unit mistake."""
+    ``nm`` (a length range) no bound in (0, ``_checks.MIN_LENGTH_NM``) nm: a unit mistake."""
     try:
         lo, hi = (float(v) for v in pair)
     except (TypeError, ValueError) as exc:
@@ -59,8 +54,8 @@ def value_range(pair, name: str, *, positive: bool, nm: bool = False) -> tuple[f
     if not (floor_ok and lo < hi and math.isfinite(hi)):
         bound = "0 < min < max" if positive else "0 <= min < max"
         raise ValueError(f"{name} must be (min, max) with {bound}, finite; got {pair!r}")
-    if nm and any(0 < v < MIN_LENGTH_NM for v in (lo, hi)):
-        raise ValueError(f"{name} must be in nm; got {pair!r} (metres or micrometres? 300 nm is 300, not 3e-7 or 0.3)")
+    if nm:
+        _checks.check_length_unit((lo, hi), name, shown=pair)
     return lo, hi
 
 

@@ -222,11 +222,9 @@ def _stats(de: torch.Tensor) -> dict:
     return {"mean": float(de.mean()), "p95": float(torch.quantile(de, 0.95)), "max": float(de.max())}
 
 
-def _samples(ranges, count, seed, device):
-    g = torch.Generator().manual_seed(seed)
-    u = torch.rand(count, len(ranges), generator=g, dtype=F64).to(device)
-    lo = torch.tensor([r[0] for r in ranges], dtype=F64, device=device)
-    hi = torch.tensor([r[1] for r in ranges], dtype=F64, device=device)
+def _samples(ranges, count, seed):
+    u = torch.rand(count, len(ranges), generator=torch.Generator().manual_seed(seed), dtype=F64)
+    lo, hi = torch.tensor(ranges, dtype=F64).unbind(-1)
     return lo + u * (hi - lo)
 
 
@@ -252,7 +250,7 @@ def texture_samples(family: str, ranges, parameters: Mapping, *, samples: int = 
             raise ValueError(f"{name} must be an int >= 1; got {count!r}")
     exact = exact or (lambda p: exact_colour(family, p, parameters))
     with torch.no_grad():
-        tx, vx = _samples(ranges, samples, seed, None), _samples(ranges, validation, seed + 1, None)
+        tx, vx = _samples(ranges, samples, seed), _samples(ranges, validation, seed + 1)
         return TextureSamples(tx, exact(tx), vx, exact(vx), ranges)
 
 

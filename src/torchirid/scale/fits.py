@@ -18,12 +18,14 @@ figures follow (:data:`FIELDS`), None where the item failed.
 from __future__ import annotations
 
 import csv
-import json
 import math
 import os
 import time
 from pathlib import Path
 from typing import Callable, Sequence
+
+from .. import _checks
+from .._io import json_ready, write_json
 
 __all__ = ["FIELDS", "KINDS", "check_batch", "fit_batch", "fit_item", "write_results"]
 
@@ -99,7 +101,6 @@ _CALLS = {"film": ("torchirid.estimation.cube_io:read_cube", "torchirid.estimati
                            {"path", "target_xyz", "mask"})}
 #: settings in nm given as (min, max) pairs: checked before any file is read
 NM_RANGES = ("thickness_range", "period_range")
-MIN_LENGTH_NM = 0.01
 
 
 def _preflight(kind: str, read: dict, fit: dict) -> None:
@@ -126,8 +127,7 @@ def _preflight(kind: str, read: dict, fit: dict) -> None:
             raise ValueError(f"{key} must be a (min, max) pair in nm; got {value!r}") from None
         if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
             raise ValueError(f"{key} must be a (min, max) pair in nm with 0 < min < max; got {value!r}")
-        if lo < MIN_LENGTH_NM:
-            raise ValueError(f"{key} must be in nm; got {value!r} (metres or micrometres? 300 nm is 300, not 3e-7)")
+        _checks.check_length_unit((lo, hi), key, shown=value)
 
 
 def check_batch(kind, items, read=None, fit=None) -> list[str]:
@@ -213,14 +213,6 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
         return records
 
 
-def _finite(value):
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, list):
-        return [_finite(v) for v in value]
-    return value
-
-
 def write_results(records: Sequence[dict], path) -> Path:
     """Write the records as one table: ``.json`` (a list of objects, strict JSON: non-finite
     numbers as null), ``.csv`` (one row per item; list values joined with ``;``) or ``.parquet``
@@ -229,11 +221,11 @@ def write_results(records: Sequence[dict], path) -> Path:
     suffix = path.suffix.lower()
     if suffix not in (".json", ".csv", ".parquet"):
         raise ValueError(f"the result table must end in .json, .csv or .parquet; got {str(path)!r}")
-    rows = [{k: _finite(v) for k, v in r.items()} for r in records]
+    rows = json_ready(list(records))  # non-finite numbers → None
     columns = list(dict.fromkeys(k for r in rows for k in r))
     path.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".json":
-        path.write_text(json.dumps(rows, indent=1, allow_nan=False) + "\n")
+        write_json(path, rows)
     elif suffix == ".csv":
         with path.open("w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=columns)
