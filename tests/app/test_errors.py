@@ -42,6 +42,7 @@ PARSE_ERRORS = {
     "build-table": ["thin_film_reflectance", "--axis", "wavelength=nan:700:5"],
     "fit-batch": ["film", "c.npz", "--timeout", "nan"],
     "montecarlo": ["--incident", "nan", "0", "--exit", "30", "0"],
+    "explore": ["--port", "nan"],
 }
 
 #: one bad argument per subcommand that parses and is refused afterwards (by the command or the
@@ -57,6 +58,7 @@ LATE_ERRORS = {
     "build-table": (["thin_film_reflectance", "--axis", "wavelength=400:700:5", "--set", "bogus=1"], "bogus"),
     "fit-batch": (["film", "c.npz", "--set", "bogus=1"], "bogus"),
     "montecarlo": (["--incident", "95", "0", "--exit", "30", "0"], "THETA"),
+    "explore": (["--port", "70000"], "port"),
 }
 
 
@@ -129,6 +131,7 @@ ERROR_CLASSES = {
     "montecarlo": {k: ["--incident", "30", "0", "--exit", "30", "0", *extra]
                    for k, extra in (("nan", ["--wavelengths", "400", "nan", "5"]), ("negative", ["--samples", "-5"]),
                                     ("unit", ["--wavelengths", "4e-7", "7e-7", "5"]))},
+    "explore": {"nan": ["--port", "nan"], "negative": ["--port", "-1"], "unit": None},  # no lengths to give in metres
 }
 
 
@@ -136,7 +139,8 @@ def test_error_classes_cover_every_subcommand():
     assert set(ERROR_CLASSES) == {command.NAME for command in cli.COMMANDS}
 
 
-@pytest.mark.parametrize("command,kind", [(c, k) for c in sorted(ERROR_CLASSES) for k in ("nan", "negative", "unit")])
+@pytest.mark.parametrize("command,kind", [(c, k) for c in sorted(ERROR_CLASSES) for k in ("nan", "negative", "unit")
+                                          if ERROR_CLASSES[c][k] is not None])
 def test_every_bad_argument_class_is_one_line_and_status_2(tmp_path, capsys, command, kind):
     code, out, err = _run(capsys, [command, "--out", str(tmp_path / "out"), *ERROR_CLASSES[command][kind]])
     _check_one_line(code, err, command)

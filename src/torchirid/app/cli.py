@@ -18,7 +18,7 @@ import argparse
 
 from .._version import __version__
 from . import _args
-from .commands import (build_table, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram,
+from .commands import (build_table, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram,
                        spectrum, thin_film)
 
 __all__ = ["COMMANDS", "build_parser", "main"]
@@ -26,7 +26,7 @@ __all__ = ["COMMANDS", "build_parser", "main"]
 #: The subcommands, in the order of ``torchirid --help``: modules with ``NAME``,
 #: ``add_parser(subparsers)`` and ``run(args) -> int``.
 COMMANDS = (spectrum, gradients, scatterogram, film_table, render_sphere, thin_film, fit_film, build_table, fit_batch,
-            montecarlo)
+            montecarlo, explore)
 
 
 def build_parser() -> argparse.ArgumentParser:

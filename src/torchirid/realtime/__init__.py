@@ -7,7 +7,7 @@ spectral colour (:mod:`torchirid.realtime.textures`).
 """
 
 from .textures import (AXIS_WARPS, FAMILIES, SHIPPED_TEXTURES, TextureFit, TextureSamples, bragg_wavelength, exact_colour, fit_texture,
-                       glsl_source, lookup, shipped_texture, texture_axes, texture_coordinate, texture_lut, texture_samples, to_texture)
+                       glsl_source, lookup, path_difference, shipped_texture, texture_axes, texture_coordinate, texture_lut, texture_samples, to_texture)
 
 __all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
-           "glsl_source", "lookup", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples", "to_texture"]
+           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples", "to_texture"]

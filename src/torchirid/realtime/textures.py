@@ -26,6 +26,8 @@ random samples (a fixed seed). L-BFGS from the sampled values; autograd through
 errors are reported on a second, independent sample set (:class:`TextureFit`).
 
 Families (:data:`FAMILIES`): ``"thin_film"`` RGB over (cos θ, d) of one film on one base,
+``"thin_film_path"`` RGB over (cos θ, p, n_f) of films of any index n_f on one base, p the
+optical path difference 2 n_f d cos θ_f (:func:`path_difference`),
 ``"bragg"`` RGB over (cos θ, λ_B, δ) of a Bragg mirror of N cells, ``"rough_thin_film"`` RGB over
 (cos θ_o, α, d) under uniform light (Kneiphof et al.'s setting). The Bragg texture's second axis
 is the Bragg wavelength λ_B (:func:`bragg_wavelength`) rather than the period: an axis warp
@@ -46,7 +48,7 @@ from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..lut import LUT
 
 __all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
-           "glsl_source", "lookup", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples",
+           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples",
            "to_texture"]
 
 F64 = torch.float64
@@ -70,7 +72,37 @@ def _thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0):
 
     cos_theta, d = x[..., 0], x[..., 1]
     lam = _wavelengths(x.device)
-    R = thin_film_reflectance(lam, cos_theta[..., None], n_film, d[..., None], n_substrate, n_incident=n_incident)
+    R = thin_film_reflectance(lam, cos_theta[..., None], n_film, d[..., None], _index(n_substrate), n_incident=n_incident)
+    return spectrum_to_xyz(R, lam)
+
+
+def _index(n):
+    """A refractive index given as a number or as a ``[re, im]`` pair (a LUT's JSON parameters
+    cannot hold complex numbers)."""
+    return complex(*n) if isinstance(n, (list, tuple)) else n
+
+
+def path_difference(cos_theta, thickness, n_film, n_incident: float = 1.0):
+    r"""The optical path difference (nm) of a film's two first reflections,
+    :math:`p = 2 n_f d \cos\theta_f = 2d\sqrt{n_f^2 - n_0^2(1 - \cos^2\theta)}`.
+
+    The ``"thin_film_path"`` texture's second axis (an axis warp, as λ_B for Bragg mirrors): a
+    film's colour depends on d, n_f and θ mostly through p (the fringe order at λ is p/λ), so
+    texels spent along p follow the colour and few are needed along n_f. The shaders compute it
+    the same way before the lookup.
+    """
+    s2 = n_incident * n_incident * (1 - cos_theta * cos_theta)
+    return 2 * thickness * torch.sqrt(torch.clamp(torch.as_tensor(n_film) ** 2 - s2, min=0.0))
+
+
+def _thin_film_path(x, *, n_substrate, n_incident: float = 1.0):
+    from ..optics import thin_film_reflectance
+
+    cos_theta, path, n_film = x[..., 0], x[..., 1], x[..., 2]
+    d = path / path_difference(cos_theta, 1.0, n_film, n_incident)
+    lam = _wavelengths(x.device)
+    R = thin_film_reflectance(lam, cos_theta[..., None], n_film[..., None], d[..., None], _index(n_substrate),
+                              n_incident=n_incident)
     return spectrum_to_xyz(R, lam)
 
 
@@ -104,15 +136,17 @@ def _bragg(x, *, cells: int, n1: float, n2: float, n_incident: float | None = No
                      method="spectral")
 
 
-def _rough_thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0):
+def _rough_thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0, bins: int = 2048, nodes: int = 64):
     from ..ibl import uniform_thin_film_xyz
 
-    return uniform_thin_film_xyz(x[..., 0], x[..., 1], n_film, x[..., 2], n_substrate, n_incident=n_incident)
+    return uniform_thin_film_xyz(x[..., 0], x[..., 1], n_film, x[..., 2], _index(n_substrate), n_incident=n_incident,
+                                 bins=bins, nodes=nodes)
 
 
 #: family → (axis names, units, exact XYZ function of points (*, k) and the family's parameters)
 FAMILIES: dict[str, tuple[tuple[str, ...], tuple[str, ...], Callable]] = {
     "thin_film": (("cos_theta", "thickness"), ("1", "nm"), _thin_film),
+    "thin_film_path": (("cos_theta", "path_difference", "n_film"), ("1", "nm", "1"), _thin_film_path),
     "bragg": (("cos_theta", "bragg_wavelength", "delta"), ("1", "nm", "1"), _bragg),
     "rough_thin_film": (("cos_theta_o", "alpha", "thickness"), ("1", "1", "nm"), _rough_thin_film),
 }
@@ -158,7 +192,8 @@ def exact_colour(family: str, points: torch.Tensor, parameters: Mapping) -> torc
 # --- the shipped textures -----------------------------------------------------------------------
 
 #: the textures shipped in torchirid/data/textures (built by luts/build_shader_textures.py)
-SHIPPED_TEXTURES = ("thin_film_soap", "thin_film_on_glass", "bragg_n6", "bragg_n8", "bragg_n10")
+SHIPPED_TEXTURES = ("thin_film_soap", "thin_film_on_glass", "thin_film_path_air", "thin_film_path_glass",
+                    "thin_film_path_absorbing", "rough_thin_film", "bragg_n6", "bragg_n8", "bragg_n10")
 
 
 def shipped_texture(name: str) -> LUT:
@@ -292,7 +327,9 @@ def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int
         sizes: texels per axis, in the family's axis order (each ≥ 2).
         ranges: ``(lo, hi)`` per axis, in the axis' units (cos θ in [0, 1], nm, …).
         parameters: the family's fixed parameters: ``thin_film`` and ``rough_thin_film``:
-            ``n_film``, ``n_substrate`` (complex for a metal), ``n_incident``; ``bragg``:
+            ``n_film``, ``n_substrate`` (complex for a metal, or ``[re, im]``), ``n_incident``
+            (``rough_thin_film`` also ``bins``, ``nodes`` of :func:`~torchirid.ibl.uniform_thin_film_xyz`);
+            ``thin_film_path``: ``n_substrate``, ``n_incident``; ``bragg``:
             ``cells``, ``n1``, ``n2``, ``n_incident`` (the axes: cos θ, λ_B in nm, δ).
         samples: training samples (uniform in the domain, seed ``seed``), or the samples of
             :func:`texture_samples` (then ``validation`` and ``seed`` are theirs).

@@ -7,8 +7,8 @@ bad argument after printing the one-line error). The registry is
 :data:`torchirid.app.cli.COMMANDS`.
 """
 
-from . import (build_table, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram, spectrum,
+from . import (build_table, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram, spectrum,
                thin_film)
 
-__all__ = ["build_table", "film_table", "fit_batch", "fit_film", "gradients", "montecarlo", "render_sphere", "scatterogram",
+__all__ = ["build_table", "explore", "film_table", "fit_batch", "fit_film", "gradients", "montecarlo", "render_sphere", "scatterogram",
            "spectrum", "thin_film"]

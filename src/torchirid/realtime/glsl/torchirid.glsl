@@ -50,6 +50,116 @@ vec3 tirid_bragg_rgb(mediump sampler3D tex, vec3 axis_sqrt_cos, vec3 axis_bragg_
     return texture(tex, uvw).rgb;
 }
 
+// Optical path difference (nm) of a film's two first reflections, 2 d sqrt(n_f² − n0² sin²θ)
+// (torchirid.realtime.path_difference): the "thin_film_path" texture's second axis.
+float tirid_path_difference(float cos_theta, float thickness, float n_film, float n0) {
+    float s2 = n0 * n0 * (1.0 - cos_theta * cos_theta);
+    return 2.0 * thickness * sqrt(max(n_film * n_film - s2, 0.0));
+}
+
+// Films of any index on one base (family "thin_film_path", one texture per base): a 3-D
+// texture, x = n_film, y = path difference (nm), z = sqrt(cos θ).
+vec3 tirid_thin_film_path_rgb(mediump sampler3D tex, vec3 axis_sqrt_cos, vec3 axis_path, vec3 axis_n_film,
+                              float cos_theta, float thickness, float n_film, float n0) {
+    float c = clamp(cos_theta, 0.0, 1.0);
+    vec3 uvw = vec3(tirid_texcoord(n_film, axis_n_film),
+                    tirid_texcoord(tirid_path_difference(c, thickness, n_film, n0), axis_path),
+                    tirid_texcoord(sqrt(c), axis_sqrt_cos));
+    return texture(tex, uvw).rgb;
+}
+
+// A rough film under uniform light (family "rough_thin_film"): a 3-D texture,
+// x = thickness (nm), y = GGX α, z = sqrt(cos θ_o).
+vec3 tirid_rough_thin_film_rgb(mediump sampler3D tex, vec3 axis_sqrt_cos, vec3 axis_alpha, vec3 axis_thickness,
+                               float cos_theta_o, float alpha, float thickness) {
+    vec3 uvw = vec3(tirid_texcoord(thickness, axis_thickness), tirid_texcoord(alpha, axis_alpha),
+                    tirid_texcoord(sqrt(clamp(cos_theta_o, 0.0, 1.0)), axis_sqrt_cos));
+    return texture(tex, uvw).rgb;
+}
+
+// --- spectral reflectance (for plots such as R(θ, λ); float32, unpolarised = mean of s and p) ---
+
+vec2 tirid_cmul(vec2 a, vec2 b) { return vec2(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
+vec2 tirid_cdiv(vec2 a, vec2 b) { return vec2(a.x * b.x + a.y * b.y, a.y * b.x - a.x * b.y) / dot(b, b); }
+vec2 tirid_csqrt(vec2 z) {  // principal branch (Im ≥ 0 for the absorbing media of this file)
+    float r = length(z);
+    float re = sqrt(max(0.5 * (r + z.x), 0.0));
+    float im = sqrt(max(0.5 * (r - z.x), 0.0));
+    return vec2(re, z.y < 0.0 ? -im : im);
+}
+
+// R of a film (n_film, d nm) on a base n_sub = vec2(n, κ), lit from the medium n0 at cos θ
+// (Airy sum; torchirid.thin_film_reflectance). n_film ≥ n0 sin θ (no total internal reflection).
+float tirid_thin_film_reflectance(float wavelength, float cos_theta, float n0, float n_film, float thickness, vec2 n_sub) {
+    float s2 = n0 * n0 * (1.0 - cos_theta * cos_theta);
+    float q0 = n0 * cos_theta;
+    float q1 = sqrt(max(n_film * n_film - s2, 0.0));
+    vec2 e2 = tirid_cmul(n_sub, n_sub);
+    vec2 q2 = tirid_csqrt(e2 - vec2(s2, 0.0));
+    float beta = 2.0 * TIRID_PI * thickness * q1 / wavelength;
+    vec2 phase = vec2(cos(2.0 * beta), sin(2.0 * beta));
+    float R = 0.0;
+    for (int pol = 0; pol < 2; pol++) {
+        float r01;
+        vec2 r12;
+        if (pol == 0) {  // s
+            r01 = (q0 - q1) / (q0 + q1);
+            r12 = tirid_cdiv(vec2(q1, 0.0) - q2, vec2(q1, 0.0) + q2);
+        } else {  // p
+            float a = n_film * n_film;
+            r01 = (a * q0 - n0 * n0 * q1) / (a * q0 + n0 * n0 * q1);
+            vec2 num = q1 * e2 - a * q2;
+            vec2 den = q1 * e2 + a * q2;
+            r12 = tirid_cdiv(num, den);
+        }
+        vec2 t = tirid_cmul(r12, phase);
+        vec2 r = tirid_cdiv(vec2(r01, 0.0) + t, vec2(1.0, 0.0) + r01 * t);
+        R += 0.5 * dot(r, r);
+    }
+    return R;
+}
+
+// R of a Bragg mirror n0 | (n2, d2), (n1, d1) × N | n1 of real indices (d in nm), lit from n0
+// at cos θ (torchirid.bragg_reflectance; n0 = n1 is the embedded mirror). Characteristic
+// matrices (Born & Wolf), the N-th power of the cell's by Chebyshev polynomials (Yeh); N ≤ 256.
+// n0 sin θ below n1 and n2 (no total internal reflection).
+float tirid_bragg_reflectance(float wavelength, float cos_theta, float n0, float n1, float n2, float d1, float d2, int cells) {
+    float s2 = n0 * n0 * (1.0 - cos_theta * cos_theta);
+    float q0 = n0 * cos_theta;
+    float q1 = sqrt(max(n1 * n1 - s2, 1e-12));
+    float q2 = sqrt(max(n2 * n2 - s2, 1e-12));
+    float k = 2.0 * TIRID_PI / wavelength;
+    float p1 = k * q1 * d1, p2 = k * q2 * d2;
+    float R = 0.0;
+    for (int pol = 0; pol < 2; pol++) {
+        // admittances η = q (s) or n²/q (p); a layer's matrix [[cos p, −i sin p/η], [−i η sin p, cos p]]
+        float h0 = pol == 0 ? q0 : n0 * n0 / max(q0, 1e-12);
+        float h1 = pol == 0 ? q1 : n1 * n1 / q1;
+        float h2 = pol == 0 ? q2 : n2 * n2 / q2;
+        // the cell M = M2 M1 = [[A, −iB], [−iC, D]] with real A, B, C, D
+        float c1 = cos(p1), s1 = sin(p1), c2 = cos(p2), s2_ = sin(p2);
+        float A = c2 * c1 - s2_ * s1 * h1 / h2;
+        float B = c2 * s1 / h1 + s2_ * c1 / h2;
+        float C = h2 * s2_ * c1 + c2 * h1 * s1;
+        float D = c2 * c1 - s2_ * s1 * h2 / h1;
+        // M^N = U_{N−1}(a) M − U_{N−2}(a) I, a = (A + D)/2
+        float a = 0.5 * (A + D);
+        float um2 = 0.0, um1 = 1.0;  // U_{−1}, U_0
+        for (int j = 1; j < 256; j++) {
+            if (j >= cells) break;
+            float u = 2.0 * a * um1 - um2;
+            um2 = um1;
+            um1 = u;
+        }
+        float An = um1 * A - um2, Bn = um1 * B, Cn = um1 * C, Dn = um1 * D - um2;
+        // [E; H] = M^N [1; η_sub], η_sub = h1; r = (h0 E − H) / (h0 E + H)
+        vec2 E = vec2(An, -Bn * h1), H = vec2(Dn * h1, -Cn);
+        vec2 num = h0 * E - H, den = h0 * E + H;
+        R += 0.5 * dot(num, num) / dot(den, den);
+    }
+    return R;
+}
+
 // GGX normal distribution D (eq. 18), summed as sin² + α² cos² (no cancellation at the peak).
 float tirid_ggx_d(float cos_m, float alpha) {
     if (cos_m <= 0.0) return 0.0;

@@ -1,0 +1,139 @@
+r"""The explorer page of ``torchirid explore``: a static WebGL2 page of one material at a time.
+
+:func:`write_page` writes ``index.html``, ``explorer.js``, ``explorer.css`` (this package's
+``static/`` folder, written by hand: no framework, nothing fetched at run time) and ``data.js``
+(made here: the shipped fitted textures of :mod:`torchirid.realtime`, the library's shader
+functions, the prefiltered synthetic sky and the split-sum albedo table), so the page opens
+from the file system with no server and no internet.
+
+What the page draws, all on the GPU with WebGL2 and redrawn on every slider move:
+
+* a sphere under the sky (Kneiphof et al.'s split sum, as :mod:`torchirid.ibl.shading`):
+  :math:`L = A(\cos θ_o, α)\,\bar L(ω_r, α) ⊙ \mathrm{RGB}(\cos θ_o)` with the albedo A of
+  :func:`~torchirid.ibl.shipped_dfg_lut` at F ≡ 1, the prefiltered radiance :math:`\bar L` of
+  :func:`~torchirid.ibl.prefilter_environment` and the material's colour looked up in its
+  fitted texture, tone mapped :math:`1 - e^{-L}` and sRGB encoded;
+* a scatterogram: the GGX microfacet BRDF × cos θ_o over the hemisphere of exit directions
+  (orthographic projection) for a collimated light at θ_i, the reflectance looked up at
+  cos θ_d = ⟨ω_i, h⟩ and scaled by :math:`4πα^2\cos θ_i` so the peak shows the colour;
+* the reflectance map R(θ, λ) (θ 0–90°, λ 380–780 nm), evaluated spectrally in the shader
+  (``tirid_bragg_reflectance`` / ``tirid_thin_film_reflectance``);
+* the colour strip: the specular colour RGB(cos θ) for θ from 0° to 90°, sRGB encoded —
+  what the browser tests compare with the library's spectral colour.
+
+Families: Bragg mirrors (sliders Λ, δ, N, α; n1 = 1.59, n2 = 1.67 lit from air, the shipped
+``bragg_n{6,8,10}`` textures) and thin films (sliders d, n, base, α; the shipped
+``thin_film_path_{air,glass,absorbing}`` textures).
+"""
+
+from __future__ import annotations
+
+import base64
+import functools
+import http.server
+import json
+import threading
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from ... import __version__
+from ..._io import atomic_write
+from ...ibl import prefilter_environment, shipped_dfg_lut, synthetic_environment
+from ...realtime import glsl_source, shipped_texture
+
+__all__ = ["BASES", "BRAGG_CELLS", "SKY_ALPHAS", "STATIC_FILES", "page_data", "serve", "write_page"]
+
+#: the page's static files (this package's ``static/`` folder)
+STATIC_FILES = ("index.html", "explorer.js", "explorer.css")
+#: Bragg mirrors of the N slider → shipped texture
+BRAGG_CELLS = {6: "bragg_n6", 8: "bragg_n8", 10: "bragg_n10"}
+#: thin-film bases of the base slider → shipped texture
+BASES = {"air": "thin_film_path_air", "glass": "thin_film_path_glass", "absorbing": "thin_film_path_absorbing"}
+#: the roughness levels of the prefiltered sky (the α slider's range)
+SKY_ALPHAS = tuple(float(a) for a in np.linspace(0.05, 0.5, 6))
+
+
+def _floats(t) -> str:
+    """float32 little-endian bytes of ``t`` in C order, base64 (what ``explorer.js`` decodes)."""
+    a = np.ascontiguousarray(torch.as_tensor(t).detach().cpu().numpy(), dtype="<f4")
+    return base64.b64encode(a.tobytes()).decode("ascii")
+
+
+def _texture(name: str) -> dict:
+    lut = shipped_texture(name)
+    axes = [[float(g[0]), float(g[-1]), int(g.numel())] for g in lut.axes.values()]
+    return {"name": name, "axes": list(lut.axes), "ranges": axes, "shape": list(lut.values.shape[:-1]),
+            "parameters": lut.parameters, "values": _floats(lut.values)}
+
+
+@functools.lru_cache(maxsize=1)
+def _sky() -> dict:
+    env = synthetic_environment(64, 128, dtype=torch.float32)
+    pre = prefilter_environment(env, torch.tensor(SKY_ALPHAS, dtype=torch.float32), resolution=(32, 64))
+    return {"alphas": list(SKY_ALPHAS), "shape": list(pre.radiance.shape[:-1]), "values": _floats(pre.radiance),
+            "environment": "torchirid.ibl.synthetic_environment(64, 128), prefiltered to 32 × 64"}
+
+
+def _albedo() -> dict:
+    lut = shipped_dfg_lut(dtype=torch.float32)
+    albedo = lut.values.sum(-1)  # F0·scale + bias at F0 = 1
+    axes = [[float(g[0]), float(g[-1]), int(g.numel())] for g in lut.axes.values()]
+    return {"axes": list(lut.axes), "ranges": axes, "shape": list(albedo.shape), "values": _floats(albedo)}
+
+
+def page_data() -> dict:
+    """Everything ``explorer.js`` needs, JSON-ready: textures, shader source, sky, albedo.
+
+    Float arrays are base64 float32 (C order); a texture's ``ranges`` are ``[lo, hi, n]`` of
+    its LUT axes (warped coordinates), as ``tirid_texcoord`` takes them.
+    """
+    return {
+        "version": __version__,
+        "glsl": glsl_source(),
+        "bragg": {str(n): _texture(name) for n, name in BRAGG_CELLS.items()},
+        "film": {base: _texture(name) for base, name in BASES.items()},
+        "sky": _sky(),
+        "albedo": _albedo(),
+    }
+
+
+def write_page(out, *, data: dict | None = None) -> Path:
+    """Write the explorer page into the folder ``out`` (created); returns ``out/index.html``.
+
+    ``data``: :func:`page_data` (computed here by default; ~10 s, mostly the sky's prefiltering).
+    Open ``index.html`` in a browser with WebGL2 (any current one), or :func:`serve` the folder.
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    data = page_data() if data is None else data
+    static = resources.files(__name__) / "static"
+    for name in STATIC_FILES:
+        with resources.as_file(static / name) as src:
+            atomic_write(out / name, lambda f, src=src: f.write(Path(src).read_bytes()))
+    text = "// written by torchirid explore: the data of the explorer page\nwindow.TORCHIRID_DATA = " + json.dumps(
+        data, separators=(",", ":")) + ";\n"
+    atomic_write(out / "data.js", lambda f: f.write(text.encode("utf-8")))
+    return out / "index.html"
+
+
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, format, *args):  # noqa: A002 (http.server's signature)
+        pass
+
+
+def serve(directory, *, host: str = "127.0.0.1", port: int = 8000):
+    """Serve ``directory`` over HTTP on ``host:port`` (``port=0``: any free port) in a daemon
+    thread; returns ``(server, url)``. Stop it with ``server.shutdown()``."""
+    directory = Path(directory)
+    if not (directory / "index.html").is_file():
+        raise ValueError(f"directory must hold the page's index.html (write_page); {directory} does not")
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ValueError(f"port must be an int in [0, 65535]; got {port!r}")
+    handler = functools.partial(_QuietHandler, directory=str(directory))
+    server = http.server.ThreadingHTTPServer((host, port), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    h, p = server.server_address[:2]
+    return server, f"http://{h}:{p}/"

@@ -1,0 +1,236 @@
+"""The explorer page of ``torchirid explore`` (issue 25.3): written offline, served on localhost,
+and driven in headless Chromium (Playwright; software WebGL2): every slider moves the page, no
+console errors, and the colours it draws agree with the library's spectral colour for the same
+material and direction (ΔE2000 ≤ 1.0 mean, ≤ 2.5 max, ≥ 3 materials per family).
+``bash run.sh test`` installs Debian's chromium and the Python playwright package where it can;
+elsewhere the browser tests skip with their reason."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import urllib.request
+
+import numpy as np
+import pytest
+import torch
+
+import torchirid as ti
+from torchirid.app.explorer import BASES, BRAGG_CELLS, STATIC_FILES, page_data, write_page
+from torchirid.color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
+from torchirid.color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
+
+F64 = torch.float64
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+BROWSER_ARGS = ["--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--no-sandbox"]
+
+#: the page's materials compared with the library: (Λ nm, δ, N) and (d nm, n, base index)
+BRAGG = [(150.0, 0.5, 8), (190.0, 0.4, 6), (235.0, 0.6, 10), (255.0, 0.3, 8)]
+FILMS = [(320.0, 1.33, 0), (150.0, 2.0, 1), (450.0, 1.5, 2), (560.0, 1.45, 1)]
+
+
+@pytest.fixture(scope="module")
+def data():
+    return page_data()
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory, data):
+    return write_page(tmp_path_factory.mktemp("explorer"), data=data).parent
+
+
+def test_the_page_is_self_contained(site, data):
+    assert sorted(p.name for p in site.iterdir()) == sorted([*STATIC_FILES, "data.js"])
+    for name in STATIC_FILES:  # nothing from the network: no http(s) URL, no CDN, no web font
+        text = (site / name).read_text(encoding="utf-8")
+        assert not re.search(r"(src|href)\s*=\s*[\"']?(https?:)?//", text), name
+        assert "@import" not in text and "fetch(" not in text, name
+    js = (site / "data.js").read_text(encoding="utf-8")
+    loaded = json.loads(js[js.index("=") + 1:].rstrip().rstrip(";"))
+    assert set(loaded["bragg"]) == {str(n) for n in BRAGG_CELLS} and set(loaded["film"]) == set(BASES)
+    assert "tirid_bragg_rgb" in loaded["glsl"] and loaded["version"] == ti.__version__
+    t = loaded["bragg"]["8"]
+    values = np.frombuffer(base64.b64decode(t["values"]), "<f4").reshape(*t["shape"], 3)
+    np.testing.assert_array_equal(values, ti.realtime.shipped_texture("bragg_n8").values.numpy())
+    assert len(loaded["sky"]["alphas"]) == loaded["sky"]["shape"][0]
+
+
+def test_explore_serves_the_page_on_localhost(tmp_path):
+    proc = subprocess.Popen([sys.executable, "-m", "torchirid", "explore", "--out", str(tmp_path / "page"), "--serve",
+                             "--port", "0", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        url = None
+        for line in proc.stdout:
+            m = re.search(r"on (http://\S+/)", line)
+            if m:
+                url = m.group(1)
+                break
+        assert url, proc.stderr.read()
+        with urllib.request.urlopen(url, timeout=10) as r:
+            assert r.status == 200 and b"torchirid explorer" in r.read()
+        with urllib.request.urlopen(url + "data.js", timeout=10) as r:
+            assert r.read().startswith(b"// written by torchirid explore")
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--port", "70000"], "--port must lie in [0, 65535]"),
+    (["--port", "x"], "invalid int value"),
+])
+def test_explore_refuses_bad_arguments_in_one_line(argv, message, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "torchirid", "explore", "--out", str(tmp_path), *argv],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 2 and message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+
+
+# --- in the browser --------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def page(site):
+    playwright = pytest.importorskip("playwright.sync_api", reason="the Python playwright package is not installed")
+    if CHROMIUM is None:
+        pytest.skip("no chromium executable (Debian: apt-get install chromium)")
+    with playwright.sync_playwright() as p:
+        try:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=BROWSER_ARGS)
+        except playwright.Error as e:
+            pytest.skip(f"{CHROMIUM} did not start headless: {str(e).splitlines()[0][:200]}")
+        pg = browser.new_page(viewport={"width": 1280, "height": 800})
+        pg.console_errors = []
+        pg.on("console", lambda m: pg.console_errors.append(m.text) if m.type == "error" else None)
+        pg.on("pageerror", lambda e: pg.console_errors.append(str(e)))
+        pg.goto((site / "index.html").as_uri())
+        pg.wait_for_function("window.torchiridExplorer !== undefined", timeout=60_000)
+        yield pg
+        browser.close()
+
+
+def _read(page, view):
+    r = page.evaluate(f"window.torchiridExplorer.read({view!r})")
+    px = np.frombuffer(base64.b64decode(r["rgba"]), np.uint8).astype(np.float64)
+    return px.reshape(r["height"], r["width"], 4)[::-1, :, :3]  # top row first
+
+
+def _set(page, **values):
+    """Move the sliders (and the family radio) as a user does: Playwright fills the range inputs,
+    which fires their input events."""
+    family = values.pop("family", None)
+    if family:
+        page.check(f"input[name=family][value={family}]")
+    for name, v in values.items():
+        page.fill(f"#{name}", str(v))
+    page.evaluate("window.torchiridExplorer.render()")
+
+
+def _srgb_decode(v):
+    v = v / 255.0
+    return np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+
+
+def _strip_thetas(width):
+    return (np.arange(width) + 0.5) / width * 90.0  # column i at θ = (i + ½)/width · 90°
+
+
+def _library_rgb(family, material, theta_deg):
+    """The library's own colour, spectrally (linear sRGB, D65, white Y = 1), clipped to the gamut
+    as the page's 8-bit output is."""
+    cos = torch.as_tensor(np.cos(np.radians(theta_deg)), dtype=F64)
+    if family == "bragg":
+        period, delta, cells = material
+        xyz = ti.bragg_xyz(cos, 1.59, 1.67, period * (1 - delta), period * delta, cells, n_incident=1.0,
+                           method="spectral")
+    else:
+        d, n, base = material
+        n_sub = [1.0, 1.52, complex(2.0, 0.5)][base]
+        lam = torch.linspace(360.0, 830.0, 471, dtype=F64)
+        xyz = spectrum_to_xyz(ti.thin_film_reflectance(lam, cos[:, None], n, d, n_sub, n_incident=1.0), lam)
+    return xyz_to_linear_srgb(xyz).clamp(0.0, 1.0)
+
+
+def _strip_delta_e(page, family, material):
+    if family == "bragg":
+        _set(page, family="bragg", period=material[0], delta=material[1], cells=material[2])
+    else:
+        _set(page, family="film", thickness=material[0], n_film=material[1], base=material[2])
+    px = _read(page, "strip")
+    row = px[px.shape[0] // 2]
+    theta = _strip_thetas(row.shape[0])
+    got = torch.as_tensor(_srgb_decode(row), dtype=F64)
+    want = _library_rgb(family, material, theta)
+    return delta_e_2000(xyz_to_lab(linear_srgb_to_xyz(got)), xyz_to_lab(linear_srgb_to_xyz(want))).numpy()
+
+
+def test_the_page_draws_every_view_without_console_errors(page):
+    for view in ("sphere", "scatterogram", "rmap", "strip"):
+        px = _read(page, view)
+        assert px.std() > 5, view  # an image, not a blank canvas
+    assert page.evaluate("window.torchiridExplorer.frameMs") > 0
+    assert not page.console_errors, page.console_errors
+
+
+SLIDERS = [  # (family, slider, new value, the views it must change)
+    ("bragg", "period", 230, ("strip", "rmap", "sphere", "scatterogram")),
+    ("bragg", "delta", 0.65, ("strip", "rmap")),
+    ("bragg", "cells", 10, ("strip", "rmap")),
+    ("bragg", "alpha", 0.4, ("sphere", "scatterogram")),
+    ("bragg", "light", 60, ("scatterogram",)),
+    ("film", "thickness", 200, ("strip", "rmap", "sphere")),
+    ("film", "n_film", 1.9, ("strip", "rmap")),
+    ("film", "base", 2, ("strip", "rmap")),
+    ("film", "alpha", 0.3, ("sphere", "scatterogram")),
+]
+
+
+@pytest.mark.parametrize("family, slider, value, views", SLIDERS, ids=[f"{f}-{s}" for f, s, *_ in SLIDERS])
+def test_every_slider_moves_the_page(page, family, slider, value, views):
+    _set(page, family=family)
+    before = {v: _read(page, v) for v in views}
+    old = page.evaluate(f"window.torchiridExplorer.state[{slider!r}]")
+    _set(page, **{slider: value})
+    state = page.evaluate("window.torchiridExplorer.state")
+    assert state[slider] == pytest.approx(value) and state[slider] != old
+    shown = page.text_content(f"output[for={slider}]")
+    assert shown == (list(BASES)[value] if slider == "base" else shown) and shown
+    for v in views:
+        assert np.abs(_read(page, v) - before[v]).max() > 8, f"{slider} did not change the {v}"
+    _set(page, **{slider: old})  # back to the start
+    assert not page.console_errors, page.console_errors
+
+
+@pytest.mark.parametrize("family, material", [("bragg", m) for m in BRAGG] + [("film", m) for m in FILMS],
+                         ids=[f"bragg-{m[0]:g}nm-{m[1]}-N{m[2]}" for m in BRAGG]
+                         + [f"film-{m[0]:g}nm-n{m[1]}-{list(BASES)[m[2]]}" for m in FILMS])
+def test_the_colour_strip_is_the_library_colour(page, family, material):
+    de = _strip_delta_e(page, family, material)
+    assert de.mean() <= 1.0 and de.max() <= 2.5, (float(de.mean()), float(de.max()))
+    assert not page.console_errors, page.console_errors
+
+
+def test_the_reflectance_map_is_the_library_reflectance(page):
+    for family, material in (("bragg", BRAGG[1]), ("film", FILMS[2])):
+        if family == "bragg":
+            _set(page, family="bragg", period=material[0], delta=material[1], cells=material[2])
+        else:
+            _set(page, family="film", thickness=material[0], n_film=material[1], base=material[2])
+        px = _read(page, "rmap")[::-1]  # bottom row (380 nm) first
+        h, w = px.shape[:2]
+        theta = torch.as_tensor(_strip_thetas(w), dtype=F64)
+        lam = torch.as_tensor(380.0 + (np.arange(h) + 0.5) / h * 400.0, dtype=F64)
+        cos = torch.cos(torch.deg2rad(theta))
+        if family == "bragg":
+            period, delta, cells = material
+            R = ti.bragg_reflectance(lam[:, None], cos, 1.59, 1.67, period * (1 - delta), period * delta, cells,
+                                     n_incident=1.0)
+        else:
+            d, n, base = material
+            R = ti.thin_film_reflectance(lam[:, None], cos, n, d, [1.0, 1.52, complex(2.0, 0.5)][base])
+        got = _srgb_decode(px[..., 1])
+        # 8-bit sRGB output: half a code step is < 0.0045 in linear units
+        np.testing.assert_allclose(got[:, :-2], R.numpy()[:, :-2], rtol=0, atol=6e-3)
