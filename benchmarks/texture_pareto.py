@@ -28,6 +28,8 @@ from torchirid.realtime import fit_texture, lookup, texture_samples
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "texture_pareto.md"
+#: every family's rows (a run of some families replaces theirs and keeps the others')
+STORE = ROOT / "benchmarks" / "results" / "texture_pareto.json"
 
 FAMILIES = {
     "thin_film": dict(parameters={"n_film": 1.33, "n_substrate": 1.0}, ranges=((0.0, 1.0), (100.0, 800.0)),
@@ -36,7 +38,28 @@ FAMILIES = {
     "bragg": dict(parameters={"cells": 8, "n1": 1.59, "n2": 1.67, "n_incident": 1.0}, ranges=((0.0, 1.0), (300.0, 1100.0), (0.3, 0.7)),
                   sizes=[(4, 16, 2), (4, 32, 4), (8, 64, 4), (8, 128, 8), (16, 256, 8)],
                   label="Bragg N = 8 from air, (cos θ, λ_B, δ)"),
+    "thin_film_path": dict(parameters={"n_substrate": 1.52, "n_incident": 1.0},
+                           ranges=((0.0, 1.0), (0.0, 3000.0), (1.2, 2.4)),
+                           sizes=[(4, 16, 2), (8, 32, 4), (8, 64, 4), (16, 96, 8), (32, 192, 8)],
+                           label="films n_f ∈ [1.2, 2.4] on glass, (cos θ, p, n_f)"),
+    # the reference costs ~7 ms per sample (256 bins, 24 nodes): fewer samples, smaller textures
+    "rough_thin_film": dict(parameters={"n_film": 1.3, "n_substrate": [2.0, 0.5], "n_incident": 1.0, "bins": 256,
+                                        "nodes": 24},
+                            ranges=((0.02, 1.0), (0.05, 0.5), (100.0, 800.0)),
+                            sizes=[(4, 4, 16), (4, 4, 32), (8, 8, 32), (8, 8, 64)], samples=24_000, validation=10_000,
+                            label="rough film 1.3 on 2 + 0.5i, uniform light, (cos θo, α, d)"),
 }
+
+
+HEADER = ["| family | texels | sizes | fitted mean | fitted p95 | fitted max | sampled mean | sampled p95 "
+          "| sampled max | fitted mean, float16 | fit s |", "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+
+
+def _line(family, row):
+    f, s = row["fitted"], row["sampled"]
+    return (f"| {family} | {row['texels']:,} | {'×'.join(map(str, row['sizes']))} | {f['mean']:.2f} | {f['p95']:.2f} "
+            f"| {f['max']:.2f} | {s['mean']:.2f} | {s['p95']:.2f} | {s['max']:.2f} | {row['f16']:.2f} "
+            f"| {row['seconds']:.0f} |")
 
 
 def _f16_mean(fit, family, samples):
@@ -52,8 +75,10 @@ def plot(results, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(results), figsize=(max(6.5, 5.2 * len(results)), 4.2), squeeze=False)
-    for ax, (family, rows) in zip(axes[0], results.items()):
+    cols = min(len(results), 2)
+    nrows = -(-len(results) // cols)
+    fig, axes = plt.subplots(nrows, cols, figsize=(max(6.5, 5.2 * cols), 4.0 * nrows), squeeze=False)
+    for ax, (family, rows) in zip(axes.flat, results.items()):
         texels = [r["texels"] for r in rows]
         for kind, style in (("fitted", "-"), ("sampled", "--")):
             for stat, colour in (("mean", "tab:blue"), ("p95", "tab:orange"), ("max", "tab:red")):
@@ -81,17 +106,16 @@ def main(argv=None):
     ap.add_argument("--plot", default=None, metavar="FILE")
     args = ap.parse_args(argv)
     results = {}
-    lines = ["| family | texels | sizes | fitted mean | fitted p95 | fitted max | sampled mean | sampled p95 "
-             "| sampled max | fitted mean, float16 | fit s |", "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    print("\n".join(lines), flush=True)
+    print("\n".join(HEADER), flush=True)
     for family in args.families.split(","):
         spec = FAMILIES[family]
         most = max(math.prod(s) for s in spec["sizes"])
-        samples = texture_samples(family, spec["ranges"], spec["parameters"], samples=max(20_000, 8 * most),
-                                  validation=20_000)
+        samples = texture_samples(family, spec["ranges"], spec["parameters"],
+                                  samples=spec.get("samples", max(20_000, 8 * most)),
+                                  validation=spec.get("validation", 20_000))
         rows = []
         for sizes in spec["sizes"]:
-            n = max(20_000, 8 * math.prod(sizes))
+            n = spec.get("samples", max(20_000, 8 * math.prod(sizes)))
             sub = type(samples)(samples.train_x[:n], samples.train_rgb[:n], samples.valid_x, samples.valid_rgb,
                                 samples.ranges)
             fit = fit_texture(family, sizes, spec["ranges"], spec["parameters"], samples=sub,
@@ -99,19 +123,26 @@ def main(argv=None):
             row = {"texels": fit.texels, "sizes": sizes, **fit.errors, "f16": _f16_mean(fit, family, samples),
                    "seconds": fit.seconds}
             rows.append(row)
-            f, s = row["fitted"], row["sampled"]
-            lines.append(f"| {family} | {fit.texels:,} | {'×'.join(map(str, sizes))} | {f['mean']:.2f} | {f['p95']:.2f} "
-                         f"| {f['max']:.2f} | {s['mean']:.2f} | {s['p95']:.2f} | {s['max']:.2f} | {row['f16']:.2f} "
-                         f"| {row['seconds']:.0f} |")
-            print(lines[-1], flush=True)
+            print(_line(family, row), flush=True)
         results[family] = rows
+    if args.write:
+        import json
+
+        stored = json.loads(STORE.read_text()) if STORE.exists() else {}
+        stored.update(results)
+        results = {f: stored[f] for f in FAMILIES if f in stored}
+        STORE.write_text(json.dumps(results, indent=1) + "\n")
+        RESULTS.write_text("# Shader textures: size against ΔE2000\n\nCommand: `.venv/bin/python "
+                           "benchmarks/texture_pareto.py --write --plot docs/figures/texture_pareto.png "
+                           "[--families NAME,...]` (2 cores: thin films ~1 min each, Bragg ~25 min and the rough "
+                           "film ~10 min: their references cost ~1 and ~7 ms per sample). Rows are kept per family "
+                           "in texture_pareto.json, so a run of some families keeps the others'. Texels uniform in "
+                           "sqrt(cos θ); ΔE2000 on independent samples uniform in the family's coordinates (20 000; "
+                           "10 000 for the rough film); the float16 column rounds the fitted texels to half floats "
+                           "(an RGB16F texture).\n\n" + "\n".join(HEADER) + "\n"
+                           + "\n".join(_line(f, r) for f, rows in results.items() for r in rows) + "\n")
     if args.plot:
         plot(results, args.plot)
-    if args.write:
-        RESULTS.parent.mkdir(parents=True, exist_ok=True)
-        RESULTS.write_text("# Shader textures: size against ΔE2000\n\nCommand: `.venv/bin/python "
-                           "benchmarks/texture_pareto.py --write --plot docs/figures/texture_pareto.png`\n\n"
-                           + "\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":

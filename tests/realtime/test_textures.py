@@ -11,8 +11,8 @@ import pytest
 import torch
 
 import torchirid as ti
-from torchirid.realtime import (bragg_wavelength, exact_colour, fit_texture, lookup, texture_coordinate, texture_lut,
-                                texture_samples, to_texture)
+from torchirid.realtime import (SHIPPED_TEXTURES, bragg_wavelength, exact_colour, fit_texture, lookup, path_difference,
+                                texture_coordinate, texture_lut, texture_samples, to_texture)
 
 F64 = torch.float64
 FILM = {"n_film": 1.33, "n_substrate": 1.5}
@@ -132,7 +132,7 @@ def test_texture_lut_carries_the_family_axes():
     assert math.isclose(float(lut.axes["thickness"][-1]), 500.0) and lut.parameters["ranges"][0] == [0.1, 1.0]
 
 
-@pytest.mark.parametrize("name", ["thin_film_soap", "thin_film_on_glass", "bragg_n6", "bragg_n8", "bragg_n10"])
+@pytest.mark.parametrize("name", SHIPPED_TEXTURES)
 def test_shipped_textures_hold_their_stated_errors(name):
     """Each shipped texture, scored again on fresh samples (another seed) against the exact
     colour: its mean ΔE2000 is within 30 % (+0.05) of the one stored when it was built."""
@@ -141,11 +141,28 @@ def test_shipped_textures_hold_their_stated_errors(name):
 
     lut = shipped_texture(name)
     family, ranges = lut.parameters["family"], lut.parameters["ranges"]
-    params = {k: lut.parameters[k] for k in ("n_film", "n_substrate", "n_incident", "cells", "n1", "n2")
+    params = {k: lut.parameters[k] for k in ("n_film", "n_substrate", "n_incident", "cells", "n1", "n2", "bins", "nodes")
               if k in lut.parameters}
-    s = texture_samples(family, ranges, params, samples=1, validation=1500, seed=77)
+    # (the rough film's reference costs ~7 ms per sample)
+    s = texture_samples(family, ranges, params, samples=1, validation=600 if family == "rough_thin_film" else 1500, seed=77)
     lab = lambda rgb: xyz_to_lab(linear_srgb_to_xyz(rgb))  # noqa: E731
     de = delta_e_2000(lab(lookup(lut.to(torch.float64), family, s.valid_x)), lab(s.valid_rgb))
     stated = lut.parameters["errors_de2000"]["fitted"]["mean"]
     assert float(de.mean()) < 1.3 * stated + 0.05, (float(de.mean()), stated)
     assert stated < lut.parameters["errors_de2000"]["sampled"]["mean"]
+
+
+def test_path_difference_axis_is_the_film_of_that_thickness():
+    """The ``thin_film_path`` family's exact colour at (cos θ, p, n_f) is the film of thickness
+    d = p / (2 sqrt(n_f² − sin²θ)) (its closed form), on a base given as [re, im]."""
+    cos = torch.tensor([1.0, 0.6, 0.1], dtype=F64)
+    d = torch.tensor([300.0, 150.0, 500.0], dtype=F64)
+    n = torch.tensor([1.33, 2.0, 1.6], dtype=F64)
+    p = path_difference(cos, d, n)
+    torch.testing.assert_close(p, 2 * d * torch.sqrt(n**2 - (1 - cos**2)), rtol=1e-14, atol=0)
+    got = exact_colour("thin_film_path", torch.stack([cos, p, n], -1), {"n_substrate": [2.0, 0.5]})
+    for i in range(3):
+        want = exact_colour("thin_film", torch.stack([cos[i:i + 1], d[i:i + 1]], -1),
+                            {"n_film": float(n[i]), "n_substrate": complex(2.0, 0.5)})
+        torch.testing.assert_close(got[i:i + 1], want, rtol=1e-12, atol=1e-14)
+    assert float(path_difference(torch.tensor(0.0, dtype=F64), 100.0, 1.5)) == pytest.approx(200 * math.sqrt(1.25))

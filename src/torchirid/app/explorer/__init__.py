@@ -44,7 +44,7 @@ from ..._io import atomic_write
 from ...ibl import prefilter_environment, shipped_dfg_lut, synthetic_environment
 from ...realtime import glsl_source, shipped_texture
 
-__all__ = ["BASES", "BRAGG_CELLS", "SKY_ALPHAS", "STATIC_FILES", "page_data", "serve", "write_page"]
+__all__ = ["BASES", "BRAGG_CELLS", "SKY_ALPHAS", "STATIC_FILES", "page_data", "reference_rgb", "serve", "write_page"]
 
 #: the page's static files (this package's ``static/`` folder)
 STATIC_FILES = ("index.html", "explorer.js", "explorer.css")
@@ -117,6 +117,39 @@ def write_page(out, *, data: dict | None = None) -> Path:
         data, separators=(",", ":")) + ";\n"
     atomic_write(out / "data.js", lambda f: f.write(text.encode("utf-8")))
     return out / "index.html"
+
+
+def reference_rgb(state, theta_deg) -> torch.Tensor:
+    """The library's own colour of the page's material ``state`` at incidence angles
+    ``theta_deg`` (degrees, in air): linear sRGB (D65, white Y = 1, not clipped), evaluated
+    spectrally — what the page's colour strip approximates from its fitted texture.
+
+    ``state``: the page's ``window.torchiridExplorer.state`` (``family`` ``"bragg"`` with
+    ``period`` (nm), ``delta``, ``cells``; or ``"film"`` with ``thickness`` (nm), ``n_film``,
+    ``base`` (index into :data:`BASES`)). Indices and the incident medium are those of the
+    shipped textures the page reads.
+    """
+    from ...color import spectrum_to_xyz, xyz_to_linear_srgb
+    from ...optics import thin_film_reflectance
+    from ...spectral import bragg_xyz
+
+    cos = torch.cos(torch.deg2rad(torch.as_tensor(theta_deg, dtype=torch.float64)))
+    if state["family"] == "bragg":
+        p = shipped_texture(BRAGG_CELLS[int(state["cells"])]).parameters
+        period, delta = float(state["period"]), float(state["delta"])
+        xyz = bragg_xyz(cos, p["n1"], p["n2"], period * (1 - delta), period * delta, int(state["cells"]),
+                        n_incident=p["n_incident"], method="spectral")
+    elif state["family"] == "film":
+        p = shipped_texture(list(BASES.values())[int(state["base"])]).parameters
+        n_sub = p["n_substrate"]
+        n_sub = complex(*n_sub) if isinstance(n_sub, list) else n_sub
+        lam = torch.linspace(360.0, 830.0, 471, dtype=torch.float64)
+        R = thin_film_reflectance(lam, cos[..., None], float(state["n_film"]), float(state["thickness"]), n_sub,
+                                  n_incident=p["n_incident"])
+        xyz = spectrum_to_xyz(R, lam)
+    else:
+        raise ValueError(f"state['family'] must be 'bragg' or 'film'; got {state['family']!r}")
+    return xyz_to_linear_srgb(xyz)
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):

@@ -79,6 +79,23 @@ vec3 tirid_rough_thin_film_rgb(mediump sampler3D tex, vec3 axis_sqrt_cos, vec3 a
 
 // --- spectral reflectance (for plots such as R(θ, λ); float32, unpolarised = mean of s and p) ---
 
+// (sin x, cos x) to ~1e-7 absolute for |x| up to ~10³: quadrant reduction (Cody–Waite, two
+// constants) and Taylor polynomials on [−π/4, π/4]. The built-in sin/cos are not enough for
+// the phases of thick stacks: SwiftShader's (Chrome's software WebGL) are off by 2e-4, and near
+// a band edge of N cells R moves by ~N² times that.
+vec2 tirid_sincos(float x) {
+    float q = floor(x * 0.63661977236758134 + 0.5);  // x / (π/2), nearest
+    float r = (x - q * 1.5703125) - q * 4.8382679489661923e-4;
+    float r2 = r * r;
+    float s = r * (1.0 + r2 * (-1.0 / 6.0 + r2 * (1.0 / 120.0 + r2 * (-1.0 / 5040.0 + r2 * (1.0 / 362880.0)))));
+    float c = 1.0 + r2 * (-0.5 + r2 * (1.0 / 24.0 + r2 * (-1.0 / 720.0 + r2 * (1.0 / 40320.0))));
+    float k = mod(q, 4.0);
+    if (k < 0.5) return vec2(s, c);
+    if (k < 1.5) return vec2(c, -s);
+    if (k < 2.5) return vec2(-s, -c);
+    return vec2(-c, s);
+}
+
 vec2 tirid_cmul(vec2 a, vec2 b) { return vec2(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
 vec2 tirid_cdiv(vec2 a, vec2 b) { return vec2(a.x * b.x + a.y * b.y, a.y * b.x - a.x * b.y) / dot(b, b); }
 vec2 tirid_csqrt(vec2 z) {  // principal branch (Im ≥ 0 for the absorbing media of this file)
@@ -96,8 +113,9 @@ float tirid_thin_film_reflectance(float wavelength, float cos_theta, float n0, f
     float q1 = sqrt(max(n_film * n_film - s2, 0.0));
     vec2 e2 = tirid_cmul(n_sub, n_sub);
     vec2 q2 = tirid_csqrt(e2 - vec2(s2, 0.0));
-    float beta = 2.0 * TIRID_PI * thickness * q1 / wavelength;
-    vec2 phase = vec2(cos(2.0 * beta), sin(2.0 * beta));
+    // the round-trip phase 2β = 4π q1 d / λ, reduced to [0, 2π) first: GPU sin/cos lose accuracy on large arguments
+    float two_beta = 2.0 * TIRID_PI * mod(2.0 * thickness * q1 / wavelength, 1.0);
+    vec2 phase = tirid_sincos(two_beta).yx;
     float R = 0.0;
     for (int pol = 0; pol < 2; pol++) {
         float r01;
@@ -137,7 +155,8 @@ float tirid_bragg_reflectance(float wavelength, float cos_theta, float n0, float
         float h1 = pol == 0 ? q1 : n1 * n1 / q1;
         float h2 = pol == 0 ? q2 : n2 * n2 / q2;
         // the cell M = M2 M1 = [[A, −iB], [−iC, D]] with real A, B, C, D
-        float c1 = cos(p1), s1 = sin(p1), c2 = cos(p2), s2_ = sin(p2);
+        vec2 sc1 = tirid_sincos(p1), sc2 = tirid_sincos(p2);
+        float c1 = sc1.y, s1 = sc1.x, c2 = sc2.y, s2_ = sc2.x;
         float A = c2 * c1 - s2_ * s1 * h1 / h2;
         float B = c2 * s1 / h1 + s2_ * c1 / h2;
         float C = h2 * s2_ * c1 + c2 * h1 * s1;
@@ -158,6 +177,72 @@ float tirid_bragg_reflectance(float wavelength, float cos_theta, float n0, float
         R += 0.5 * dot(num, num) / dot(den, den);
     }
     return R;
+}
+
+// --- Bragg colour without a texture: the envelope method (torchirid.spectral.bragg_xyz_envelope) ---
+//
+// A lossless mirror embedded in n1 (cos θ in n1; n2 ≥ n1 sin θ): its spectrum replaced by the
+// fringe-averaged model — 1 − sqrt(1 − R^e), R^e = |C|²/(|C|² + sin²KΛ) (Fourneau et al. eq. 11)
+// in the pass bands, Yeh's finite-N R in the band gaps — sampled at `samples` nodes uniform in
+// ω = 2π/λ over omega_range and integrated exactly against the CMFs × D65 with hat-function
+// weights: texel k of `weights` (an RGB32F texture of samples × 1, read with texelFetch) is row k
+// of torchirid.spectral.envelope_weights(samples) (X, Y, Z; Y sums to 1). Returns XYZ, Y = 1 for
+// a perfect reflector. Cost: samples × 2 polarisations × (a few trig calls + the N-loop in gaps).
+
+// |C|² and cos KΛ of one cell (n2 layer then n1 layer, embedded in n1) at vacuum wavenumber k.
+vec2 tirid_bragg_cell(float k, float q1, float q2, float d1, float d2, float h1, float h2) {
+    float p1 = k * q1 * d1, p2 = k * q2 * d2;
+    vec2 sc1 = tirid_sincos(p1), sc2 = tirid_sincos(p2);
+    float c1 = sc1.y, s1 = sc1.x, c2 = sc2.y, s2 = sc2.x;
+    float A = c2 * c1 - s2 * s1 * h1 / h2;
+    float B = c2 * s1 / h1 + s2 * c1 / h2;
+    float C = h2 * s2 * c1 + c2 * h1 * s1;
+    float D = c2 * c1 - s2 * s1 * h2 / h1;
+    float x = h1 * (A - D), y = C - B * h1 * h1;  // r_N = U_{N−1} (x + iy) / (…): |C|² = |x + iy|² / 4h1²
+    return vec2((x * x + y * y) / (4.0 * h1 * h1), 0.5 * (A + D));
+}
+
+vec3 tirid_bragg_envelope_xyz(sampler2D weights, int samples, vec2 omega_range, float cos_theta, float n1, float n2,
+                              float d1, float d2, int cells) {
+    float c = clamp(cos_theta, 0.0, 1.0);
+    float s2 = n1 * n1 * (1.0 - c * c);
+    float q1 = max(n1 * c, 1e-6);
+    float q2 = sqrt(max(n2 * n2 - s2, 1e-12));
+    vec3 xyz = vec3(0.0);
+    for (int k = 0; k < 1024; k++) {
+        if (k >= samples) break;
+        float omega = mix(omega_range.x, omega_range.y, float(k) / float(samples - 1));
+        float R = 0.0;
+        for (int pol = 0; pol < 2; pol++) {
+            float h1 = pol == 0 ? q1 : n1 * n1 / q1;
+            float h2 = pol == 0 ? q2 : n2 * n2 / q2;
+            vec2 cell = tirid_bragg_cell(omega, q1, q2, d1, d2, h1, h2);
+            float C2 = cell.x, a = cell.y;
+            if (abs(a) < 1.0) {  // pass band: the fringe average
+                float Re = C2 / (C2 + 1.0 - a * a);
+                R += 0.5 * (1.0 - sqrt(max(1.0 - Re, 0.0)));
+            } else {  // band gap: Yeh's finite N, U_{N−1}(a) by its recurrence
+                float um2 = 0.0, um1 = 1.0;
+                for (int j = 1; j < 256; j++) {
+                    if (j >= cells) break;
+                    float u = 2.0 * a * um1 - um2;
+                    um2 = um1;
+                    um1 = u;
+                }
+                float U2 = um1 * um1;
+                R += 0.5 * C2 * U2 / (C2 * U2 + 1.0);
+            }
+        }
+        xyz += R * texelFetch(weights, ivec2(k, 0), 0).rgb;
+    }
+    return xyz;
+}
+
+// CIE XYZ (D65 white at Y = 1) → linear sRGB (torchirid.color.xyz_to_linear_srgb's matrix).
+vec3 tirid_xyz_to_linear_srgb(vec3 xyz) {
+    return mat3(3.2404813, -0.9692549, 0.0556466,
+                -1.5371515, 1.8759900, -0.2040413,
+                -0.4985363, 0.0415559, 1.0573111) * xyz;
 }
 
 // GGX normal distribution D (eq. 18), summed as sin² + α² cos² (no cancellation at the peak).
