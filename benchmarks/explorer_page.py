@@ -3,7 +3,7 @@ whole range, redraw times, and the screenshot of docs/figures/explorer.png (issu
 
 Drives the page in headless Chromium (Playwright; software WebGL2 through SwiftShader, as in the
 tests) and, for a grid of materials covering every slider's range — Bragg mirrors Λ 120–260 nm
-× δ {0.3, 0.5, 0.7} × N {6, 8, 10}; thin films d 0–600 nm × n {1.2 … 2.4} × 3 bases — reads the
+× δ {0.3, 0.5, 0.7} × N {6, 8, 10}; thin films d 50–600 nm × n {1.25 … 2.4} × 3 bases — reads the
 colour strip (360 angles, θ = (i + ½)/360 · 90°) and compares it with the library's spectral
 colour (``torchirid.app.explorer.reference_rgb``, clipped to the sRGB gamut as the page's 8-bit
 output is): ΔE2000 per material (mean and max over the angles), and over the grid the median and
@@ -57,8 +57,8 @@ def materials():
             for period in range(120, 261, 10):
                 yield {"family": "bragg", "period": float(period), "delta": delta, "cells": cells}
     for base in range(len(BASES)):
-        for n in (1.2, 1.5, 1.8, 2.1, 2.4):
-            for d in range(0, 601, 50):
+        for n in (1.25, 1.5, 1.8, 2.1, 2.4):
+            for d in range(50, 601, 50):
                 yield {"family": "film", "thickness": float(d), "n_film": n, "base": base}
 
 

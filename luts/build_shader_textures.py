@@ -13,7 +13,7 @@ Writes into src/torchirid/data/textures/ (float32 LUT files, ~10–100 KiB each)
 
 * ``thin_film_path_{air,glass,absorbing}.npz``: films of index n_f ∈ [1.2, 2.4] on air (a soap
   bubble), on glass (n = 1.52) and on Kneiphof et al.'s absorbing base (2 + 0.5i), lit from air,
-  16 × 96 × 8 texels over (sqrt cos θ ∈ [0, 1], path difference 2 n_f d cos θ_f ∈ [0, 3000] nm,
+  16 × 96 × 16 texels over (sqrt cos θ ∈ [0, 1], path difference 2 n_f d cos θ_f ∈ [0, 3000] nm,
   n_f) — what the explorer page's d, n and base sliders read;
 * ``rough_thin_film.npz``: a rough film (n = 1.3 on 2 + 0.5i, Kneiphof et al.'s example) under
   uniform light, 8 × 8 × 64 texels over (sqrt cos θ_o ∈ [√0.02, 1], α ∈ [0.05, 0.5],
@@ -45,7 +45,7 @@ ROUGH_RANGES = ((0.02, 1.0), (0.05, 0.5), (100.0, 800.0))
 TEXTURES = {
     "thin_film_soap": ("thin_film", (16, 64), FILM_RANGES, {"n_film": 1.33, "n_substrate": 1.0}),
     "thin_film_on_glass": ("thin_film", (16, 64), FILM_RANGES, {"n_film": 1.45, "n_substrate": 1.52}),
-    **{f"thin_film_path_{name}": ("thin_film_path", (16, 96, 8), PATH_RANGES, {"n_substrate": base, "n_incident": 1.0})
+    **{f"thin_film_path_{name}": ("thin_film_path", (16, 96, 16), PATH_RANGES, {"n_substrate": base, "n_incident": 1.0})
        for name, base in (("air", 1.0), ("glass", 1.52), ("absorbing", [2.0, 0.5]))},
     "rough_thin_film": ("rough_thin_film", (8, 8, 64), ROUGH_RANGES,
                         {"n_film": 1.3, "n_substrate": [2.0, 0.5], "n_incident": 1.0, "bins": 256, "nodes": 24}),
@@ -60,7 +60,7 @@ def main(argv=None) -> int:
     ap.add_argument("--iterations", type=int, default=80)
     ap.add_argument("--only", default=None, help="comma-separated names (default: all)")
     ap.add_argument("--samples", type=int, default=None,
-                    help="training samples (default 40 000 for smooth films, 20 000 otherwise)")
+                    help="training samples (default 40 000 for smooth films, 60 000 over the path difference, 20 000 otherwise)")
     ap.add_argument("--validation", type=int, default=None,
                     help="validation samples (default 20 000 for smooth films, 10 000 otherwise)")
     args = ap.parse_args(argv)
@@ -73,7 +73,7 @@ def main(argv=None) -> int:
         family, sizes, ranges, parameters = TEXTURES[name]
         t = time.perf_counter()
         many = family.startswith("thin_film")  # (a Bragg mirror's spectral colour costs ~1 ms per sample, a rough film's ~7)
-        samples = args.samples or (40_000 if many else 20_000)
+        samples = args.samples or ((60_000 if family == "thin_film_path" else 40_000) if many else 20_000)
         validation = args.validation or (20_000 if many else 10_000)
         fit = fit_texture(family, sizes, ranges, parameters, samples=samples, validation=validation,
                           iterations=args.iterations)

@@ -16,8 +16,8 @@ What the page draws, all on the GPU with WebGL2 and redrawn on every slider move
 * a scatterogram: the GGX microfacet BRDF × cos θ_o over the hemisphere of exit directions
   (orthographic projection) for a collimated light at θ_i, the reflectance looked up at
   cos θ_d = ⟨ω_i, h⟩ and scaled by :math:`4πα^2\cos θ_i` so the peak shows the colour;
-* the reflectance map R(θ, λ) (θ 0–90°, λ 380–780 nm), evaluated spectrally in the shader
-  (``tirid_bragg_reflectance`` / ``tirid_thin_film_reflectance``);
+* the reflectance map R(θ, λ) (θ 0–90°, λ 380–780 nm; grey level = √R), evaluated spectrally in
+  the shader (``tirid_bragg_reflectance`` / ``tirid_thin_film_reflectance``);
 * the colour strip: the specular colour RGB(cos θ) for θ from 0° to 90°, sRGB encoded —
   what the browser tests compare with the library's spectral colour.
 

@@ -5,7 +5,7 @@
 // Views (one WebGL2 context each, redrawn on every slider move):
 //   sphere        split-sum image-based lighting: A(cos θo, α) · L̄(ω_r, α) · RGB(cos θo), 1 − e^−L, sRGB
 //   scatterogram  GGX BRDF × cos θo over the exit hemisphere for a light at θi (× 4πα² cos θi)
-//   rmap          R(θ, λ), spectral, in the shader (θ 0–90° across, λ 380–780 nm upwards)
+//   rmap          R(θ, λ), spectral, in the shader (θ 0–90° across, λ 380–780 nm upwards; grey level = √R)
 //   strip         the specular colour RGB(cos θ), θ 0–90° across, sRGB
 // Pixel column i of the rmap and the strip is at θ = (i + ½)/width · 90°.
 'use strict';
@@ -67,7 +67,7 @@ void main() {
   float R = family == 0
     ? tirid_bragg_reflectance(lam, c, n0, mat.z, mat.w, mat.x * (1.0 - mat.y), mat.x * mat.y, cells)
     : tirid_thin_film_reflectance(lam, c, n0, mat.y, mat.x, mat.zw);
-  color = vec4(tirid_linear_to_srgb(vec3(R)), 1.0);
+  color = vec4(vec3(sqrt(clamp(R, 0.0, 1.0))), 1.0);  // grey level = √R (0 black, 1 white)
 }`;
 
   const SPHERE = `
