@@ -40,13 +40,14 @@ FAMILIES = {
                   label="Bragg N = 8 from air, (cos θ, λ_B, δ)"),
     "thin_film_path": dict(parameters={"n_substrate": 1.52, "n_incident": 1.0},
                            ranges=((0.0, 1.0), (0.0, 3000.0), (1.2, 2.4)),
-                           sizes=[(4, 16, 2), (8, 32, 4), (8, 64, 4), (16, 96, 8), (32, 192, 8)],
+                           sizes=[(4, 16, 2), (8, 32, 4), (8, 64, 4), (16, 96, 8), (16, 96, 16), (32, 192, 16)],
                            label="films n_f ∈ [1.2, 2.4] on glass, (cos θ, p, n_f)"),
     # the reference costs ~7 ms per sample (256 bins, 24 nodes): fewer samples, smaller textures
     "rough_thin_film": dict(parameters={"n_film": 1.3, "n_substrate": [2.0, 0.5], "n_incident": 1.0, "bins": 256,
                                         "nodes": 24},
                             ranges=((0.02, 1.0), (0.05, 0.5), (100.0, 800.0)),
-                            sizes=[(4, 4, 16), (4, 4, 32), (8, 8, 32), (8, 8, 64)], samples=24_000, validation=10_000,
+                            sizes=[(4, 4, 16), (8, 8, 32), (8, 8, 64), (16, 8, 32), (16, 16, 32)], samples=24_000,
+                            validation=10_000,
                             label="rough film 1.3 on 2 + 0.5i, uniform light, (cos θo, α, d)"),
 }
 
@@ -74,6 +75,7 @@ def plot(results, path):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     cols = min(len(results), 2)
     nrows = -(-len(results) // cols)
@@ -87,6 +89,7 @@ def plot(results, path):
         ax.axhline(1.0, color="grey", lw=0.6)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         ax.set_xlabel("texels (RGB each)")
         ax.set_ylabel("ΔE2000 on independent samples")
         ax.set_title(FAMILIES[family]["label"])

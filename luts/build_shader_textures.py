@@ -16,7 +16,7 @@ Writes into src/torchirid/data/textures/ (float32 LUT files, ~10–100 KiB each)
   16 × 96 × 16 texels over (sqrt cos θ ∈ [0, 1], path difference 2 n_f d cos θ_f ∈ [0, 3000] nm,
   n_f) — what the explorer page's d, n and base sliders read;
 * ``rough_thin_film.npz``: a rough film (n = 1.3 on 2 + 0.5i, Kneiphof et al.'s example) under
-  uniform light, 8 × 8 × 64 texels over (sqrt cos θ_o ∈ [√0.02, 1], α ∈ [0.05, 0.5],
+  uniform light, 16 × 8 × 32 texels over (sqrt cos θ_o ∈ [√0.02, 1], α ∈ [0.05, 0.5],
   d ∈ [100, 800] nm); the reference is :func:`torchirid.ibl.uniform_thin_film_xyz` with 256 bins
   and 24 nodes (within ΔE2000 0.07 of its converged defaults, 10× faster).
 
@@ -47,7 +47,7 @@ TEXTURES = {
     "thin_film_on_glass": ("thin_film", (16, 64), FILM_RANGES, {"n_film": 1.45, "n_substrate": 1.52}),
     **{f"thin_film_path_{name}": ("thin_film_path", (16, 96, 16), PATH_RANGES, {"n_substrate": base, "n_incident": 1.0})
        for name, base in (("air", 1.0), ("glass", 1.52), ("absorbing", [2.0, 0.5]))},
-    "rough_thin_film": ("rough_thin_film", (8, 8, 64), ROUGH_RANGES,
+    "rough_thin_film": ("rough_thin_film", (16, 8, 32), ROUGH_RANGES,
                         {"n_film": 1.3, "n_substrate": [2.0, 0.5], "n_incident": 1.0, "bins": 256, "nodes": 24}),
     **{f"bragg_n{n}": ("bragg", (8, 64, 4), BRAGG_RANGES, {"cells": n, "n1": 1.59, "n2": 1.67, "n_incident": 1.0})
        for n in (6, 8, 10)},
