@@ -40,6 +40,7 @@ import numpy as np
 import torch
 
 from ... import __version__
+from ..._cache import cached
 from ..._io import atomic_write
 from ...ibl import prefilter_environment, shipped_dfg_lut, synthetic_environment
 from ...realtime import glsl_source, shipped_texture
@@ -69,7 +70,7 @@ def _texture(name: str) -> dict:
             "parameters": lut.parameters, "values": _floats(lut.values)}
 
 
-@functools.lru_cache(maxsize=1)
+@cached(maxsize=1)
 def _sky() -> dict:
     env = synthetic_environment(64, 128, dtype=torch.float32)
     pre = prefilter_environment(env, torch.tensor(SKY_ALPHAS, dtype=torch.float32), resolution=(32, 64))
