@@ -43,6 +43,7 @@ from typing import Callable, Mapping
 
 import torch
 
+from .. import _checks
 from ..color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..lut import LUT
@@ -89,10 +90,23 @@ def path_difference(cos_theta, thickness, n_film, n_incident: float = 1.0):
     The ``"thin_film_path"`` texture's second axis (an axis warp, as λ_B for Bragg mirrors): a
     film's colour depends on d, n_f and θ mostly through p (the fringe order at λ is p/λ), so
     texels spent along p follow the colour and few are needed along n_f. The shaders compute it
-    the same way before the lookup.
+    the same way before the lookup (``tirid_path_difference``).
+
+    Args:
+        cos_theta: cos θ in the incident medium; thickness: d (nm); n_film: real film index;
+            n_incident: real index of the incident medium — broadcasting; dtype/device from them.
+
+    Returns:
+        p in nm (0 where the film would totally reflect, n_f < n_0 sin θ).
+
+    Example:
+        >>> round(float(path_difference(1.0, 300.0, 1.33)), 6)
+        798.0
     """
-    s2 = n_incident * n_incident * (1 - cos_theta * cos_theta)
-    return 2 * thickness * torch.sqrt(torch.clamp(torch.as_tensor(n_film) ** 2 - s2, min=0.0))
+    dtype, device = _checks.resolve_dtype_device(cos_theta, thickness, n_film, n_incident)
+    c, d, n, n0 = (_checks.as_real(v, name, dtype, device) for v, name in
+                   ((cos_theta, "cos_theta"), (thickness, "thickness"), (n_film, "n_film"), (n_incident, "n_incident")))
+    return 2 * d * torch.sqrt(torch.clamp(n * n - n0 * n0 * (1 - c * c), min=0.0))
 
 
 def _thin_film_path(x, *, n_substrate, n_incident: float = 1.0):
