@@ -3,6 +3,7 @@
 #
 #   bash run.sh                 set up .venv, then write out/spectrum.png and out/spectrum.npz
 #   bash run.sh test [ARGS...]  set up .venv, then run the tests (ARGS go to pytest)
+#   bash run.sh docs            set up .venv, then build the documentation site into docs/_build/html
 #
 # Works unattended (CI=true, no stdin). Everything it needs is installed here: torch first,
 # pinned (pip takes the local CPU wheel for exactly this version; an unpinned torch would
@@ -22,7 +23,7 @@ export PIP_NO_INPUT=1
 export MPLBACKEND=Agg
 
 usage() {
-    sed -n '2,5p' "$ROOT/run.sh" | sed 's/^# \{0,1\}//'
+    sed -n '2,6p' "$ROOT/run.sh" | sed 's/^# \{0,1\}//'
 }
 
 # pip -q still prints warnings; drop only the noise about index locations that this
@@ -112,6 +113,12 @@ case "$cmd" in
         ensure_venv
         ensure_test_tools
         "$PY" -m pytest -q "$@"
+        ;;
+    docs)
+        ensure_venv
+        # offline (the intersphinx inventories are local); -n: every cross-reference must resolve
+        "$PY" -m sphinx -q -n -b html docs docs/_build/html
+        echo "run.sh: docs built: $ROOT/docs/_build/html/index.html"
         ;;
     -h | --help | help)
         usage
