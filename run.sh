@@ -116,8 +116,9 @@ case "$cmd" in
         ;;
     docs)
         ensure_venv
-        # offline (the intersphinx inventories are local); -n: every cross-reference must resolve
-        "$PY" -m sphinx -q -n -b html docs docs/_build/html
+        # offline (the intersphinx inventories are local); -n: every cross-reference must resolve;
+        # -W: a warning fails the build
+        "$PY" -m sphinx -q -n -W --keep-going -b html docs docs/_build/html
         echo "run.sh: docs built: $ROOT/docs/_build/html/index.html"
         ;;
     -h | --help | help)

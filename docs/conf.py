@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+import re
 import sys
 from pathlib import Path
 
@@ -37,6 +37,55 @@ napoleon_numpy_docstring = False
 napoleon_use_rtype = False
 napoleon_use_ivar = True  # "Attributes:" as fields: dataclass fields are not described twice
 nitpicky = True
+autodoc_inherit_docstrings = False  # an undocumented forward() must not inherit torch's docstring
+
+
+_PROSE: dict = {}
+
+
+def _keep_prose(app, what, name, obj, options, lines):
+    """Napoleon reads ``text: more`` on an attribute's or constant's first line as ``type:
+    description``; torchirid's ``#:`` comments are prose: keep them as written (restored below,
+    after napoleon has run)."""
+    if what in ("data", "attribute", "property"):
+        _PROSE[name] = list(lines)
+
+
+def _restore_prose(app, what, name, obj, options, lines):
+    if what in ("data", "attribute", "property") and name in _PROSE:
+        lines[:] = _PROSE.pop(name)
+
+
+_BARS = re.compile(r"(?<![\\|])\|(?=[^\s|])([^|`\n]*?[^\s|\\])\|(?!\|)")
+_QUOTED = re.compile(r"(``.*?``|:\w+:`[^`]*`|`[^`]*`_?)")
+
+
+def _absolute_values(app, what, name, obj, options, lines):
+    """``|x|`` in torchirid's docstrings is an absolute value, never an RST substitution:
+    escape the bars outside literals, roles and math. And a doctest indented under a paragraph
+    line (``Example (what it shows):``) gets the blank line RST wants before it."""
+    for i in range(len(lines) - 1, 0, -1):
+        below, above = lines[i], lines[i - 1]
+        if below.lstrip().startswith(">>>") and above.strip() and not above.lstrip().startswith(">>>") \
+                and len(below) - len(below.lstrip()) > len(above) - len(above.lstrip()):
+            lines.insert(i, "")
+    for i, line in enumerate(lines):
+        if "|" in line and not line.lstrip().startswith(("+", "|", "..")):
+            parts = _QUOTED.split(line)
+            lines[i] = "".join(part if j % 2 else _BARS.sub(r"\\|\1\\|", part) for j, part in enumerate(parts))
+
+
+def _container_docs(app, what, name, obj, options, lines):
+    """A constant without a ``#:`` comment must not show its type's docstring (dict's, tuple's)."""
+    if what == "data" and lines and type(obj).__doc__ and lines[0].strip() == type(obj).__doc__.strip().splitlines()[0]:
+        lines[:] = []
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _container_docs, priority=300)
+    app.connect("autodoc-process-docstring", _absolute_values, priority=700)
+    app.connect("autodoc-process-docstring", _keep_prose, priority=400)  # before napoleon (500)
+    app.connect("autodoc-process-docstring", _restore_prose, priority=600)  # after it
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 myst_enable_extensions = ["dollarmath"]

@@ -109,7 +109,10 @@ def _data_directives(package: str) -> str:
                 break
         if home == package and ("", name) in _attr_docs(package):
             continue  # automodule documents it already (a ``#:`` comment in the module itself)
-        lines.append(f".. autodata:: {home}.{name}")
+        directive = f".. autodata:: {home}.{name}"
+        if len(repr(obj)) > 80 or "\n" in repr(obj):  # a long value breaks the signature line: its doc says it
+            directive += "\n   :no-value:"
+        lines.append(directive)
     return "\n\n" + "\n\n".join(lines) + "\n" if lines else ""
 
 

@@ -20,7 +20,7 @@ pass (about one more forward pass of time). Smaller batches with a gradient are 
 
 One knob: :func:`set_chunk_size` (process-wide; ``TORCHIRID_CHUNK_SIZE`` in the environment) or
 the :func:`chunk_size` context manager. ``None``/0 turns chunking off; the default, ``"auto"``,
-takes the block size from the inputs' device (:func:`default_chunk_size`: cache-sized blocks on
+takes the block size from the inputs' device (``torchirid._chunks.default_chunk_size``: cache-sized blocks on
 the CPU, much larger ones on GPUs, where a block's cost is its kernel launches). Under ``torch.func``
 transforms or ``torch.compile`` (:func:`torchirid._checks.traceable`) the whole batch is
 evaluated at once.
@@ -54,7 +54,7 @@ DEFAULT_CHUNK_SIZE = 1 << 15
 #: blocks 2.4–6.7×, the CPU's 2¹⁵ ~100×.
 DEVICE_CHUNK_SIZE = 1 << 24
 
-#: the block size when none was set: per device type (:func:`default_chunk_size`)
+#: the block size when none was set: per device type (``torchirid._chunks.default_chunk_size``)
 AUTO = "auto"
 
 
@@ -84,7 +84,7 @@ def _check(points):
 def set_chunk_size(points: int | str | None = AUTO) -> None:
     """Points per block of the chunked kernels; ``None`` or 0: no chunking.
 
-    ``"auto"`` (the default): :func:`default_chunk_size` of the inputs' device — 32768 points on
+    ``"auto"`` (the default): ``torchirid._chunks.default_chunk_size`` of the inputs' device — 32768 points on
     the CPU (cache-sized intermediates), 2²⁴ on accelerators. An int applies to every device. A
     batch of up to twice the block size is evaluated in one piece.
 

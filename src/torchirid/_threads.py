@@ -8,7 +8,7 @@ other process holds. Large grids gain from the second thread on a quiet machine 
 lose under load (1.8–3.5×), a choice only the user can make (``torch.set_num_threads``).
 
 Policy: every table-producing function (:func:`torchirid._chunks.evaluate`) runs a batch whose
-work is below :data:`SMALL_WORK` elements with :func:`get_small_work_threads` torch threads (1
+work is below ``torchirid._threads.SMALL_WORK`` elements with :func:`get_small_work_threads` torch threads (1
 by default), and restores the previous count after. Set ``None`` (or
 ``TORCHIRID_SMALL_WORK_THREADS=0``) to leave torch's setting alone. The thread count is
 process-wide in torch: while a small call runs, torch work of other Python threads also runs
@@ -49,7 +49,7 @@ _STATE = {"threads": _initial(), "depth": 0, "saved": None}
 
 
 def set_small_work_threads(threads: int | None = 1) -> None:
-    """Torch threads for calls whose work is below :data:`SMALL_WORK` elements (default 1);
+    """Torch threads for calls whose work is below ``torchirid._threads.SMALL_WORK`` elements (default 1);
     ``None`` or 0: leave torch's thread count alone.
 
     >>> import torchirid
@@ -70,7 +70,7 @@ def get_small_work_threads() -> int | None:
 @contextlib.contextmanager
 def limited(work: int):
     """Run the ``with`` block with the small-work thread count if ``work`` (elements) is below
-    :data:`SMALL_WORK`; nested and concurrent uses restore the count once the last one leaves."""
+    ``torchirid._threads.SMALL_WORK``; nested and concurrent uses restore the count once the last one leaves."""
     n = _STATE["threads"]
     if n is None or work >= SMALL_WORK or _checks.traceable():
         yield

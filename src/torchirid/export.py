@@ -32,7 +32,7 @@ little-endian C order, independent of the container) and, for EXR, ``exr_layout`
 Both files are written atomically (data first, then the sidecar).
 
 Thin-film materials (:func:`thin_film_material`, :func:`write_thin_film_material`)
----------------------------------------------------------------------------------
+----------------------------------------------------------------------------------
 A film of real index ``n_film`` and thickness ``d`` (nm, or a range) on a base, as glTF 2.0
 ``KHR_materials_iridescence`` (``iridescenceIor``, ``iridescenceThicknessMinimum/Maximum`` in
 nm) and OpenPBR (``thin_film_thickness`` in µm, ``thin_film_ior``), with the list of the

@@ -347,9 +347,10 @@ class LUT:
         r"""Multilinear interpolation at ``coords`` (one per axis, by name or in axis order).
 
         Args:
-            *args, **coords: one coordinate per axis (tensors, arrays or numbers, in the
-                axis' units), all broadcasting together to a batch shape ``B``; converted
-                to the LUT's dtype/device (differentiably).
+            *args: one coordinate per axis, in axis order (tensors, arrays or numbers, in
+                the axis' units), all broadcasting together to a batch shape ``B``;
+                converted to the LUT's dtype/device (differentiably).
+            **coords: the same by axis name (instead of ``*args``).
             extrapolate: ``"clamp"`` (default: coordinates clamped to the grid, so the
                 edge value is returned and the gradient is zero outside), ``"error"``
                 (ValueError naming the axis and its range; NaN passes and propagates) or

@@ -90,7 +90,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         terms: M ≥ 0, Fourier terms kept (default 4; the paper's is 2).
         observer, illuminant: the sensitivity (see :func:`~torchirid.ibl.fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
-        sensitivity: ``"exact"`` (default) or ``"lut"`` (:data:`FILTERED_SENSITIVITY_MODES`).
+        sensitivity: ``"exact"`` (default) or ``"lut"`` (``FILTERED_SENSITIVITY_MODES``).
 
     Returns:
         ``(*, 3)`` XYZ (white Y = 1), real dtype of the inputs, differentiable w.r.t. every input.

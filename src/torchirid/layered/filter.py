@@ -96,7 +96,7 @@ incidence, ≈ θi beyond a few α; even in θi so everything stays smooth in co
   α = 0.01: 1e-4 / 9e-7 / 2e-9 / 1e-12 with K = 48 / 64 / 96 / 128; α ≥ 0.1: < 1e-7 from K = 32.
 * :func:`transmission_filter_lut` — axes ``(θi, u)``, ``θd = c + α tan(g_0 + u (g_1 − g_0))``
   (a Cauchy warp of all of ``[0, π/2]``; closed-form inverse for queries), storing
-  ``F + S`` where the closed-form *kink term* ``S`` (:func:`_cut_term`: what the cut of
+  ``F + S`` where the closed-form *kink term* ``S`` (``_cut_term``: what the cut of
   eq. 26 removes, integrand frozen at ``cos θm = 0``) cancels the square root; the call
   subtracts ``S`` again. Aligning the grid with the kink instead (u = 1 at the kink) fails
   near θi = 45°, where peak and kink move through each other at relative speed 2 (measured
@@ -451,7 +451,7 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
         ``√(1 − cos θi)`` while sums ``Σ w g`` are smooth in ``cos θi``: above ``cos θmin``,
         θmin = min(1e-3, α/300) rad, the rule of ``cos θmin`` is returned (gradient passed
         through; integrals move by ≲ 4e-7 relative), so that gradients of sums are their
-        normal-incidence limit (:func:`_quadrature_cos`).
+        normal-incidence limit (``_quadrature_cos``).
 
     >>> import torch
     >>> c, w = filter_quadrature(torch.tensor(0.5, dtype=torch.float64), 0.1, nodes=32)

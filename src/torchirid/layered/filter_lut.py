@@ -100,7 +100,7 @@ class FilterLUT:
     ``θd = c + w tan(g_0 + u (g_1 − g_0))``, ``c = √(θi² + α²/3)``, ``w = α`` — a θd grid
     centred on the filter's peak for every θi, so bilinear interpolation follows the peak as
     it moves. The stored values are ``F + S`` with the closed-form kink term
-    ``S = 2α²/π · G1²/cos θi · cos θd sin θd · (π − ψ_dmax)`` (:func:`_cut_term`), which removes
+    ``S = 2α²/π · G1²/cos θi · cos θd sin θd · (π − ψ_dmax)`` (``_cut_term``), which removes
     the square root at ``θd = π/2 − θi``; the call subtracts it again.
 
     Attributes:

@@ -393,7 +393,7 @@ def scatterogram(
             uniform on [0°, 90°] (default ``min(resolution + 1, 181)``: about two per pixel
             along a radius, at most 0.5° apart) and interpolated linearly to the pixels.
         lobe_nodes, cosine_nodes: white environment only, the quadrature per θ_o (see
-            :data:`LOBE_NODES`, :data:`COSINE_NODES`; the cosine rule only with a base).
+            ``LOBE_NODES``, ``COSINE_NODES``; the cosine rule only with a base).
         transmissivity_angles: passed to ``single_reflection_brdf`` (default: its own, or 2
             for a single layer over a black base, which uses no transmissivity).
         title: a label kept with the result (figure titles).

@@ -59,7 +59,7 @@ __all__ = [
 TRANSMISSIVITY_ANGLES = 361
 #: default angular resolution of :func:`reflectance_lut`
 REFLECTANCE_ANGLES = 1441
-#: quadrature of the base's return fraction R_d (:func:`base_return_fraction`): Gauss–Legendre
+#: quadrature of the base's return fraction R_d (``base_return_fraction``): Gauss–Legendre
 #: nodes in μ, in the radius of the VNDF disc, in the azimuth (per quarter), and the
 #: θ-nodes of the reflectance table it interpolates
 BASE_MU_NODES = 64
@@ -199,7 +199,7 @@ def single_reflection_brdf(
             light that bounces between the Lambertian base and the layers (and the coating)
             above it: the base term becomes
             :math:`\frac{\rho_d}{\pi}\prod_k\tau_k(\mathbf i')\tau_k(\mathbf o')\,/\,(1-\rho_d R_d)`
-            with the return fraction :math:`R_d(\lambda)` of :func:`base_return_fraction`
+            with the return fraction :math:`R_d(\lambda)` of ``base_return_fraction``
             (its docstring states what is exact: one layer without coating, and what is
             approximated). No effect when ``ρd = 0``.
 
@@ -401,7 +401,7 @@ def base_return_fraction(
 
 def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes=BASE_RADIUS_NODES,
                  azimuth_nodes=BASE_AZIMUTH_NODES, reflectance_angles=BASE_REFLECTANCE_ANGLES):
-    """R_d (W,) of :func:`base_return_fraction` from the call's per-layer tables."""
+    """R_d (W,) of ``base_return_fraction`` from the call's per-layer tables."""
     dtype, device = lam.dtype, lam.device
     n = structure.n_coating
     x, w_x = gauss_legendre01(mu_nodes, dtype, device)

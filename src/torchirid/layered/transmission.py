@@ -77,7 +77,7 @@ def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int)
     """τ for cos θ ``c`` (S1) and wavelengths ``lam`` (S2) → broadcast (S).
 
     Near normal incidence the gradient is that of the rule at ``cos θmin`` (see
-    :func:`~torchirid.layered.filter._quadrature_cos`) and the value is recomputed at the exact
+    ``torchirid.layered.filter._quadrature_cos``) and the value is recomputed at the exact
     cosine (a second, gradient-free pass, only when such lanes exist).
     """
     a = torch.full_like(c, layer.numbers()["alpha"])

@@ -99,7 +99,7 @@ def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int
     Returns:
         :class:`~torchirid.lut.LUT` with axes ``(angle_axis, "wavelength")`` and values
         ``(angles, wavelengths, 2)``: channel 0 = k_r, channel 1 = k_t.  Metadata:
-        builder :data:`BUILDER`, parameters (stack, grid, polarization, database
+        builder ``BUILDER``, parameters (stack, grid, polarization, database
         version), units.
 
     Example (a quarter-wave MgF2 coating (dispersive, Dodge 1984) on glass; exact at its nodes):

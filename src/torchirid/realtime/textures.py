@@ -157,7 +157,7 @@ def _rough_thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0, 
                                  bins=bins, nodes=nodes)
 
 
-#: family → (axis names, units, exact XYZ function of points (*, k) and the family's parameters)
+#: family → (axis names, units, exact XYZ function of points ``(*, k)`` and the family's parameters)
 FAMILIES: dict[str, tuple[tuple[str, ...], tuple[str, ...], Callable]] = {
     "thin_film": (("cos_theta", "thickness"), ("1", "nm"), _thin_film),
     "thin_film_path": (("cos_theta", "path_difference", "n_film"), ("1", "nm", "1"), _thin_film_path),

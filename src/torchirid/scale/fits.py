@@ -12,7 +12,7 @@ Parquet (by the file's suffix).
 
 Every record has ``item`` (the path), ``status`` (``"ok"`` / ``"error"``), ``error`` (None or
 ``"ExceptionType: message"``) and ``seconds`` (the item's wall time on its worker); the fit's
-figures follow (:data:`FIELDS`), None where the item failed.
+figures follow (``torchirid.scale.fits.FIELDS``), None where the item failed.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
         progress: ``progress(done, total)`` as items finish.
 
     Returns:
-        A list of dicts (:data:`FIELDS`): ``status`` is ``"ok"`` or ``"error"`` (with ``error``
+        A list of dicts (``torchirid.scale.fits.FIELDS``): ``status`` is ``"ok"`` or ``"error"`` (with ``error``
         the one-line reason); the batch does not stop at a bad item.
 
     Raises:

@@ -11,7 +11,7 @@ and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
    colour interpolated in K.
 2. **piecewise** and **envelope** (only for mirrors in n1, real indices, no total internal
    reflection, and every colour inside their measured domain: at least
-   :data:`~torchirid.spectral.piecewise.MIN_FRINGES` fringes in the range,
+   ``MIN_FRINGES`` fringes in the range,
    :func:`~torchirid.spectral.fringe_count`; below it they are off by ΔE2000 7–30): a
    configuration qualifies when its p95 on *both* measured grids is ≤ τ.
 3. **spectral** always qualifies for τ ≥ its measured p95 (~0.01); below that nothing is
@@ -25,7 +25,7 @@ the time per call): ~4 ms for ``piecewise``, ~0.9 ms for ``envelope``, ~0 for ``
 configuration's cost per colour at B colours is then ``a/B + (us_810 − a/810)``. So on a few
 colours per call the short ``sampled`` integrations win, on hundreds and more the envelope
 method does, and on thousands the landmark method can (docs/performance.md).
-:func:`choose_bragg_method` returns the choice with its estimated p95 and cost, for inspection.
+``choose_bragg_method`` returns the choice with its estimated p95 and cost, for inspection.
 """
 
 from __future__ import annotations

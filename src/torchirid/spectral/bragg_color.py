@@ -41,7 +41,7 @@ Domains of validity (measured; docs/performance.md, ``benchmarks/bragg_color_dom
 * ``"sampled"``: every mirror; its error grows with the fringes per sample (K ≥ ~10 samples per
   fringe for p95 ≤ 1), so large-N mirrors alias.
 * ``"piecewise"``, ``"envelope"``: lossless mirrors embedded in n1 without total internal
-  reflection, with at least :data:`~torchirid.spectral.piecewise.MIN_FRINGES` = 8 fringes in the
+  reflection, with at least ``MIN_FRINGES`` = 8 fringes in the
   range (:func:`~torchirid.spectral.fringe_count`): there p95 ΔE2000 ≤ 2.2 (envelope K = 64:
   ≤ 2.4); below it (Λ ≲ 80 nm, or N ≈ 5) they are off by 7–30 and emit a RuntimeWarning.
   ``"envelope"`` is the library's fast default: on the speed-vs-error Pareto front at every Λ of
@@ -133,7 +133,7 @@ def bragg_xyz(
         wavelength_range: ``(λ_min, λ_max)`` in nm integrated over (default 380–780 nm).
         tolerance: ΔE2000 (95th percentile) that ``method="auto"`` must meet; it picks the
             cheapest of the other methods from measured tables
-            (:func:`torchirid.spectral.auto.choose_bragg_method`).
+            (``torchirid.spectral.auto.choose_bragg_method``).
         subdivisions, correction: options of ``"piecewise"`` (see
             :func:`torchirid.spectral.piecewise.bragg_xyz_piecewise`); ``cells`` is not used
             there beyond validation (the approximation models large N).

@@ -274,8 +274,8 @@ def angular_correction_limit(cos_theta, n1, n2, *, polarization: str = "unpolari
 
     .. math::
 
-        w_\infty(θ_1) = rac12 + rac{(1 + c)rctan\sqrt c - \sqrt c}{π c},
-        \qquad c = |C|^2 = rac{2R_{12}(θ_1)}{1 − R_{12}(θ_1)},
+        w_\infty(θ_1) = \frac12 + \frac{(1 + c)\arctan\sqrt c - \sqrt c}{π c},
+        \qquad c = |C|^2 = \frac{2R_{12}(θ_1)}{1 − R_{12}(θ_1)},
 
     the average of R/R^e over the fast phase Nx and then over x (derived here, not in the
     paper). It is the N-independent core of :func:`angular_correction_reference`: over
@@ -398,7 +398,7 @@ def angular_correction_reference(cos_theta, n1, n2, *, cells=20, samples: int = 
 
     The integrand is smooth and periodic (the 0/0 points x = 0, π are removable); it is
     integrated by the midpoint rule after a periodic change of variable that resolves its
-    N − 1 narrow dips (:func:`_bloch_average`): cost O(batch · N · samples). Accuracy in
+    N − 1 narrow dips (``_bloch_average``): cost O(batch · N · samples). Accuracy in
     float64 with the defaults (N = 20, against mpmath): ≤ 1e-13 up to R₁₂ = 0.9 (θ₁ ≈ 85°
     for n₂ = 1.5 in air), ≤ 2e-11 at R₁₂ = 0.99, ≤ 3e-9 up to 1 − R₁₂ = 1e-6; exact (1) at
     grazing incidence. float32 inputs agree with float64 to ~1e-5.

@@ -353,7 +353,7 @@ def shipped_cumulative_cmf_lut(
     r"""The cumulative CMF table :math:`\bar{\mathbf C}(\omega)` (eq. 15–16), cached in memory.
 
     Loads the shipped ``torchirid/data/cmf_cumulative/<slug>.npz`` (see
-    :func:`cumulative_cmf_path`) after checking its content hash, builder and parameters
+    ``cumulative_cmf_path``) after checking its content hash, builder and parameters
     (observer, illuminant, wavelength range, grid rule, tolerance); if there is none, or it
     does not match (a ``RuntimeWarning`` says so), the table is built in memory with
     :func:`cumulative_cmf_lut` — nothing is written at run time. Cached per

@@ -22,7 +22,7 @@ def fringe_count(cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, wavelengt
     (real parts of the indices; a layer in total internal reflection contributes 0). It is
     the domain parameter of the fast colour methods: ``piecewise`` and ``envelope`` replace the
     fringes by their average, which the CMFs only reproduce when there are many
-    (``benchmarks/bragg_color_domain.py``; :data:`torchirid.spectral.bragg_color.MIN_FRINGES`).
+    (``benchmarks/bragg_color_domain.py``; ``torchirid.spectral.piecewise.MIN_FRINGES``).
 
     Args:
         cos_theta: cosine of the incidence angle in the incident medium, in [0, 1].
