@@ -24,6 +24,7 @@ extensions = [
     "sphinx.ext.intersphinx",
     "sphinx.ext.autosummary",
     "myst_parser",
+    "sphinx_gallery.gen_gallery",
     "torchirid_xref",  # docs/_ext: references by any alias of a documented object
 ]
 autosummary_generate = False
@@ -87,10 +88,25 @@ def setup(app):
     app.connect("autodoc-process-docstring", _keep_prose, priority=400)  # before napoleon (500)
     app.connect("autodoc-process-docstring", _restore_prose, priority=600)  # after it
 
+# the gallery: docs/examples/plot_*.py, executed at build time (each in seconds); the tests build
+# the site with -D plot_gallery=0 and run the scripts themselves at a tiny size
+sphinx_gallery_conf = {
+    "examples_dirs": "examples",
+    "gallery_dirs": "auto_examples",
+    "filename_pattern": r"/plot_",
+    "within_subsection_order": "FileNameSortKey",
+    "download_all_examples": False,
+    "image_scrapers": ("matplotlib",),
+    "matplotlib_animations": False,
+    "reference_url": {"torchirid": None},
+    "doc_module": ("torchirid",),
+    "backreferences_dir": None,
+}
+
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 3
-exclude_patterns = ["_build", "figures/README.md"]
+exclude_patterns = ["_build", "figures/README.md", "examples/README.txt"]
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"torchirid {version}"
