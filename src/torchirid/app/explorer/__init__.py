@@ -63,10 +63,14 @@ def _floats(t) -> str:
     return base64.b64encode(a.tobytes()).decode("ascii")
 
 
+def _ranges(lut) -> list:
+    """``[lo, hi, n]`` of each LUT axis: what ``tirid_texcoord`` takes (uniform nodes)."""
+    return [[float(g[0]), float(g[-1]), int(g.numel())] for g in lut.axes.values()]
+
+
 def _texture(name: str) -> dict:
     lut = shipped_texture(name)
-    axes = [[float(g[0]), float(g[-1]), int(g.numel())] for g in lut.axes.values()]
-    return {"name": name, "axes": list(lut.axes), "ranges": axes, "shape": list(lut.values.shape[:-1]),
+    return {"name": name, "axes": list(lut.axes), "ranges": _ranges(lut), "shape": list(lut.values.shape[:-1]),
             "parameters": lut.parameters, "values": _floats(lut.values)}
 
 
@@ -81,8 +85,7 @@ def _sky() -> dict:
 def _albedo() -> dict:
     lut = shipped_dfg_lut(dtype=torch.float32)
     albedo = lut.values.sum(-1)  # F0·scale + bias at F0 = 1
-    axes = [[float(g[0]), float(g[-1]), int(g.numel())] for g in lut.axes.values()]
-    return {"axes": list(lut.axes), "ranges": axes, "shape": list(albedo.shape), "values": _floats(albedo)}
+    return {"axes": list(lut.axes), "ranges": _ranges(lut), "shape": list(albedo.shape), "values": _floats(albedo)}
 
 
 def page_data() -> dict:

@@ -137,6 +137,27 @@ float tirid_thin_film_reflectance(float wavelength, float cos_theta, float n0, f
     return R;
 }
 
+// The characteristic matrix of one cell, an n2 layer then an n1 layer (Born & Wolf):
+// M = M2 M1 = [[A, −iB], [−iC, D]], returned as vec4(A, B, C, D) (real for lossless layers), from
+// (sin, cos) of the layers' phases k q d and their admittances η = q (s) or n²/q (p).
+vec4 tirid_bragg_cell(vec2 sc1, vec2 sc2, float h1, float h2) {
+    float c1 = sc1.y, s1 = sc1.x, c2 = sc2.y, s2 = sc2.x;
+    return vec4(c2 * c1 - s2 * s1 * h1 / h2, c2 * s1 / h1 + s2 * c1 / h2,
+                h2 * s2 * c1 + c2 * h1 * s1, c2 * c1 - s2 * s1 * h2 / h1);
+}
+
+// (U_{N−1}(a), U_{N−2}(a)), Chebyshev polynomials of the second kind by their recurrence; N ≤ 256.
+vec2 tirid_chebyshev_u(float a, int cells) {
+    float um2 = 0.0, um1 = 1.0;  // U_{−1}, U_0
+    for (int j = 1; j < 256; j++) {
+        if (j >= cells) break;
+        float u = 2.0 * a * um1 - um2;
+        um2 = um1;
+        um1 = u;
+    }
+    return vec2(um1, um2);
+}
+
 // R of a Bragg mirror n0 | (n2, d2), (n1, d1) × N | n1 of real indices (d in nm), lit from n0
 // at cos θ (torchirid.bragg_reflectance; n0 = n1 is the embedded mirror). Characteristic
 // matrices (Born & Wolf), the N-th power of the cell's by Chebyshev polynomials (Yeh); N ≤ 256.
@@ -147,30 +168,17 @@ float tirid_bragg_reflectance(float wavelength, float cos_theta, float n0, float
     float q1 = sqrt(max(n1 * n1 - s2, 1e-12));
     float q2 = sqrt(max(n2 * n2 - s2, 1e-12));
     float k = 2.0 * TIRID_PI / wavelength;
-    float p1 = k * q1 * d1, p2 = k * q2 * d2;
+    vec2 sc1 = tirid_sincos(k * q1 * d1), sc2 = tirid_sincos(k * q2 * d2);  // the phases: the same for s and p
     float R = 0.0;
     for (int pol = 0; pol < 2; pol++) {
-        // admittances η = q (s) or n²/q (p); a layer's matrix [[cos p, −i sin p/η], [−i η sin p, cos p]]
+        // admittances η = q (s) or n²/q (p)
         float h0 = pol == 0 ? q0 : n0 * n0 / max(q0, 1e-12);
         float h1 = pol == 0 ? q1 : n1 * n1 / q1;
         float h2 = pol == 0 ? q2 : n2 * n2 / q2;
-        // the cell M = M2 M1 = [[A, −iB], [−iC, D]] with real A, B, C, D
-        vec2 sc1 = tirid_sincos(p1), sc2 = tirid_sincos(p2);
-        float c1 = sc1.y, s1 = sc1.x, c2 = sc2.y, s2_ = sc2.x;
-        float A = c2 * c1 - s2_ * s1 * h1 / h2;
-        float B = c2 * s1 / h1 + s2_ * c1 / h2;
-        float C = h2 * s2_ * c1 + c2 * h1 * s1;
-        float D = c2 * c1 - s2_ * s1 * h2 / h1;
+        vec4 M = tirid_bragg_cell(sc1, sc2, h1, h2);
         // M^N = U_{N−1}(a) M − U_{N−2}(a) I, a = (A + D)/2
-        float a = 0.5 * (A + D);
-        float um2 = 0.0, um1 = 1.0;  // U_{−1}, U_0
-        for (int j = 1; j < 256; j++) {
-            if (j >= cells) break;
-            float u = 2.0 * a * um1 - um2;
-            um2 = um1;
-            um1 = u;
-        }
-        float An = um1 * A - um2, Bn = um1 * B, Cn = um1 * C, Dn = um1 * D - um2;
+        vec2 U = tirid_chebyshev_u(0.5 * (M.x + M.w), cells);
+        float An = U.x * M.x - U.y, Bn = U.x * M.y, Cn = U.x * M.z, Dn = U.x * M.w - U.y;
         // [E; H] = M^N [1; η_sub], η_sub = h1; r = (h0 E − H) / (h0 E + H)
         vec2 E = vec2(An, -Bn * h1), H = vec2(Dn * h1, -Cn);
         vec2 num = h0 * E - H, den = h0 * E + H;
@@ -187,20 +195,7 @@ float tirid_bragg_reflectance(float wavelength, float cos_theta, float n0, float
 // ω = 2π/λ over omega_range and integrated exactly against the CMFs × D65 with hat-function
 // weights: texel k of `weights` (an RGB32F texture of samples × 1, read with texelFetch) is row k
 // of torchirid.spectral.envelope_weights(samples) (X, Y, Z; Y sums to 1). Returns XYZ, Y = 1 for
-// a perfect reflector. Cost: samples × 2 polarisations × (a few trig calls + the N-loop in gaps).
-
-// |C|² and cos KΛ of one cell (n2 layer then n1 layer, embedded in n1) at vacuum wavenumber k.
-vec2 tirid_bragg_cell(float k, float q1, float q2, float d1, float d2, float h1, float h2) {
-    float p1 = k * q1 * d1, p2 = k * q2 * d2;
-    vec2 sc1 = tirid_sincos(p1), sc2 = tirid_sincos(p2);
-    float c1 = sc1.y, s1 = sc1.x, c2 = sc2.y, s2 = sc2.x;
-    float A = c2 * c1 - s2 * s1 * h1 / h2;
-    float B = c2 * s1 / h1 + s2 * c1 / h2;
-    float C = h2 * s2 * c1 + c2 * h1 * s1;
-    float D = c2 * c1 - s2 * s1 * h2 / h1;
-    float x = h1 * (A - D), y = C - B * h1 * h1;  // r_N = U_{N−1} (x + iy) / (…): |C|² = |x + iy|² / 4h1²
-    return vec2((x * x + y * y) / (4.0 * h1 * h1), 0.5 * (A + D));
-}
+// a perfect reflector. Cost per sample: two sincos, then per polarisation the cell and, in gaps, the N-loop.
 
 vec3 tirid_bragg_envelope_xyz(sampler2D weights, int samples, vec2 omega_range, float cos_theta, float n1, float n2,
                               float d1, float d2, int cells) {
@@ -212,24 +207,21 @@ vec3 tirid_bragg_envelope_xyz(sampler2D weights, int samples, vec2 omega_range, 
     for (int k = 0; k < 1024; k++) {
         if (k >= samples) break;
         float omega = mix(omega_range.x, omega_range.y, float(k) / float(samples - 1));
+        vec2 sc1 = tirid_sincos(omega * q1 * d1), sc2 = tirid_sincos(omega * q2 * d2);
         float R = 0.0;
         for (int pol = 0; pol < 2; pol++) {
             float h1 = pol == 0 ? q1 : n1 * n1 / q1;
             float h2 = pol == 0 ? q2 : n2 * n2 / q2;
-            vec2 cell = tirid_bragg_cell(omega, q1, q2, d1, d2, h1, h2);
-            float C2 = cell.x, a = cell.y;
+            vec4 M = tirid_bragg_cell(sc1, sc2, h1, h2);
+            // r_N = U_{N−1} (x + iy) / (…) with x = h1(A − D), y = C − B h1²: |C|² = (x² + y²) / 4h1²
+            float x = h1 * (M.x - M.w), y = M.z - M.y * h1 * h1;
+            float C2 = (x * x + y * y) / (4.0 * h1 * h1), a = 0.5 * (M.x + M.w);
             if (abs(a) < 1.0) {  // pass band: the fringe average
                 float Re = C2 / (C2 + 1.0 - a * a);
                 R += 0.5 * (1.0 - sqrt(max(1.0 - Re, 0.0)));
-            } else {  // band gap: Yeh's finite N, U_{N−1}(a) by its recurrence
-                float um2 = 0.0, um1 = 1.0;
-                for (int j = 1; j < 256; j++) {
-                    if (j >= cells) break;
-                    float u = 2.0 * a * um1 - um2;
-                    um2 = um1;
-                    um1 = u;
-                }
-                float U2 = um1 * um1;
+            } else {  // band gap: Yeh's finite N
+                float U2 = tirid_chebyshev_u(a, cells).x;
+                U2 *= U2;
                 R += 0.5 * C2 * U2 / (C2 * U2 + 1.0);
             }
         }
