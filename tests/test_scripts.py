@@ -61,7 +61,9 @@ def test_script_runs_at_a_tiny_size(script, tmp_path):
         pytest.fail(f"no tiny-size run for {script}")
     args, outputs = TINY[script]
     before = _snapshot()
-    env = dict(os.environ, PYTHONPATH=str(ROOT / "src"), OMP_NUM_THREADS="1", MPLBACKEND="Agg")
+    # keep the caller's PYTHONPATH after src/ (packages installed with --target, as on the GPU machine)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+               OMP_NUM_THREADS="1", MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, str(ROOT / script), *(a.format(tmp=tmp_path) for a in args)],
                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, f"{script} failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-4000:]}"
