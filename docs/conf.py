@@ -106,7 +106,9 @@ sphinx_gallery_conf = {
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 3
-exclude_patterns = ["_build", "figures/README.md", "examples/README.txt"]
+# models.md is the equation map of the repository; the site shows it inside the guide's pages
+# (docs/guide/*.md include its sections), not as a page of its own
+exclude_patterns = ["_build", "figures/README.md", "examples/README.txt", "models.md"]
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"torchirid {version}"
