@@ -167,7 +167,22 @@ DATABASE_VERSION: str = _database_version()
 
 @dataclass(frozen=True)
 class MaterialTable:
-    """A database page on its own grid (numpy, float64): wavelengths in nm, n and κ."""
+    """A database page on its own grid (numpy, float64): wavelengths in nm, n and κ.
+
+    Obtained from :func:`material_table`; :func:`refractive_index` interpolates the same data
+    (linearly in wavelength) as tensors.
+
+    Example (silver, Johnson & Christy 1972):
+        >>> import numpy as np
+        >>> table = material_table("Ag")
+        >>> table.key, table.range  # (shelf, book, page); nm
+        (('main', 'Ag', 'Johnson'), (187.9, 1937.0))
+        >>> table.wavelength.shape == table.n.shape == table.k.shape
+        True
+        >>> n, k = (round(float(np.interp(550.0, table.wavelength, v)), 4) for v in (table.n, table.k))
+        >>> n, k  # n + iκ at 550 nm
+        (0.0596, 3.5974)
+    """
 
     key: tuple[str, str, str]
     source: str
@@ -177,6 +192,7 @@ class MaterialTable:
 
     @property
     def range(self) -> tuple[float, float]:
+        """``(first, last)`` wavelength of the grid, in nm."""
         return float(self.wavelength[0]), float(self.wavelength[-1])
 
 

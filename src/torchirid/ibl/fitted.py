@@ -127,6 +127,18 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
 
     Returns:
         :class:`~torchirid.lut.LUT` with axes ``cos_theta_o``, ``sqrt_alpha`` and channels ``(K, 3)``.
+
+    Example (a coarse table, quick to build; the shipped one is 48 × 48):
+        >>> import torch
+        >>> lut = light_mixture_lut(theta_nodes=4, alpha_nodes=3, bins=256, nodes=16, dtype=torch.float64)
+        >>> lut.axis_names, lut.values.shape  # K = 5 components of (mass, mean cos θ1, variance)
+        (('cos_theta_o', 'sqrt_alpha'), torch.Size([4, 3, 5, 3]))
+        >>> mix = lut.interp(cos_theta_o=torch.tensor(0.8, dtype=torch.float64),
+        ...                  sqrt_alpha=torch.tensor(0.5, dtype=torch.float64))  # α = 0.25
+        >>> round(float(mix[:, 0].sum()), 6)  # the masses sum to 1
+        1.0
+        >>> fitted_thin_film_xyz(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, 1.5, table=lut).shape
+        torch.Size([3])
     """
     for name, v in (("theta_nodes", theta_nodes), ("alpha_nodes", alpha_nodes)):
         _checks.check_int(v, name, 2)
@@ -149,7 +161,16 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
 
 def light_mixture_path(masking: str = "separable"):
     """Path of the shipped table: ``src/torchirid/data/thin_film_ibl/light_mixture.npz`` (separable
-    Smith G) or ``light_mixture_height_correlated.npz`` (``masking="height-correlated"``)."""
+    Smith G) or ``light_mixture_height_correlated.npz`` (``masking="height-correlated"``).
+
+    Example:
+        >>> from torchirid.lut import LUT
+        >>> path = light_mixture_path()
+        >>> path.name, light_mixture_path("height-correlated").name
+        ('light_mixture.npz', 'light_mixture_height_correlated.npz')
+        >>> LUT.load(path).axis_names  # what shipped_light_mixture_lut reads
+        ('cos_theta_o', 'sqrt_alpha')
+    """
     return importlib.resources.files("torchirid").joinpath(*_DATA[_check_masking(masking)])
 
 
@@ -176,7 +197,18 @@ def _shipped(masking, dtype, device) -> LUT:
 def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype = torch.float64,
                               device=None) -> LUT:
     """The shipped K = 5 mixture table (48 θo × 48 √α nodes) for ``masking`` (``"separable"``, the
-    default, or ``"height-correlated"``), cached per masking/dtype/device."""
+    default, or ``"height-correlated"``), cached per masking/dtype/device.
+
+    Example:
+        >>> import torch
+        >>> lut = shipped_light_mixture_lut()  # float64, CPU
+        >>> lut.values.shape  # (cos θo, √α, K, (mass, mean cos θ1, variance))
+        torch.Size([48, 48, 5, 3])
+        >>> lut is shipped_light_mixture_lut()  # cached: treat it as read-only
+        True
+        >>> shipped_light_mixture_lut(dtype=torch.float32).dtype
+        torch.float32
+    """
     _check_masking(masking)
     return _shipped(masking, dtype, torch.device("cpu") if device is None else torch.device(device))
 

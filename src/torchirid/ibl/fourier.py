@@ -280,7 +280,18 @@ def _slug(observer: str, illuminant: str) -> str:
 
 
 def fourier_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D65"):
-    """Where the shipped Ŝ table lives: ``torchirid/data/fourier_sensitivity/<slug>.npz``."""
+    """Where the shipped Ŝ table lives: ``torchirid/data/fourier_sensitivity/<slug>.npz``.
+
+    Example:
+        >>> from torchirid.lut import LUT
+        >>> path = fourier_sensitivity_path()  # CIE 1931 2°, D65
+        >>> path.name, path.is_file()
+        ('cie_1931_2_d65.npz', True)
+        >>> fourier_sensitivity_path("CIE 1964 10", "E").name
+        'cie_1964_10_e.npz'
+        >>> LUT.load(path).axis_names  # the path difference D, in nm
+        ('D',)
+    """
     _check_names(observer, illuminant)
     return importlib.resources.files("torchirid").joinpath(_DATA_DIR, _slug(observer, illuminant) + ".npz")
 
@@ -448,7 +459,17 @@ def shipped_prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant
                                 dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """Kneiphof's 2-D Ŝ(μ_D, σ²_D) table with the default grid (μ 0–20 µm every 10 nm, 41 σ nodes
     to 1000 nm, see :func:`prefiltered_sensitivity_lut`), built in memory on first use (≈ 3–6 s)
-    and cached per observer/illuminant/dtype/device; treat it as read-only."""
+    and cached per observer/illuminant/dtype/device; treat it as read-only.
+
+    Example (the table :func:`lookup_prefiltered_sensitivity` reads by default):
+        >>> import torch
+        >>> lut = shipped_prefiltered_sensitivity_lut()  # slow once, then cached
+        >>> lut.axis_names, lut.values.shape  # (μ, warped σ, XYZ, (re, im))
+        (('mu', 'w'), torch.Size([2001, 41, 3, 2]))
+        >>> mu = torch.tensor(1000.0, dtype=torch.float64)  # nm
+        >>> torch.equal(lookup_prefiltered_sensitivity(mu, 100.0**2, lut=lut), lookup_prefiltered_sensitivity(mu, 100.0**2))
+        True
+    """
     _check_names(observer, illuminant)
     return _prefiltered_cached(observer, illuminant, dtype,
                                torch.device(device) if device is not None else torch.device("cpu"))
@@ -497,6 +518,21 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_inci
     ``a = r21 r23`` (complex; ``|a| = √(R21 R23)``, ``arg a = φ2``), ``K`` (complex; real
     ``R* − √(T12 T21)`` for a dielectric film), and the path difference ``D = 2 η2 d cos θ2``
     (nm, real, no polarization axis). BB's ``C_m = |a|^m K``. See the module docstring.
+
+    Example (summed at one wavelength, the series is the film's reflectance):
+        >>> import math, torch, torchirid
+        >>> c = torch.tensor([1.0, 0.5], dtype=torch.float64)  # cos θ
+        >>> C0, a, K, D = thin_film_fourier_terms(c, 1.33, 300.0, complex(2.0, 0.5))  # d in nm
+        >>> C0.shape, D.shape  # (s, p) × batch; D has no polarization axis
+        (torch.Size([2, 2]), torch.Size([2]))
+        >>> [round(v, 2) for v in D.tolist()]  # nm
+        [798.0, 605.64]
+        >>> m = torch.arange(1, 60, dtype=torch.float64)
+        >>> phase = torch.exp(2j * math.pi * m * D[..., None] / 550.0)  # λ = 550 nm
+        >>> R = (C0 + 2 * (K[..., None] * a[..., None] ** m * phase).real.sum(-1)).mean(0)  # s and p averaged
+        >>> lam = torch.tensor(550.0, dtype=torch.float64)
+        >>> torch.allclose(R, torchirid.thin_film_reflectance(lam, c, 1.33, 300.0, complex(2.0, 0.5)))
+        True
     """
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)

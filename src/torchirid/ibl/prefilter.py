@@ -152,6 +152,19 @@ class PrefilteredEnvironment:
         directions: ``(Ho, Wo, 3)`` output directions R (= n = v), module convention.
         radiance: ``(A, Ho, Wo, 3)`` prefiltered RGB radiance.
         moments: ``(A, Ho, Wo, 9)`` light-direction moments, channel order :data:`MOMENT_CHANNELS`.
+
+    Example (obtained from :func:`prefilter_environment`; two roughness levels, a 4 × 8 grid):
+        >>> import torch
+        >>> alphas = torch.tensor([0.2, 0.6], dtype=torch.float64)
+        >>> pre = prefilter_environment(synthetic_environment(8, 16), alphas, resolution=4)
+        >>> pre.radiance.shape, pre.moments.shape
+        (torch.Size([2, 4, 8, 3]), torch.Size([2, 4, 8, 9]))
+        >>> mean, cov = pre.mean_cov()
+        >>> cov.shape
+        torch.Size([2, 4, 8, 3, 3])
+        >>> back = PrefilteredEnvironment.from_lut(pre.to_lut())  # through a LUT, e.g. a file
+        >>> torch.equal(back.moments, pre.moments)
+        True
     """
 
     alphas: torch.Tensor
@@ -403,6 +416,22 @@ def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tenso
             R, G, B (or Y) channels; an unsupported .hdr variant (the message names the file).
         FileNotFoundError: no file at ``path``.
         ImportError: an ``.exr`` path without the ``openexr`` package.
+
+    Example (a 2 × 4 Radiance file written on the spot, then prefiltered):
+        >>> import os, tempfile
+        >>> header = b"#?RADIANCE\\nFORMAT=32-bit_rle_rgbe\\n\\n-Y 2 +X 4\\n"
+        >>> texels = bytes([128, 128, 128, 129]) * 8  # RGBE: radiance (128 + ½)/128 each
+        >>> with tempfile.TemporaryDirectory() as folder:
+        ...     path = os.path.join(folder, "sky.hdr")
+        ...     with open(path, "wb") as f:
+        ...         _ = f.write(header + texels)
+        ...     env = load_environment(path)
+        >>> env.shape, env.dtype
+        (torch.Size([2, 4, 3]), torch.float64)
+        >>> round(float(env.mean()), 4)
+        1.0039
+        >>> prefilter_environment(env, 0.5, resolution=2).radiance.shape
+        torch.Size([1, 2, 4, 3])
     """
     _check_float_dtype(dtype)
     suffix = os.path.splitext(os.fspath(path))[1].lower()

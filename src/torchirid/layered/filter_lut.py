@@ -106,6 +106,21 @@ class FilterLUT:
     Attributes:
         lut: the underlying :class:`~torchirid.lut.LUT` (``values`` shape ``(n_θi, n_u)``).
         alpha: the roughness it was built for.
+
+    Example (obtained from :func:`transmission_filter_lut`; coarse here, for speed):
+        >>> import os, tempfile, torch
+        >>> from torchirid.layered import transmission_filter
+        >>> table = transmission_filter_lut(0.2, theta_i_step_deg=2.0, u_nodes=33, rtol=3e-3)
+        >>> table.alpha, table.lut.axis_names
+        (0.2, ('theta_i', 'u'))
+        >>> ti = torch.tensor([0.3, 1.0], dtype=torch.float64)  # θi, radians
+        >>> td = torch.tensor([0.35, 1.0], dtype=torch.float64)  # θd, radians
+        >>> bool((table(ti, td) - transmission_filter(ti, td, 0.2)).abs().max() < 0.01)
+        True
+        >>> with tempfile.TemporaryDirectory() as folder:
+        ...     back = FilterLUT.load(table.save(os.path.join(folder, "filter.npz")), alpha=0.2)
+        >>> torch.equal(back(ti, td), table(ti, td))
+        True
     """
 
     def __init__(self, lut: LUT):

@@ -179,6 +179,17 @@ class Scatterogram:
         wavelength: ``(W,)`` the wavelengths (nm) of the spectral computation.
         title: a short label for figures.
         params: the parameters of the render, JSON-ready.
+
+    Example (obtained from :func:`scatterogram`; a tiny 5 × 5 render under a normal beam):
+        >>> import torch
+        >>> from torchirid.layered import RoughBraggLayer, scatterogram
+        >>> layer = RoughBraggLayer(n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, alpha=0.2)  # nm
+        >>> sg = scatterogram(layer, incident_deg=(0.0, 0.0), resolution=5,
+        ...                   wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))  # nm
+        >>> sg.xyz.shape, int(sg.mask.sum())  # 21 of the 25 pixels lie on the disc
+        (torch.Size([5, 5, 3]), 21)
+        >>> sg.projection, sg.incident_deg, sg.params["illumination"]
+        ('equidistant', (0.0, 0.0), 'beam')
     """
 
     xyz: torch.Tensor
@@ -496,7 +507,20 @@ def _exposure_of(sg: Scatterogram, exposure) -> float:
 
 def scatterogram_srgb(sg: Scatterogram, exposure="auto") -> np.ndarray:
     """The display image ``(H, W, 3)`` in [0, 1]: ``exposure × xyz`` → sRGB (D65), clipped;
-    black outside the disc. ``exposure="auto"`` maps the brightest pixel's Y to 1."""
+    black outside the disc. ``exposure="auto"`` maps the brightest pixel's Y to 1.
+
+    Example:
+        >>> import torch
+        >>> from torchirid.layered import RoughBraggLayer, scatterogram
+        >>> layer = RoughBraggLayer(n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, alpha=0.2)  # nm
+        >>> sg = scatterogram(layer, incident_deg=(0.0, 0.0), resolution=5,
+        ...                   wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))  # nm
+        >>> img = scatterogram_srgb(sg)  # a numpy array, ready for imshow / imsave
+        >>> img.shape, img.dtype.name, float(img.min()), float(img.max())
+        ((5, 5, 3), 'float64', 0.0, 1.0)
+        >>> img[0, 0].tolist()  # a corner: outside the disc
+        [0.0, 0.0, 0.0]
+    """
     e = _exposure_of(sg, exposure)
     rgb = xyz_to_srgb(sg.xyz.detach().to(torch.float64) * e).clamp(0.0, 1.0)
     rgb = torch.where(sg.mask.unsqueeze(-1), rgb, torch.zeros_like(rgb))

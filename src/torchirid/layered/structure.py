@@ -42,6 +42,21 @@ class RoughBraggLayer:
     :func:`~torchirid.layered.single_reflection.single_reflection_brdf`. Not through the
     integrated transmissivity's filter weights, which are tabulated per ``float(alpha)``
     (τ still depends on ``n1, n2, d1, d2``). ``cells`` stays a Python int, ``n_incident`` a number (or ``n1``).
+
+    Example (Fourneau's Fig. 1 mirror in air, α = 0.1; a thickness as a tensor to fit):
+        >>> import torch
+        >>> layer = RoughBraggLayer(n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, alpha=0.1)  # nm
+        >>> layer.n_incident  # None became n1
+        1.0
+        >>> lam = torch.tensor([500.0, 600.0], dtype=torch.float64)  # nm
+        >>> R = layer.reflectance(lam, torch.tensor(1.0, dtype=torch.float64))  # cos θ = 1 in the host
+        >>> [round(v, 4) for v in R.tolist()]
+        [0.1693, 0.0387]
+        >>> d2 = torch.tensor(375.0, dtype=torch.float64, requires_grad=True)
+        >>> fit = RoughBraggLayer(1.0, 1.5, 125.0, d2, 20, 0.1)
+        >>> fit.reflectance(lam, torch.tensor(1.0, dtype=torch.float64)).sum().backward()
+        >>> d2.grad is not None, fit.numbers()["d2"]
+        (True, 375.0)
     """
 
     n1: float
@@ -115,6 +130,18 @@ class LayeredBragg:
 
     The coating is implied by the host index (``n1``, or the layers' ``n_incident``): 1 means no coating (f_r,0 = 0,
     f_t,0 = 1 in eq. 34); otherwise a smooth air | n_incident interface sits on top.
+
+    Example (two layers in a host of index 1.5 over a grey base; thicknesses in nm):
+        >>> s = LayeredBragg([RoughBraggLayer(1.5, 1.8, 100.0, 90.0, 10, 0.1),
+        ...                   RoughBraggLayer(1.5, 1.8, 130.0, 110.0, 10, 0.3)], base_albedo=0.2)
+        >>> len(s.layers), s.base_albedo
+        (2, 0.2)
+        >>> s.coated, s.n_coating  # the host index 1.5 implies a smooth coating on top
+        (True, 1.5)
+
+    Pass it to :func:`~torchirid.layered.single_reflection.single_reflection_brdf`,
+    :func:`~torchirid.layered.scatterograms.scatterogram` and the other functions of
+    :mod:`torchirid.layered` that take a ``structure``.
     """
 
     layers: Sequence[RoughBraggLayer]

@@ -112,7 +112,17 @@ def smith_g1(cos_theta, alpha) -> torch.Tensor:
 def ggx_d_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """GGX normal distribution D(m) (eq. 18) without validation: the kernel of :func:`ggx_d`
     for callers that validated ``cos θm`` (``c``, may exceed 1 by rounding) and ``α > 0``
-    (``a``) themselves, on tensors of one dtype/device. 0 for ``c ≤ 0``; NaN propagates."""
+    (``a``) themselves, on tensors of one dtype/device. 0 for ``c ≤ 0``; NaN propagates.
+
+    Example (at the peak, cos θm = 1: D = 1/(πα²)):
+        >>> import torch
+        >>> c = torch.tensor([0.2, 0.7, 1.0], dtype=torch.float64)  # cos θm
+        >>> a = torch.tensor(0.3, dtype=torch.float64)  # α
+        >>> torch.equal(ggx_d_kernel(c, a), ggx_d(c, a))
+        True
+        >>> round(float(ggx_d_kernel(c, a)[-1]), 6)
+        3.536777
+    """
     a2 = a * a
     # cos²θ (α² + tan²θ) = 1 + (α² − 1)cos²θ, summed as sin²θ + α² cos²θ: two terms ≥ 0, so no
     # cancellation at the peak (1 + (α² − 1) loses ~log10(1/α²) digits there)
@@ -123,7 +133,17 @@ def ggx_d_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
 
 def smith_g1_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     """Smith G1 (eq. 19, without χ⁺) without validation: the kernel of :func:`smith_g1` for
-    callers that validated ``c = cos θ ≥ 0`` and ``a = α > 0`` themselves."""
+    callers that validated ``c = cos θ ≥ 0`` and ``a = α > 0`` themselves.
+
+    Example:
+        >>> import torch
+        >>> c = torch.tensor([0.2, 0.7, 1.0], dtype=torch.float64)  # cos θ
+        >>> a = torch.tensor(0.3, dtype=torch.float64)  # α
+        >>> torch.equal(smith_g1_kernel(c, a), smith_g1(c, a))
+        True
+        >>> [round(v, 4) for v in smith_g1_kernel(c, a).tolist()]
+        [0.72, 0.9776, 1.0]
+    """
     c2 = (c * c).clamp(max=1.0)  # rounding: |v| may be 1 + ulp
     root = torch.sqrt(c2 + a * a * (1.0 - c2))  # > 0 for α > 0 (safe sqrt at c = 0 and 1)
     return 2.0 * c / (c + root)

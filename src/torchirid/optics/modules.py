@@ -94,7 +94,21 @@ class BraggMirror(nn.Module):
 
     Learnable (parametrised, module docstring): ``n1``, ``n2`` (real indices > ``min_index``)
     and ``d1``, ``d2`` (nm, > 0). Fixed: ``cells`` (an integer ≥ 1, checked when set),
-    ``n_incident`` (None: n1) and ``polarization``.
+    ``n_incident`` (None: n1) and ``polarization``. ``forward(wavelength, cos_theta)`` (nm, cos θ;
+    broadcast together) returns R of their broadcast shape.
+
+    Example:
+        >>> import torch, torchirid
+        >>> mirror = torchirid.BraggMirror(n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20)
+        >>> wavelength = torch.linspace(400.0, 700.0, 4, dtype=torch.float64)  # nm
+        >>> R = mirror(wavelength, torch.tensor(1.0, dtype=torch.float64))  # cos θ = 1: normal incidence
+        >>> R.shape
+        torch.Size([4])
+        >>> torch.allclose(R, torchirid.bragg_reflectance(wavelength, 1.0, 1.0, 1.5, 125.0, 375.0, 20))
+        True
+        >>> R.sum().backward()  # the raw (unconstrained) thickness gets the gradient
+        >>> mirror.parametrizations.d1.original.grad is not None
+        True
     """
 
     def __init__(self, n1=1.0, n2=1.5, d1=125.0, d2=375.0, cells=20, *, n_incident=None, polarization=None,
@@ -130,7 +144,24 @@ class ThinFilm(nn.Module):
 
     Learnable (parametrised, module docstring): the real film index ``n_film`` (> ``min_index``)
     and ``thickness`` (nm, > 0). Fixed (a buffer, complex allowed): ``n_substrate``; fixed
-    ``n_incident`` and ``polarization``.
+    ``n_incident`` and ``polarization``. ``forward(wavelength, cos_theta)`` (nm, cos θ; broadcast
+    together) returns R of their broadcast shape.
+
+    Example (a soap film in air; even a wild step on the raw parameter keeps d > 0):
+        >>> import torch, torchirid
+        >>> film = torchirid.ThinFilm(n_film=1.33, thickness=300.0, n_substrate=1.0)
+        >>> wavelength = torch.tensor([450.0, 550.0, 650.0], dtype=torch.float64)  # nm
+        >>> R = film(wavelength, torch.tensor(1.0, dtype=torch.float64))  # cos θ = 1
+        >>> [round(v, 4) for v in R.tolist()]
+        [0.0344, 0.0754, 0.0347]
+        >>> raw = film.parametrizations.thickness.original  # what an optimiser moves
+        >>> R.sum().backward()
+        >>> raw.grad is not None
+        True
+        >>> with torch.no_grad():
+        ...     _ = raw.sub_(310.0)  # a wild step: 300 − 310 = −10 nm without the parametrisation
+        >>> f"{film.thickness.item():.3g}"  # softplus(−10) nm: still a valid thickness
+        '4.54e-05'
     """
 
     def __init__(self, n_film=1.33, thickness=300.0, n_substrate=1.0, *, n_incident=None, polarization=None,
@@ -153,6 +184,19 @@ class Multilayer(nn.Module):
 
     ``indices[..., L+2]`` (a buffer, complex allowed: incident medium first) stay fixed;
     ``thicknesses[..., L]`` (nm, > 0; parametrised, module docstring) are learnable.
+    ``forward(wavelength, cos_theta)`` (nm, cos θ) returns the reflectance and transmittance.
+
+    Example (a two-film coating on glass):
+        >>> import torch, torchirid
+        >>> stack = torchirid.Multilayer([1.0, 1.45, 2.3, 1.52], [90.0, 60.0])  # air | films | glass; nm
+        >>> R, T = stack(torch.tensor([450.0, 550.0], dtype=torch.float64), torch.tensor(1.0, dtype=torch.float64))
+        >>> [round(v, 4) for v in R.tolist()]
+        [0.0961, 0.0629]
+        >>> torch.allclose(R + T, torch.ones(2, dtype=torch.float64))  # lossless films
+        True
+        >>> R.sum().backward()
+        >>> stack.parametrizations.thicknesses.original.grad.shape  # one per film
+        torch.Size([2])
     """
 
     def __init__(self, indices, thicknesses, *, polarization=None, dtype=torch.float64):

@@ -41,7 +41,21 @@ __all__ = ["bragg_landmarks", "dispersion_parts"]
 
 
 def dispersion_parts(omega, A, B, delta):
-    """(1 − x, 1 + x) of x = cos KΛ at ω from the product forms (no cancellation near |x| = 1)."""
+    """(1 − x, 1 + x) of x = cos KΛ at ω from the product forms (no cancellation near |x| = 1).
+
+    ``omega`` in nm⁻¹ (ω = 2π/λ), ``A = n1 d1 cos θ1`` and ``B = n2 d2 cos θ2`` in nm, ``delta``
+    = δ of the module docstring; all broadcast together.
+
+    Example (n = 1 | 1.5, d = 125 | 375 nm, normal incidence: mode m = 2 at λ = 687.5 nm):
+        >>> import math, torch
+        >>> A, B, delta = 1.0 * 125.0, 1.5 * 375.0, (1.0 - 1.5) ** 2 / (2 * 1.0 * 1.5)
+        >>> omega = 2 * math.pi / torch.tensor([687.5, 600.0], dtype=torch.float64)  # nm⁻¹
+        >>> below, above = dispersion_parts(omega, A, B, delta)  # 1 − x, 1 + x
+        >>> [round(v, 4) for v in below.tolist()]  # < 0: x > 1, inside the band gap
+        [-0.069, 0.3604]
+        >>> torch.allclose(below + above, torch.full_like(omega, 2.0))
+        True
+    """
     half = 0.5 * omega * (A + B)
     prod = delta * torch.sin(omega * A) * torch.sin(omega * B)
     sh, ch = torch.sin(half), torch.cos(half)

@@ -75,6 +75,19 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
 
     Returns:
         XYZ ``(*, 3)``, Y = 1 for a perfect reflector.
+
+    Example (Fourneau's Fig. 1 mirror at 0° and 60°; a gradient with respect to d1):
+        >>> import torch
+        >>> cos_theta = torch.tensor([1.0, 0.5], dtype=torch.float64)
+        >>> d1 = torch.tensor(125.0, dtype=torch.float64, requires_grad=True)  # nm
+        >>> xyz = bragg_xyz_piecewise(cos_theta, 1.0, 1.5, d1, 375.0, 20)
+        >>> xyz.shape
+        torch.Size([2, 3])
+        >>> [round(v, 3) for v in xyz[0].tolist()]  # the full spectrum gives (0.203, 0.074, 0.772)
+        [0.199, 0.072, 0.754]
+        >>> xyz[:, 1].sum().backward()
+        >>> d1.grad is not None
+        True
     """
     _checks.check_polarization(polarization)
     _checks.check_int(subdivisions, "subdivisions", 1)

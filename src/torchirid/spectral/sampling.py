@@ -57,7 +57,15 @@ def fringe_count(cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, wavelengt
 def max_fringes(n1, n2, d1, d2, cells, lo, hi) -> float:
     """Fringes in [λ_lo, λ_hi] of the batch's worst mirror: max N (|n1| d1 + |n2| d2) · Δω / π
     (Δω = 2π(1/λ_lo − 1/λ_hi)); mirrors with a NaN or infinite parameter (NaN colour at any
-    sampling) do not count. Shared by the ``"spectral"`` sampling rule and ``method="auto"``."""
+    sampling) do not count. Shared by the ``"spectral"`` sampling rule and ``method="auto"``.
+
+    Example (two mirrors; d1 in nm; the longer one counts):
+        >>> import torch
+        >>> round(max_fringes(1.0, 1.5, torch.tensor([125.0, 250.0]), 375.0, 20, 380.0, 780.0), 2)
+        43.86
+        >>> round(max_fringes(1.0, 1.5, 125.0, 375.0, 20, 380.0, 780.0), 2)  # = fringe_count at 0°
+        37.11
+    """
     with torch.no_grad():
         opl = torch.as_tensor(n1).abs() * torch.as_tensor(d1) + torch.as_tensor(n2).abs() * torch.as_tensor(d2)
         length = torch.as_tensor(cells).to(opl.dtype) * opl
@@ -69,9 +77,15 @@ def spectral_samples(n1, n2, d1, d2, cells, *, wavelength_range=(380.0, 780.0), 
                      min_samples=401, max_samples=262144) -> int:
     """Number of ω samples the ``"spectral"`` method uses for the worst mirror of a batch.
 
-    ``ceil(samples_per_fringe · N · (|n1| d1 + |n2| d2) · Δω / π)``, clipped to
+    ``ceil(samples_per_fringe · N · (|n1| d1 + |n2| d2) · Δω / π) + 1``, clipped to
     ``[min_samples, max_samples]`` (see the module docstring). Mirrors with a NaN or infinite
     parameter (whose colour is NaN at any sampling) do not count.
+
+    Example (thicknesses in nm; 380–780 nm by default):
+        >>> spectral_samples(1.0, 1.5, 125.0, 375.0, 20)  # 37.1 fringes × 192
+        7127
+        >>> spectral_samples(1.0, 1.5, 10.0, 10.0, 5)  # a thin mirror: min_samples
+        401
     """
     wanted = samples_per_fringe * max_fringes(n1, n2, d1, d2, cells, *wavelength_range)
     if not math.isfinite(wanted) or wanted >= max_samples:  # (also absurd or overflowing inputs)
