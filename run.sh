@@ -83,7 +83,19 @@ EOF
 # (npm's gltf-validator, pinned, into .venv/node_modules) for the glTF export test. Without them
 # those tests skip with their reason.
 GLTF_VALIDATOR_PIN="gltf-validator@2.0.0-dev.3.10"
+# MathJax 3 (npm, pinned, into .venv/node_modules): docs/conf.py stages it into the site so its
+# equations render offline; without npm the pages load MathJax from its CDN when viewed.
+MATHJAX_PIN="mathjax@3.2.2"
+ensure_mathjax() {
+    if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/mathjax/es5/tex-chtml.js" ]]; then
+        echo "run.sh: installing $MATHJAX_PIN (npm; the site's equations offline)" >&2
+        npm install --prefix "$VENV" --no-audit --no-fund --silent "$MATHJAX_PIN" >/dev/null 2>&1 \
+            || echo "run.sh: could not install $MATHJAX_PIN; the site will load MathJax from its CDN" >&2
+    fi
+}
+
 ensure_test_tools() {
+    ensure_mathjax
     if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/gltf-validator/package.json" ]]; then
         echo "run.sh: installing $GLTF_VALIDATOR_PIN (npm; the glTF validator test)" >&2
         npm install --prefix "$VENV" --no-audit --no-fund --silent "$GLTF_VALIDATOR_PIN" >/dev/null 2>&1 \
@@ -116,6 +128,7 @@ case "$cmd" in
         ;;
     docs)
         ensure_venv
+        ensure_mathjax
         # offline (the intersphinx inventories are local); -n: every cross-reference must resolve;
         # -W: a warning fails the build
         "$PY" -m sphinx -q -n -W --keep-going -b html docs docs/_build/html

@@ -115,6 +115,35 @@ html_title = f"torchirid {version}"
 html_theme_options = {"navigation_with_keys": False, "show_toc_level": 2}
 html_static_path: list[str] = []
 
+
+def _vendored_mathjax() -> Path | None:
+    """MathJax 3 from npm (``bash run.sh docs`` installs ``mathjax`` into .venv/node_modules, or
+    $TORCHIRID_MATHJAX names its ``es5`` folder), staged into docs/_build/_mathjax: the site then
+    renders its equations offline. Without it the pages load MathJax from its CDN when viewed."""
+    import os
+    import shutil
+
+    source = Path(os.environ.get("TORCHIRID_MATHJAX", DOCS.parent / ".venv" / "node_modules" / "mathjax" / "es5"))
+    if not (source / "tex-chtml.js").is_file():
+        return None
+    stage = DOCS / "_build" / "_mathjax"
+    target = stage / "mathjax"
+    # the component, its TeX extensions (autoloaded by macro) and the CHTML fonts: ~2.5 MB of 24
+    for part in ("tex-chtml.js", "input/tex/extensions", "output/chtml/fonts/woff-v2", "ui", "a11y"):
+        src, dst = source / part, target / part
+        if src.is_dir() and not dst.is_dir():
+            shutil.copytree(src, dst)
+        elif src.is_file() and (not dst.is_file() or dst.stat().st_size != src.stat().st_size):
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(src, dst)
+    return stage
+
+
+_MATHJAX = _vendored_mathjax()
+if _MATHJAX is not None:
+    html_static_path.append(str(_MATHJAX))
+    mathjax_path = "mathjax/tex-chtml.js"  # relative to _static
+
 # offline: the inventories are the small local ones of docs/_intersphinx (make_inventories.py)
 sys.path.insert(0, str(DOCS / "_intersphinx"))
 from make_inventories import INVENTORIES  # noqa: E402

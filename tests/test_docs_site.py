@@ -73,3 +73,18 @@ def test_the_gallery_has_its_pages(build):
     html, _, _ = build
     for script in EXAMPLES:
         assert (html / "auto_examples" / f"{script.stem}.html").is_file(), script.stem
+
+
+def test_equations_render_offline(build):
+    """With MathJax vendored (``bash run.sh test``/``docs`` install npm's mathjax), every page with
+    maths loads it from the site itself, and the fonts it needs are there: nothing fetched."""
+    html, _, _ = build
+    if not (ROOT / ".venv" / "node_modules" / "mathjax" / "es5" / "tex-chtml.js").is_file():
+        pytest.skip("npm's mathjax is not installed (bash run.sh test installs it); the site uses MathJax's CDN")
+    pages = [p.read_text(encoding="utf-8") for p in html.rglob("*.html")]
+    assert not any("cdn.jsdelivr" in p or "mathjax@3" in p for p in pages)
+    static = html / "_static" / "mathjax"
+    assert (static / "tex-chtml.js").stat().st_size > 500_000
+    assert any((static / "output" / "chtml" / "fonts" / "woff-v2").glob("*.woff"))
+    api = (html / "api" / "spectral.html").read_text(encoding="utf-8")
+    assert "_static/mathjax/tex-chtml.js" in api and r"\(" in api  # a page with inline maths
