@@ -26,7 +26,15 @@ def value_checks_enabled() -> bool:
     """Whether torchirid checks argument *values* (ranges, units, NaN-free counts).
 
     Off under :func:`set_value_checks(False) <set_value_checks>` / :func:`value_checks`, and
-    automatically while ``torch.compile`` traces (``torch.compiler.is_compiling()``)."""
+    automatically while ``torch.compile`` traces (``torch.compiler.is_compiling()``).
+
+    >>> import torchirid
+    >>> torchirid.value_checks_enabled()
+    True
+    >>> with torchirid.value_checks(False):
+    ...     torchirid.value_checks_enabled()
+    False
+    """
     return _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling()
 
 
@@ -55,7 +63,17 @@ def set_value_checks(enabled: bool = True) -> None:
 @contextlib.contextmanager
 def value_checks(enabled: bool = True):
     """Context manager: argument-value checks on or off inside the block (:func:`set_value_checks`),
-    restored on exit."""
+    restored on exit.
+
+    >>> import torchirid
+    >>> try:
+    ...     torchirid.thin_film_reflectance(0.55, 1.0, 1.4, 100.0, 1.5)  # µm by mistake
+    ... except ValueError as error:
+    ...     print(str(error).split(";")[0])
+    wavelength must be in nm, between 1 and 1e+06 nm
+    >>> with torchirid.value_checks(False):  # no check: a number, but a wrong one
+    ...     R = torchirid.thin_film_reflectance(0.55, 1.0, 1.4, 100.0, 1.5)
+    """
     if not isinstance(enabled, bool):
         raise ValueError(f"enabled must be True or False; got {enabled!r}")
     before = _VALUE_CHECKS["enabled"]

@@ -106,14 +106,30 @@ def default_chunk_size(device=None) -> int:
 
 
 def get_chunk_size(device=None) -> int | None:
-    """The block size in points on ``device`` (default: the CPU's); None: chunking off."""
+    """The block size in points on ``device`` (default: the CPU's); None: chunking off.
+
+    >>> import torchirid
+    >>> torchirid.get_chunk_size(), torchirid.get_chunk_size("cuda")  # the defaults per device
+    (32768, 16777216)
+    """
     points = _STATE["points"]
     return default_chunk_size(device) if points == AUTO else points
 
 
 @contextlib.contextmanager
 def chunk_size(points: int | str | None):
-    """Context manager: the block size inside the ``with`` block (:func:`set_chunk_size`)."""
+    """Context manager: the block size inside the ``with`` block (:func:`set_chunk_size`).
+
+    >>> import torch, torchirid
+    >>> wavelength = torch.linspace(380.0, 780.0, 401, dtype=torch.float64)[:, None]  # nm
+    >>> cos_theta = torch.linspace(0.0, 1.0, 200, dtype=torch.float64)
+    >>> with torchirid.chunk_size(4096):  # 80 200 points in blocks of 4096
+    ...     R = torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20)
+    >>> torch.equal(R, torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20))
+    True
+    >>> torchirid.get_chunk_size()  # restored on exit
+    32768
+    """
     points = _check(points)
     before = _STATE["points"]
     _STATE["points"] = points

@@ -28,14 +28,29 @@ _failed: set[str] = set()
 
 
 def set_compile(enabled: bool = True) -> None:
-    """Enable or disable ``torch.compile`` of torchirid's elementwise kernels (default: off)."""
+    """Enable or disable ``torch.compile`` of torchirid's elementwise kernels (default: off).
+
+    Compiling costs seconds per kernel variant on first use (cached on disk) and needs a C++
+    compiler; values agree with the eager kernels to ~1e-13. Small calls stay eager. The
+    environment variable ``TORCHIRID_COMPILE=1`` switches it on at import.
+
+    >>> import torchirid
+    >>> torchirid.set_compile(True); torchirid.compile_enabled()
+    True
+    >>> torchirid.set_compile(False)  # back to the default: eager kernels
+    """
     if not isinstance(enabled, bool):
         raise ValueError(f"enabled must be True or False; got {enabled!r}")
     _state["enabled"] = enabled
 
 
 def compile_enabled() -> bool:
-    """Whether compiled kernels are in use (:func:`set_compile`, ``TORCHIRID_COMPILE``)."""
+    """Whether compiled kernels are in use (:func:`set_compile`, ``TORCHIRID_COMPILE``).
+
+    >>> import torchirid
+    >>> torchirid.compile_enabled()  # off unless TORCHIRID_COMPILE=1 was set
+    False
+    """
     return _state["enabled"]
 
 

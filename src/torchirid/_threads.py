@@ -63,7 +63,12 @@ def set_small_work_threads(threads: int | None = 1) -> None:
 
 
 def get_small_work_threads() -> int | None:
-    """The thread count for small calls (None: torch's setting is left alone)."""
+    """The thread count for small calls (None: torch's setting is left alone).
+
+    >>> import torchirid
+    >>> torchirid.get_small_work_threads()  # the default: small calls run on one thread
+    1
+    """
     return _STATE["threads"]
 
 
