@@ -18,7 +18,7 @@ import pytest
 import torchirid
 
 ROOT = Path(__file__).resolve().parents[1]
-DOCS = [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md")),
+DOCS = [ROOT / "README.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md")), *sorted((ROOT / "docs" / "guide").glob("*.md")),
         ROOT / "luts" / "README.md", ROOT / "training" / "README.md", ROOT / "benchmarks" / "README.md"]
 TOP = {m.name for m in pkgutil.iter_modules(torchirid.__path__)} - {"__main__"}
 NAME = re.compile(r"^(?:torchirid\.)?([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)(\(.*\))?$")
