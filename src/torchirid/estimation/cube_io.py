@@ -41,7 +41,17 @@ def _host(x) -> torch.Tensor:
 @dataclass
 class Cube:
     """cube ``(H, W, A, B)`` float64, wavelength ``(B,)`` nm, angles_deg ``(A,)``, bandwidth (nm or None),
-    thickness (optional ground truth ``(H, W)``), meta (dict)."""
+    thickness (optional ground truth ``(H, W)``), meta (dict).
+
+    Example (what :func:`read_cube` returns; the angles come back sorted, the cube with them):
+        >>> import os, tempfile, torch
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     p = os.path.join(d, "cube.npz")
+        ...     write_npz(p, torch.zeros(4, 4, 2, 3), [500.0, 550.0, 600.0], [40.0, 10.0])  # nm, degrees
+        ...     c = read_cube(p)
+        >>> tuple(c.cube.shape), c.angles_deg.tolist(), [round(v, 4) for v in c.cos_theta.tolist()]
+        ((4, 4, 2, 3), [10.0, 40.0], [0.9848, 0.766])
+    """
 
     cube: torch.Tensor
     wavelength: torch.Tensor
@@ -67,7 +77,24 @@ def _check_shapes(cube, wavelength, angles):
 
 
 def write_npz(path, cube, wavelength, angles_deg, *, bandwidth=None, thickness=None, meta=None) -> None:
-    """Write a cube as .npz (module docstring); tensors on any device."""
+    """Write a cube as .npz (module docstring); tensors on any device.
+
+    Args:
+        path: the ``.npz`` file (written atomically).
+        cube: ``(H, W, A, B)`` band reflectance; wavelength ``(B,)`` nm; angles_deg ``(A,)`` degrees.
+        bandwidth: the bands' width (nm) or None; thickness: optional ``(H, W)`` ground truth (nm);
+            meta: a JSON-ready dict (e.g. polarization, n_substrate).
+
+    Example (a 4 × 4 pixel cube of 2 angles × 3 bands, read back with :func:`read_cube`):
+        >>> import os, tempfile, torch
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     p = os.path.join(d, "cube.npz")
+        ...     write_npz(p, torch.full((4, 4, 2, 3), 0.05), [500.0, 550.0, 600.0], [10.0, 40.0],
+        ...               bandwidth=4.0, meta={"polarization": "s"})
+        ...     c = read_cube(p)
+        >>> tuple(c.cube.shape), c.bandwidth, c.meta
+        ((4, 4, 2, 3), 4.0, {'polarization': 's'})
+    """
     cube, wl, ang = (_host(x) for x in (cube, wavelength, angles_deg))
     _check_shapes(cube, wl, ang)
     arrays = dict(cube=cube.numpy(), wavelength_nm=wl.numpy(), angle_deg=ang.numpy(),
@@ -82,7 +109,22 @@ def write_npz(path, cube, wavelength, angles_deg, *, bandwidth=None, thickness=N
 
 
 def write_envi(path_hdr, cube, wavelength, angles_deg, *, bandwidth=None) -> None:
-    """Write a cube as ENVI .hdr + .img (float32 data, angle-major bands, module docstring)."""
+    """Write a cube as ENVI .hdr + .img (float32 data, angle-major bands, module docstring).
+
+    Arguments as :func:`write_npz` (``path_hdr``: the ``.hdr`` file, the ``.img`` data file
+    written beside it); the angles go to the per-band ``incidence angle`` field, the bandwidth
+    to ``fwhm``. Needs the optional ``spectral`` package.
+
+    Example (read back with :func:`read_cube`, which takes the angles from the header):
+        >>> import os, tempfile, torch
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     hdr = os.path.join(d, "cube.hdr")
+        ...     write_envi(hdr, torch.full((4, 4, 2, 3), 0.25), [500.0, 550.0, 600.0], [10.0, 40.0], bandwidth=4.0)
+        ...     c = read_cube(hdr)
+        ...     files = sorted(os.listdir(d))
+        >>> files, tuple(c.cube.shape), c.angles_deg.tolist(), c.bandwidth
+        (['cube.hdr', 'cube.img'], (4, 4, 2, 3), [10.0, 40.0], 4.0)
+    """
     from spectral.io import envi
 
     cube, wl, ang = (_host(x) for x in (cube, wavelength, angles_deg))
@@ -257,9 +299,10 @@ def read_cube(path, *, angles_deg=None) -> Cube:
 
     Example:
         >>> import tempfile, os, torch
-        >>> d = tempfile.mkdtemp(); p = os.path.join(d, "c.npz")
-        >>> write_npz(p, torch.zeros(2, 3, 2, 4), [400, 404, 408, 412], [10, 20])
-        >>> tuple(read_cube(p).cube.shape)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     p = os.path.join(d, "c.npz")
+        ...     write_npz(p, torch.zeros(2, 3, 2, 4), [400, 404, 408, 412], [10, 20])
+        ...     print(tuple(read_cube(p).cube.shape))
         (2, 3, 2, 4)
     """
     if isinstance(path, (list, tuple)) and len(path) == 1:

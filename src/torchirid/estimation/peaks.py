@@ -393,7 +393,26 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
 
 
 def select_candidates(cube, candidates, terms):
-    """Eq. 14: for each pixel the candidate with the least squared error → ``(d (P,), sse (P,))``."""
+    """Eq. 14: for each pixel the candidate with the least squared error → ``(d (P,), sse (P,))``.
+
+    Args:
+        cube: ``(P, A, B)`` band reflectance; candidates: ``(P, C)`` thicknesses (nm, NaN: none);
+        terms: (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.band_terms`
+            or :func:`~torchirid.estimation.model_terms` (the misfit is
+            :func:`~torchirid.estimation.cube_sse`).
+
+    Example (two noise-free pixels of MgF₂ on PET, 380 and 420 nm thick, three orders each):
+        >>> import torch
+        >>> from torchirid.estimation import model_cube, model_terms
+        >>> w = torch.arange(400.0, 721.0, 8.0, dtype=torch.float64)  # nm
+        >>> cos_t = torch.tensor([0.98, 0.77, 0.64], dtype=torch.float64)
+        >>> n = torch.tensor([1.37], dtype=torch.float64)  # a constant index
+        >>> cube = model_cube(n, "constant", torch.tensor([380.0, 420.0], dtype=torch.float64), w, cos_t, 1.64)
+        >>> cand = torch.tensor([[250.0, 380.0, 510.0], [290.0, 420.0, 550.0]], dtype=torch.float64)  # nm
+        >>> d, sse = select_candidates(cube, cand, model_terms(n, "constant", w, cos_t, 1.64))
+        >>> d.tolist(), [round(v, 12) for v in sse.tolist()]
+        ([380.0, 420.0], [0.0, 0.0])
+    """
     sse = cube_sse(cube, terms, candidates)
     best = sse.argmin(-1)
     return candidates.gather(-1, best[:, None])[:, 0], sse.gather(-1, best[:, None])[:, 0]
@@ -407,6 +426,13 @@ class PeakResult:
     eq. 14 at the chosen d; track_index ``(*, K)`` per-track n (NaN where undetermined);
     window: the W used for extremum location; fallback: pixels with no usable track
     (their d comes from a thickness grid instead of eq. 13).
+
+    Example (the peak method on a 4 × 4 pixel synthetic MgF₂ cube, n = 1.37):
+        >>> from torchirid.estimation import synthetic_cube
+        >>> c = synthetic_cube("mgf2_400", height=4, width=4, seed=1)
+        >>> pk = peak_method(c.cube, c.wavelength, c.cos_theta, 1.64)
+        >>> round(pk.n, 2), tuple(pk.thickness.shape), tuple(pk.sse.shape), pk.fallback
+        (1.37, (4, 4), (4, 4), 0)
     """
 
     n: float
@@ -439,7 +465,13 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     Returns:
         :class:`PeakResult`; dtype and device follow the inputs.
 
-    Example: see ``tests/estimation/test_peaks.py`` (a synthetic MgF₂ cube gives n within 0.02).
+    Example (a 4 × 4 pixel synthetic cube of MgF₂, n = 1.37, 360–440 nm thick on PET, n = 1.64;
+    ``tests/estimation/test_peaks.py`` has more):
+        >>> from torchirid.estimation import synthetic_cube
+        >>> c = synthetic_cube("mgf2_400", height=4, width=4, seed=1)  # (4, 4, 5, 81): 5 angles, 400–720 nm
+        >>> pk = peak_method(c.cube, c.wavelength, c.cos_theta, 1.64)
+        >>> round(pk.n, 2), bool((pk.thickness - c.thickness).abs().max() < 2.0)  # d within 2 nm
+        (1.37, True)
     """
     y, lam, c = cube_axes(cube, wavelength, cos_theta)
     if lam.numel() < 7:

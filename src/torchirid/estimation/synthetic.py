@@ -59,7 +59,22 @@ def default_wavelengths(dtype=torch.float64) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class FilmSample:
-    """One of the paper's samples: film index (a number or a callable of λ in nm), d₀, substrate."""
+    """One of the paper's samples: film index (a number or a callable of λ in nm), d₀, substrate.
+
+    Attributes:
+        name, label: the key in :data:`SAMPLES` and a title.
+        n_film: the film index, a number or a callable of λ (nm) → n.
+        thickness: the mean thickness d₀ (nm); n_substrate: the substrate's real index (PET 1.64).
+        paper: Kobayashi et al.'s Table-1 figures (empty for a sample of your own).
+
+    Example (a sample of :data:`SAMPLES`, and one of your own rendered by :func:`synthetic_cube`):
+        >>> s = SAMPLES["zns_500"]
+        >>> s.thickness, s.n_substrate, round(s.n_reference, 3)  # nm; ZnS at 589.3 nm
+        (500.0, 1.64, 2.367)
+        >>> mine = FilmSample("sio2_300", "SiO2 300 nm", 1.46, 300.0)
+        >>> tuple(synthetic_cube(mine, height=2, width=2).cube.shape)
+        (2, 2, 5, 81)
+    """
 
     name: str
     label: str
@@ -107,6 +122,13 @@ class SyntheticCube:
         thickness: ``(H, W)`` true thickness (nm).
         wavelength: ``(B,)`` band centres (nm); angles_deg ``(A,)``; cos_theta ``(A,)``.
         sample: the :class:`FilmSample`; plus the rendering settings.
+
+    Example (what :func:`synthetic_cube` returns: 4 × 4 pixels, 2 angles, 81 bands):
+        >>> c = synthetic_cube("mgf2_600", height=4, width=4, angles_deg=(10.0, 40.0), seed=0)
+        >>> tuple(c.cube.shape), tuple(c.thickness.shape), [round(v, 4) for v in c.cos_theta.tolist()]
+        ((4, 4, 2, 81), (4, 4), [0.9848, 0.766])
+        >>> c.sample.name, c.polarization, bool((c.cube - c.clean).abs().max() < 0.01)
+        ('mgf2_600', 'unpolarized', True)
     """
 
     cube: torch.Tensor

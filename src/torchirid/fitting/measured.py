@@ -150,6 +150,16 @@ class ScatterogramImage:
         directions: ``(R, R, 3)`` the reflected direction of each pixel (NaN off the disc).
         projection: the angular mapping of the grid.
         params: the reading parameters (JSON-ready).
+
+    Example (what :func:`load_scatterogram` returns, for a 16-pixel render written as a PNG):
+        >>> import os, tempfile
+        >>> from torchirid.layered import scatterogram
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)  # a 30° beam
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     img = load_scatterogram(save_scatterogram_png(s, os.path.join(d, "beetle.png")))
+        >>> tuple(img.xyz.shape), tuple(img.mask.shape), img.projection, bool((img.mask == s.mask).all())
+        ((16, 16, 3), (16, 16), 'equidistant', True)
     """
 
     xyz: torch.Tensor
@@ -175,7 +185,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     bilinearly after decoding (sRGB → linear → XYZ, the exact inverse of the library's
     :func:`~torchirid.color.xyz_to_srgb`), so an image written by
     :func:`save_scatterogram_png` at the same resolution comes back unchanged up to
-    quantisation.
+    quantisation and to the colours outside the sRGB gamut, which the PNG clips.
 
     **OpenEXR** (a path ending in ``.exr``) needs the optional ``openexr`` package
     (``pip install openexr``; ``ImportError`` saying so otherwise). Its values are linear
@@ -208,6 +218,20 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
             unsupported file, or an image smaller than 2 × 2 pixels (the message names the file).
         FileNotFoundError: no file at ``path``.
         ImportError: an ``.exr`` path without the ``openexr`` package.
+
+    Example (a 16-pixel render written at half exposure, read back, and resampled onto 8 pixels):
+        >>> import os, tempfile, torch
+        >>> from torchirid.layered import scatterogram
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     path = save_scatterogram_png(s, os.path.join(d, "beetle.png"), exposure=0.5)  # 16-bit sRGB
+        ...     img = load_scatterogram(path, exposure=2.0)  # undo the exposure
+        ...     small = load_scatterogram(path, resolution=8, exposure=2.0)
+        >>> img.params["bits"], img.params["radius_px"], tuple(small.xyz.shape)  # radius in pixels
+        (16, 8.0, (8, 8, 3))
+        >>> bool((img.xyz - torch.where(s.mask[..., None], s.xyz, 0.0)).abs().max() < 0.01)  # XYZ
+        True
     """
     is_exr = os.fspath(path).lower().endswith(".exr")
     if saturation is not None:
@@ -326,6 +350,17 @@ def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, b
         mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).
 
     Returns the path (a ``Path``); written atomically.
+
+    Example (an 8-bit PNG of a 16-pixel render):
+        >>> import os, tempfile
+        >>> from torchirid.layered import scatterogram
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     path = save_scatterogram_png(s, os.path.join(d, "beetle.png"), bits=8)
+        ...     img = load_scatterogram(path)
+        >>> path.name, img.params["format"], img.params["bits"], tuple(img.xyz.shape)
+        ('beetle.png', 'png', 8, (16, 16, 3))
     """
     if bits not in (8, 16):
         raise ValueError(f"bits must be 8 or 16; got {bits!r}")
@@ -350,6 +385,17 @@ def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, m
         mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).
 
     Returns the path (a ``Path``); written atomically (a temporary file renamed over ``path``).
+
+    Example (a 16-pixel render: the OpenEXR round trip is exact to float32 rounding):
+        >>> import os, tempfile, torch
+        >>> from torchirid.layered import scatterogram
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     img = load_scatterogram(save_scatterogram_exr(s, os.path.join(d, "beetle.exr")))
+        >>> err = (img.xyz - torch.where(s.mask[..., None], s.xyz, 0.0)).abs().max()  # XYZ
+        >>> img.params["format"], bool(err < 1e-6)
+        ('exr', True)
     """
     rgb = _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)
     pixels = rgb.numpy().astype(np.float32)

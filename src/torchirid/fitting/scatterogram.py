@@ -153,7 +153,23 @@ def _check_incident(incident_deg) -> list:
 def render_targets(structure, incident_deg, *, resolution: int, wavelength=None, projection: str = "equidistant",
                    lut: bool = False) -> torch.Tensor:
     """The scatterograms of ``structure`` under each illumination of ``incident_deg`` stacked:
-    ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.layered.scatterograms.scatterogram`)."""
+    ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.layered.scatterograms.scatterogram`).
+
+    Args:
+        structure: a :class:`~torchirid.layered.structure.LayeredBragg` (or one rough layer).
+        incident_deg: one illumination — ``None`` (the white environment) or ``(θ, φ)`` in
+            degrees (a narrow beam) — or a list of them (K).
+        resolution, wavelength, projection, lut: as
+            :func:`~torchirid.layered.scatterograms.scatterogram` (wavelength in nm).
+
+    Example (a green jewel beetle under two beams, 12 × 12 pixels each):
+        >>> import torch
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> t = render_targets(jewel_beetle("green"), [(0.0, 0.0), (40.0, 0.0)], resolution=12,
+        ...                    wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))
+        >>> tuple(t.shape), bool(t[..., 1].max() > 0)  # (K, H, W, XYZ)
+        ((2, 12, 12, 3), True)
+    """
     incs = _check_incident(incident_deg)
     return torch.stack([scatterogram(structure, incident_deg=inc, resolution=resolution, wavelength=wavelength,
                                      projection=projection, lut=lut).xyz for inc in incs])
@@ -233,6 +249,16 @@ class ScatterogramAlternative:
             target's lit pixels (the whole mask if none is lit): how far apart the two
             explanations look.
         near_degenerate: ``delta_e2000_vs_fit < ambiguity_de2000`` (see :func:`match_scatterogram`).
+
+    Example (the 2Λ refit of a quick fit to an 8-pixel render of a 160 nm layer; a short fit, for speed):
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> t = render_targets(jewel_beetle("green"), [(20.0, 0.0)], resolution=8)  # Λ = 160 nm, N = 8
+        >>> fit = match_scatterogram(t, incident_deg=[(20.0, 0.0)], n1=1.59, cells=(8,), period_range=None,
+        ...                          init={"period": 164.0, "delta": 0.51, "dn": 0.08, "alpha": 0.05},
+        ...                          short_iter=2, max_iter=3, harmonics=(2.0,))
+        >>> alt = fit.alternatives[0]
+        >>> alt.label, alt.refitted, round(alt.period / fit.period, 1), alt.loss > fit.loss
+        ('2Λ', True, 2.0, True)
     """
 
     label: str
@@ -279,6 +305,17 @@ class ScatterogramFit:
             between them (see "What a visible-only scatterogram identifies" in the module docstring).
         stages: a JSON-ready log of the stages (grid minima, starts, N enumeration, polish,
             harmonics, ranges).
+
+    Example (a quick fit to an 8-pixel render of a 160 nm layer, from 164 nm, N known, no harmonics):
+        >>> from torchirid.layered.presets import jewel_beetle
+        >>> t = render_targets(jewel_beetle("green"), [(20.0, 0.0)], resolution=8)  # Λ = 160 nm, N = 8
+        >>> fit = match_scatterogram(2.5 * t, incident_deg=[(20.0, 0.0)], n1=1.59, cells=(8,), period_range=None,
+        ...                          init={"period": 164.0, "delta": 0.51, "dn": 0.08, "alpha": 0.05},
+        ...                          short_iter=3, max_iter=5, harmonics=())
+        >>> abs(fit.period - 160.0) < 3, fit.cells, fit.alternatives  # Λ in nm
+        (True, 8, ())
+        >>> round(fit.structure().layers[0].d1 + fit.structure().layers[0].d2, 6) == round(fit.period, 6)
+        True
     """
 
     period: float

@@ -57,7 +57,14 @@ F64 = torch.float64
 
 def texture_coordinate(x, lo: float, hi: float, n: int):
     """The texture coordinate ``u`` in [½/n, 1 − ½/n] of ``x`` on an axis of ``n`` texels over
-    ``[lo, hi]`` (``x`` clamped to the range): what the shaders compute before ``texture()``."""
+    ``[lo, hi]`` (``x`` clamped to the range): what the shaders compute before ``texture()``.
+
+    Example (thicknesses in nm on a 16-texel axis over 100–400 nm):
+        >>> import torch
+        >>> u = texture_coordinate(torch.tensor([100.0, 250.0, 400.0, 900.0]), 100.0, 400.0, 16)
+        >>> [round(v, 4) for v in u.tolist()]  # the end texels' centres; 900 nm is clamped
+        [0.0312, 0.5, 0.9688, 0.9688]
+    """
     t = ((torch.as_tensor(x) - lo) / (hi - lo)).clamp(0.0, 1.0)
     return (t * (n - 1) + 0.5) / n
 
@@ -132,7 +139,21 @@ def bragg_wavelength(cos_theta, period, delta, n1: float, n2: float, n_incident:
     The Bragg texture's second axis (an axis warp): a mirror's colour depends on Λ and cos θ
     mostly through λ_B, so texels spent along λ_B follow the colour; the shaders compute it the
     same way before the lookup.
+
+    ``cos_theta``, ``period`` (nm) and ``delta``: numbers or tensors that broadcast together
+    (dtype/device from them); ``n1``, ``n2``, ``n_incident``: real numbers.
+
+    Example (Λ = 160 nm, δ = ½, n1 = 1.56, n2 = 1.68, at normal incidence and at cos θ = 0.5):
+        >>> import torch
+        >>> lam = bragg_wavelength(torch.tensor([1.0, 0.5]), 160.0, 0.5, 1.56, 1.68)
+        >>> [round(v, 1) for v in lam.tolist()]  # nm; at normal incidence 2Λ(n1 + n2)/2
+        [518.4, 284.6]
+        >>> round(float(bragg_wavelength(1.0, 160.0, 0.5, 1.56, 1.68)), 1)  # numbers work too
+        518.4
     """
+    dtype, device = _checks.resolve_dtype_device(cos_theta, period, delta)
+    cos_theta, period, delta = (_checks.as_real(v, name, dtype, device) for v, name in
+                                ((cos_theta, "cos_theta"), (period, "period"), (delta, "delta")))
     n0 = n1 if n_incident is None else n_incident
     s2 = n0 * n0 * (1 - cos_theta * cos_theta)
     q1 = torch.sqrt(torch.clamp(n1 * n1 - s2, min=0.0))
@@ -179,24 +200,57 @@ def _warp(name, x, inverse=False):
 
 
 def texture_axes(family: str) -> tuple[str, ...]:
-    """The texture's axis names: the family's axes, warped ones prefixed (``sqrt_cos_theta``)."""
+    """The texture's axis names: the family's axes, warped ones prefixed (``sqrt_cos_theta``).
+
+    Example:
+        >>> texture_axes("thin_film"), texture_axes("bragg")
+        (('sqrt_cos_theta', 'thickness'), ('sqrt_cos_theta', 'bragg_wavelength', 'delta'))
+    """
     return tuple(f"{AXIS_WARPS[n]}_{n}" if n in AXIS_WARPS else n for n in FAMILIES[family][0])
 
 
 def to_texture(family: str, points: torch.Tensor) -> torch.Tensor:
-    """Points ``(*, k)`` in the family's coordinates (cos θ, nm, …) → the texture's (warped) coordinates."""
+    """Points ``(*, k)`` in the family's coordinates (cos θ, nm, …) → the texture's (warped) coordinates.
+
+    Example (thin film: (cos θ, d in nm) → (√cos θ, d)):
+        >>> import torch
+        >>> to_texture("thin_film", torch.tensor([[0.25, 300.0], [1.0, 120.0]])).tolist()
+        [[0.5, 300.0], [1.0, 120.0]]
+    """
     return torch.stack([_warp(n, points[..., j]) for j, n in enumerate(FAMILIES[family][0])], -1)
 
 
 def lookup(lut: LUT, family: str, points: torch.Tensor) -> torch.Tensor:
     """The texture's colour at ``points`` (family coordinates): warp, then multilinear (clamped)
-    interpolation — what the shaders do with hardware filtering (:func:`texture_coordinate`)."""
+    interpolation — what the shaders do with hardware filtering (:func:`texture_coordinate`).
+
+    Returns linear sRGB ``(*, 3)`` in the texture's dtype.
+
+    Example (the shipped soap-film texture against the exact colour):
+        >>> import torch
+        >>> lut = shipped_texture("thin_film_soap")  # a film of n 1.33 in air, over (cos θ, d)
+        >>> pts = torch.tensor([[1.0, 300.0], [0.5, 500.0]], dtype=torch.float64)  # (cos θ, d in nm)
+        >>> rgb = lookup(lut, "thin_film", pts)
+        >>> exact = exact_colour("thin_film", pts, {k: lut.parameters[k] for k in ("n_film", "n_substrate")})
+        >>> tuple(rgb.shape), bool((rgb.double() - exact).abs().max() < 0.005)
+        ((2, 3), True)
+    """
     return lut.interp(*to_texture(family, points).unbind(-1))
 
 
 def exact_colour(family: str, points: torch.Tensor, parameters: Mapping) -> torch.Tensor:
     """Linear sRGB (D65, white Y = 1) of ``family`` at ``points`` (``(*, k)``, the family's axes
-    in order), evaluated spectrally — the reference the textures are fitted to."""
+    in order), evaluated spectrally — the reference the textures are fitted to.
+
+    ``parameters``: the family's fixed parameters, as in :func:`fit_texture`. Returns ``(*, 3)``.
+
+    Example (a 300 nm soap film, n 1.33, in air, at normal incidence and at cos θ = 0.5):
+        >>> import torch
+        >>> pts = torch.tensor([[1.0, 300.0], [0.5, 300.0]], dtype=torch.float64)  # (cos θ, d in nm)
+        >>> rgb = exact_colour("thin_film", pts, {"n_film": 1.33, "n_substrate": 1.0})
+        >>> tuple(rgb.shape), [round(v, 3) for v in rgb[0].tolist()]
+        ((2, 3), [0.043, 0.078, 0.033])
+    """
     if family not in FAMILIES:
         raise ValueError(f"family must be one of {', '.join(map(repr, FAMILIES))}; got {family!r}")
     xyz = FAMILIES[family][2](points, **dict(parameters))
@@ -230,7 +284,13 @@ def shipped_texture(name: str) -> LUT:
 
 def glsl_source() -> str:
     """The shader functions (GLSL ES 3.00) that evaluate these textures inside the GGX BRDF:
-    ``torchirid/realtime/glsl/torchirid.glsl`` (no ``#version`` line: prepend your own)."""
+    ``torchirid/realtime/glsl/torchirid.glsl`` (no ``#version`` line: prepend your own).
+
+    Example:
+        >>> src = glsl_source()
+        >>> "#version" in src, "tirid_thin_film_rgb" in src, "tirid_bragg_rgb" in src
+        (False, True, True)
+    """
     from importlib import resources
 
     return (resources.files("torchirid") / "realtime" / "glsl" / "torchirid.glsl").read_text(encoding="utf-8")
@@ -252,6 +312,14 @@ class TextureFit:
         texels: the number of texels (RGB each).
         seconds: wall time of the fit.
         history: the training loss (mean ΔE00²) per L-BFGS step.
+
+    Example (what :func:`fit_texture` returns, for a tiny 4 × 8 texture and a short fit):
+        >>> fit = fit_texture("thin_film", (4, 8), ((0.5, 1.0), (100.0, 300.0)), {"n_film": 1.33, "n_substrate": 1.5},
+        ...                   samples=200, validation=200, iterations=5)
+        >>> tuple(fit.lut.values.shape), tuple(fit.sampled.values.shape), fit.texels
+        ((4, 8, 3), (4, 8, 3), 32)
+        >>> fit.errors["fitted"]["mean"] < fit.errors["sampled"]["mean"]  # ΔE2000 on the validation samples
+        True
     """
 
     lut: LUT
@@ -281,7 +349,16 @@ def _samples(ranges, count, seed):
 class TextureSamples:
     """Training and validation samples of a family's exact colour over a domain (reusable
     across texture sizes: the exact colour is the expensive part). Attributes: ``train_x``
-    ``(M, k)``, ``train_rgb`` ``(M, 3)``, ``valid_x``, ``valid_rgb``, ``ranges``."""
+    ``(M, k)``, ``train_rgb`` ``(M, 3)``, ``valid_x``, ``valid_rgb``, ``ranges``.
+
+    Example (samples drawn once by :func:`texture_samples`, then two texture sizes fitted to them):
+        >>> params = {"n_film": 1.33, "n_substrate": 1.5}
+        >>> s = texture_samples("thin_film", ((0.5, 1.0), (100.0, 300.0)), params, samples=200, validation=100)
+        >>> tuple(s.train_x.shape), tuple(s.valid_rgb.shape), s.ranges
+        ((200, 2), (100, 3), ((0.5, 1.0), (100.0, 300.0)))
+        >>> [fit_texture("thin_film", n, s.ranges, params, samples=s, iterations=3).texels for n in ((2, 4), (4, 8))]
+        [8, 32]
+    """
 
     train_x: torch.Tensor
     train_rgb: torch.Tensor
@@ -292,7 +369,19 @@ class TextureSamples:
 
 def texture_samples(family: str, ranges, parameters: Mapping, *, samples: int = 20_000, validation: int = 20_000,
                     seed: int = 0, exact: Callable | None = None) -> TextureSamples:
-    """Uniform random samples of the domain (seeds ``seed`` and ``seed + 1``) and their exact colours."""
+    """Uniform random samples of the domain (seeds ``seed`` and ``seed + 1``) and their exact colours.
+
+    Arguments as :func:`fit_texture`; ``samples`` training and ``validation`` validation points.
+    Returns a :class:`TextureSamples` (points in the family's coordinates, linear sRGB colours).
+
+    Example (a thin film over cos θ ∈ [0.2, 1] and d ∈ [100, 400] nm):
+        >>> s = texture_samples("thin_film", ((0.2, 1.0), (100.0, 400.0)), {"n_film": 1.33, "n_substrate": 1.5},
+        ...                     samples=64, validation=32)
+        >>> tuple(s.train_x.shape), tuple(s.train_rgb.shape), tuple(s.valid_rgb.shape)
+        ((64, 2), (64, 3), (32, 3))
+        >>> bool((s.train_x[:, 1] >= 100.0).all() and (s.train_x[:, 1] <= 400.0).all())  # nm
+        True
+    """
     ranges = _check_ranges(family, ranges)
     for count, name in ((samples, "samples"), (validation, "validation")):
         if isinstance(count, bool) or not isinstance(count, int) or count < 1:
@@ -318,7 +407,20 @@ def _check_ranges(family, ranges):
 
 
 def texture_lut(family: str, values: torch.Tensor, ranges, parameters: Mapping, *, builder: str) -> LUT:
-    """A LUT of ``values`` (``(*sizes, 3)`` linear sRGB) on the family's axes, uniform over ``ranges``."""
+    """A LUT of ``values`` (``(*sizes, 3)`` linear sRGB) on the family's axes, uniform over ``ranges``.
+
+    The grids are uniform in the warped coordinates (:func:`texture_axes`); ``parameters`` and
+    ``ranges`` are stored in the LUT's ``parameters``, ``builder`` names what made it.
+
+    Example (a 4 × 8 thin-film texture over cos θ ∈ [0.25, 1], d ∈ [100, 400] nm):
+        >>> import torch
+        >>> lut = texture_lut("thin_film", torch.zeros(4, 8, 3, dtype=torch.float64), ((0.25, 1.0), (100.0, 400.0)),
+        ...                   {"n_film": 1.33, "n_substrate": 1.5}, builder="my texture")
+        >>> list(lut.axes), [round(float(x), 3) for x in lut.axes["sqrt_cos_theta"]]  # uniform in √cos θ
+        (['sqrt_cos_theta', 'thickness'], [0.5, 0.667, 0.833, 1.0])
+        >>> lut.parameters["family"], lut.units["thickness"]
+        ('thin_film', 'nm')
+    """
     names, units, _ = FAMILIES[family]
     sizes = values.shape[:-1]
     axes = {}

@@ -85,7 +85,25 @@ def _record(kind: str, item: str, status: str, error: str | None, seconds: float
 
 def fit_item(kind: str, item, read: dict | None = None, fit: dict | None = None) -> dict:
     """Fit one file and return its record; any exception becomes a record with ``status="error"``
-    (what runs on a worker: it never raises for a bad input)."""
+    (what runs on a worker: it never raises for a bad input).
+
+    ``kind``, ``read`` and ``fit`` as :func:`fit_batch`; ``item``: one file path.
+
+    Example (a 2 × 2 pixel synthetic MgF₂ cube, n = 1.37, with a quick fit; then a missing file):
+        >>> import os, tempfile
+        >>> from torchirid.estimation import synthetic_cube, write_npz
+        >>> c = synthetic_cube("mgf2_400", height=2, width=2, seed=1)
+        >>> quick = {"thickness_range": [300.0, 500.0], "iterations": 2, "final_iterations": 0}  # nm
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     path = os.path.join(d, "film.npz")
+        ...     write_npz(path, c.cube, c.wavelength, c.angles_deg)
+        ...     rec = fit_item("film", path, fit=quick)
+        >>> rec["status"], round(rec["n"], 2), rec["pixels_valid"]
+        ('ok', 1.37, 4)
+        >>> bad = fit_item("film", "missing.npz")
+        >>> bad["status"], bad["error"], bad["n"]
+        ('error', "ValueError: cube file 'missing.npz' does not exist", None)
+    """
     start = time.perf_counter()
     try:
         values = _FITS[kind](os.fspath(item), dict(read or {}), dict(fit or {}))
@@ -176,10 +194,11 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
     Example:
         >>> import tempfile, pathlib
         >>> from torchirid.estimation import synthetic_cube, write_npz
-        >>> folder = pathlib.Path(tempfile.mkdtemp())
         >>> c = synthetic_cube("mgf2_400", height=4, width=4, seed=1)
-        >>> write_npz(folder / "a.npz", c.cube, c.wavelength, c.angles_deg)
-        >>> recs = fit_batch("film", [folder / "a.npz", folder / "missing.npz"])
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     folder = pathlib.Path(d)
+        ...     write_npz(folder / "a.npz", c.cube, c.wavelength, c.angles_deg)
+        ...     recs = fit_batch("film", [folder / "a.npz", folder / "missing.npz"])
         >>> [(r["status"], r["n"] is not None and abs(r["n"] - 1.38) < 0.02) for r in recs]  # MgF2: n = 1.38
         [('ok', True), ('error', False)]
         >>> recs[1]["error"]  # doctest: +ELLIPSIS
@@ -216,7 +235,21 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
 def write_results(records: Sequence[dict], path) -> Path:
     """Write the records as one table: ``.json`` (a list of objects, strict JSON: non-finite
     numbers as null), ``.csv`` (one row per item; list values joined with ``;``) or ``.parquet``
-    (needs ``pyarrow``). Returns the path."""
+    (needs ``pyarrow``). Returns the path.
+
+    Example (two records as :func:`fit_batch` returns them, written as CSV):
+        >>> import os, tempfile
+        >>> recs = [{"item": "a.npz", "status": "ok", "error": None, "seconds": 0.5, "n": 1.37, "index_params": [1.37]},
+        ...         {"item": "b.npz", "status": "error", "error": "ValueError: bad file", "seconds": 0.0, "n": None,
+        ...          "index_params": None}]
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     lines = write_results(recs, os.path.join(d, "fits.csv")).read_text().splitlines()
+        >>> for line in lines:
+        ...     print(line)
+        item,status,error,seconds,n,index_params
+        a.npz,ok,,0.5,1.37,1.37
+        b.npz,error,ValueError: bad file,0.0,,
+    """
     path = Path(os.fspath(path))
     suffix = path.suffix.lower()
     if suffix not in (".json", ".csv", ".parquet"):

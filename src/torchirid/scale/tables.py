@@ -106,12 +106,31 @@ def _content_hash(builder, parameters, axes, chunks, dtype) -> str:
 
 
 def table_chunks(shape, chunks) -> list[tuple[int, ...]]:
-    """Indices of every chunk of a grid of ``shape`` cut into ``chunks`` (row-major)."""
+    """Indices of every chunk of a grid of ``shape`` cut into ``chunks`` (row-major).
+
+    Example (a 3 × 5 grid in chunks of 2 × 2 nodes: 2 × 3 chunks, the last ones partial):
+        >>> table_chunks((3, 5), (2, 2))
+        [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)]
+    """
     return list(itertools.product(*(range(math.ceil(n / c)) for n, c in zip(shape, chunks))))
 
 
 class TableBuild:
-    """What :func:`build_table` did: the store, the chunks computed now and those found done."""
+    """What :func:`build_table` did: the store, the chunks computed now and those found done.
+
+    Attributes: ``store`` (a ``Path``), ``computed`` and ``skipped`` (numbers of chunks).
+
+    Example (a build, then the same build again: every chunk is found done and skipped):
+        >>> import os, tempfile, torchirid
+        >>> axes = {"wavelength": [450.0, 550.0, 650.0], "thickness": [100.0, 300.0]}  # nm
+        >>> kw = {"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5}
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     store = os.path.join(d, "r.zarr")
+        ...     first = build_table(torchirid.thin_film_reflectance, axes, store, chunks=2, kwargs=kw)
+        ...     again = build_table(torchirid.thin_film_reflectance, axes, store, chunks=2, kwargs=kw)
+        >>> (first.computed, first.skipped), (again.computed, again.skipped), first.store.name
+        ((2, 0), (0, 2), 'r.zarr')
+    """
 
     def __init__(self, store: Path, computed: int, skipped: int):
         self.store, self.computed, self.skipped = store, computed, skipped
@@ -181,13 +200,15 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
         OSError: a scheduler address that does not answer within ``timeout`` seconds.
 
     Example:
-        >>> import tempfile, torchirid
+        >>> import os, tempfile, torchirid
         >>> from torchirid.scale import build_table, load_table
-        >>> path = tempfile.mkdtemp() + "/r.zarr"
-        >>> b = build_table(torchirid.thin_film_reflectance, {"wavelength": [450.0, 550.0, 650.0],
-        ...                 "thickness": [100.0, 300.0]}, path, chunks=2,
-        ...                 kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
-        >>> b.computed, tuple(load_table(path).values.shape)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     path = os.path.join(d, "r.zarr")
+        ...     b = build_table(torchirid.thin_film_reflectance, {"wavelength": [450.0, 550.0, 650.0],
+        ...                     "thickness": [100.0, 300.0]}, path, chunks=2,
+        ...                     kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
+        ...     shape = tuple(load_table(path).values.shape)
+        >>> b.computed, shape
         (2, (3, 2))
     """
     zarr = _zarr()
@@ -273,7 +294,19 @@ WORKER_ENVIRON = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1
 
 def local_cluster(workers: int = 2):
     """A ``distributed.LocalCluster`` of ``workers`` single-threaded processes with
-    :data:`WORKER_ENVIRON` (what ``scheduler="local"`` starts)."""
+    :data:`WORKER_ENVIRON` (what ``scheduler="local"`` starts).
+
+    Example (not run here: it starts worker processes; one cluster serving several builds):
+        >>> import torchirid  # doctest: +SKIP
+        >>> from distributed import Client  # doctest: +SKIP
+        >>> cluster = local_cluster(workers=2)  # doctest: +SKIP
+        >>> with Client(cluster) as client:  # doctest: +SKIP
+        ...     build = build_table(torchirid.thin_film_reflectance,
+        ...                         {"wavelength": list(range(380, 781, 5)), "thickness": list(range(0, 1001, 10))},
+        ...                         "film.zarr", chunks=32, client=client,
+        ...                         kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
+        >>> cluster.close()  # doctest: +SKIP
+    """
     import dask
     from distributed import LocalCluster
 
@@ -349,7 +382,22 @@ def _open(store):
 
 def load_table(store) -> LUT:
     """The finished table as a :class:`~torchirid.lut.LUT` (axes, units, builder, parameters);
-    ValueError naming the store if chunks are missing (resume the build first)."""
+    ValueError naming the store if chunks are missing (resume the build first).
+
+    Example (R of a water film on glass over wavelength × thickness, in nm):
+        >>> import os, tempfile, torchirid
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     store = os.path.join(d, "r.zarr")
+        ...     _ = build_table(torchirid.thin_film_reflectance, {"wavelength": [450.0, 550.0, 650.0],
+        ...                     "thickness": [100.0, 300.0]}, store, chunks=2,
+        ...                     kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5},
+        ...                     units={"wavelength": "nm", "thickness": "nm"})
+        ...     lut = load_table(store)
+        >>> list(lut.axes), tuple(lut.values.shape), lut.units["thickness"]
+        (['wavelength', 'thickness'], (3, 2), 'nm')
+        >>> round(float(lut.values[1, 0]), 4)  # R at 550 nm, 100 nm
+        0.0069
+    """
     group, attrs = _open(store)
     done = np.asarray(group["done"][...], dtype=bool)
     if not done.all():
@@ -364,7 +412,20 @@ def load_table(store) -> LUT:
 
 def open_table(store):
     """The table's values as a lazy ``dask.array`` (chunked as built), and its axes as numpy
-    arrays: ``(array, {name: grid})``."""
+    arrays: ``(array, {name: grid})``.
+
+    Example (read the values while the store exists: the array is lazy):
+        >>> import os, tempfile, torchirid
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     store = os.path.join(d, "r.zarr")
+        ...     _ = build_table(torchirid.thin_film_reflectance, {"wavelength": [450.0, 550.0, 650.0],
+        ...                     "thickness": [100.0, 300.0]}, store, chunks=2,
+        ...                     kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
+        ...     values, grids = open_table(store)
+        ...     r = float(values[1, 0].compute())  # R at 550 nm, 100 nm
+        >>> values.shape, values.chunks, grids["wavelength"].tolist(), round(r, 4)
+        ((3, 2), ((2, 1), (2,)), [450.0, 550.0, 650.0], 0.0069)
+    """
     import dask.array as da
 
     group, attrs = _open(store)
