@@ -7,11 +7,10 @@ face of a bubble) whose thickness grows from 100 nm at the top to 800 nm at the 
 an environment map and shaded with Kneiphof et al.'s split sum (eq. 12): the map prefiltered
 by :func:`torchirid.ibl.prefilter_environment`, the albedo from
 :func:`torchirid.ibl.shipped_dfg_lut`, and three reflectance terms — Belcour–Barla's Fourier
-colour at the mirror direction and Kneiphof's filtered colour with the map's light moments
-(:func:`torchirid.ibl.shade_thin_film_environment`, ``method="belcour_barla"`` and
-``"kneiphof"``), and torchirid's fitted light-mixture table
-(:func:`torchirid.ibl.fitted_thin_film_xyz`, a uniform-light model, times the same albedo and
-prefiltered radiance).
+colour at the mirror direction, Kneiphof's filtered colour with the map's light moments, and
+torchirid's fitted light-mixture table (:func:`torchirid.ibl.fitted_thin_film_xyz`, a
+uniform-light model) — :func:`torchirid.ibl.shade_thin_film_environment` with
+``method="belcour_barla"``, ``"kneiphof"`` and ``"fitted"``.
 
 There is no HDR photograph in the repository: the map is the library's synthetic sky
 (:func:`torchirid.ibl.synthetic_environment`: a blue gradient, a grey ground and a sun), and a
@@ -30,10 +29,8 @@ import matplotlib.pyplot as plt
 import torch
 
 import torchirid
-from torchirid import LUT
 from torchirid.color import delta_e_2000, linear_srgb_to_xyz, spectrum_to_xyz, xyz_to_lab, xyz_to_linear_srgb
-from torchirid.ibl import (equirect_directions, fitted_thin_film_xyz, prefilter_environment,
-                           shade_thin_film_environment, shipped_dfg_lut, synthetic_environment)
+from torchirid.ibl import equirect_directions, prefilter_environment, shade_thin_film_environment, synthetic_environment
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
 f64 = torch.float64
@@ -59,25 +56,11 @@ inside = x * x + y * y < 0.97                    # the sphere's pixels (grazing 
 z = torch.sqrt((1.0 - x * x - y * y).clamp_min(0.0))
 normal = (x[..., None] * right + y[..., None] * up + z[..., None] * view)[inside]  # (P, 3)
 thickness = 100.0 + 700.0 * (1.0 - y[inside]) / 2.0                              # (P,) nm
-cos_o = normal @ view
 
 # the three methods (eq. 12): albedo × prefiltered radiance × RGB of the reflectance term
-rgb = {}
-for name, method in (("Belcour–Barla", "belcour_barla"), ("Kneiphof", "kneiphof")):
-    rgb[name] = shade_thin_film_environment(pre, normal, view, alpha, n_film, thickness, n_base, method=method,
-                                           sensitivity=sensitivity)
-reflected = 2.0 * cos_o[:, None] * normal - view                 # ω_r, where the map is read
-theta_r = torch.acos(reflected[:, 2].clamp(-1.0, 1.0))
-phi_r = torch.remainder(torch.atan2(reflected[:, 1], reflected[:, 0]), 2.0 * torch.pi)
-table = pre.to_lut()  # (α, θ, φ) → radiance and moments; made periodic in φ by one wrapped column each side
-phi = table.axes["phi"]
-table = LUT(torch.cat([table.values[:, :, -1:], table.values, table.values[:, :, :1]], 2),
-            {"alpha": table.axes["alpha"], "theta": table.axes["theta"],
-             "phi": torch.cat([phi[-1:] - 2.0 * torch.pi, phi, phi[:1] + 2.0 * torch.pi])}, builder="wrapped")
-radiance = table(alpha=torch.full_like(cos_o, alpha), theta=theta_r, phi=phi_r)[:, :3]
-albedo = shipped_dfg_lut()(cos_theta_o=cos_o, alpha=torch.full_like(cos_o, alpha)).sum(-1)
-film = fitted_thin_film_xyz(cos_o, alpha, n_film, thickness, n_base, sensitivity=sensitivity)
-rgb["fitted table"] = albedo[:, None] * radiance * xyz_to_linear_srgb(film)
+rgb = {name: shade_thin_film_environment(pre, normal, view, alpha, n_film, thickness, n_base, method=method,
+                                        sensitivity=sensitivity)
+       for name, method in (("Belcour–Barla", "belcour_barla"), ("Kneiphof", "kneiphof"), ("fitted table", "fitted"))}
 
 # the reference: eq. 11 summed over every texel (P pixels × T texels, batched)
 wavelength = torch.linspace(380.0, 780.0, 41, dtype=f64)

@@ -7,6 +7,7 @@ from torchirid.color import delta_e_2000, white_point_xyz, xyz_to_lab, xyz_to_li
 from torchirid.ibl import (
     SHADING_METHODS,
     filtered_thin_film_xyz,
+    fitted_thin_film_xyz,
     light_moments_to_mean_cov,
     prefilter_environment,
     shade_thin_film_environment,
@@ -195,7 +196,7 @@ def test_bad_input(sky_pre, kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         shade_thin_film_environment(**args)
-    assert SHADING_METHODS == ("kneiphof", "belcour_barla")
+    assert SHADING_METHODS == ("kneiphof", "belcour_barla", "fitted")
 
 
 def test_belcour_barla_matches_fourier_at_mirror(constant_pre):
@@ -221,3 +222,22 @@ def test_nan_propagates(sky_pre, method, arg):
     out = shade_thin_film_environment(sky_pre, args["normal"], args["view"], args["alpha"], 1.3, args["thickness"],
                                       1.5, method=method)
     assert torch.isnan(out[0]).all() and torch.isfinite(out[1]).all()
+
+
+def test_fitted_method_is_the_table_times_the_split_sum(constant_pre):
+    """method="fitted": the light-mixture table's colour × the split-sum albedo × the prefiltered
+    radiance; under a constant map (L ≡ 2) that is 2·A·fitted, and it is the closest of the three
+    methods to the uniform-light ground truth (the table is fitted to uniform light)."""
+    th = torch.tensor([10.0, 45.0, 70.0], dtype=F64) * (math.pi / 180)
+    v = torch.stack([torch.sin(th), torch.zeros(3, dtype=F64), torch.cos(th)], -1)
+    c, alpha = torch.cos(th), torch.tensor(0.25, dtype=F64)
+    out = shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method="fitted", output="xyz")
+    A, B = shipped_dfg_lut()(cos_theta_o=c, alpha=alpha.expand(3)).unbind(-1)
+    expected = 2.0 * (A + B)[:, None] * fitted_thin_film_xyz(c, alpha, *FILM)
+    assert torch.allclose(out, expected, rtol=1e-9, atol=0)
+    ref = uniform_thin_film_xyz(c, alpha, *FILM)
+    errors = {m: float(delta_e_2000(_lab(shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method=m,
+                                                                     output="xyz") / (2.0 * (A + B))[:, None]),
+                                    _lab(ref)).mean())
+              for m in SHADING_METHODS}
+    assert errors["fitted"] < 1.0 and errors["fitted"] < errors["kneiphof"] < errors["belcour_barla"], errors
