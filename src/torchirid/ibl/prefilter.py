@@ -183,6 +183,12 @@ class PrefilteredEnvironment:
         ``.save(path)``, export it for shaders with :func:`torchirid.export.export_lut`
         (OpenEXR or raw float32 + JSON), read it back with :meth:`from_lut`.
         ``parameters``: extra JSON metadata (e.g. the environment's file name).
+
+        φ is periodic but a LUT axis is not: :meth:`LUT.interp <torchirid.lut.LUT.interp>`
+        clamps within half a texel of φ = 0 and 2π (reading the edge column, up to ~14 % off
+        there on a 32 × 64 sky) where :func:`~torchirid.ibl.shade_thin_film_environment`
+        wraps. Sample the exported texture with REPEAT wrapping in φ (GL_REPEAT on the S axis),
+        or pad one column on each side before interpolating in Python.
         """
         if self.alphas.numel() < 2:
             raise ValueError("to_lut needs at least 2 roughness levels (a LUT axis has >= 2 nodes); "

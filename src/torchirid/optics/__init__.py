@@ -2,7 +2,7 @@
 
 from .bragg import bragg_dispersion, bragg_envelope, bragg_reflectance
 from .fresnel import fresnel_reflectance
-from .modules import BraggMirror, Multilayer, ThinFilm
+from .modules import BraggMirror, Multilayer, ThinFilm, raw_parameters
 from .transfer import multilayer
 from .thin_film import thin_film_reflectance
 from .film_stack import (FilmStack, film_reflectance, hirayama_stacks, smooth_directions,
@@ -16,6 +16,7 @@ __all__ = [
     "BraggMirror",
     "Multilayer",
     "ThinFilm",
+    "raw_parameters",
     "bragg_dispersion",
     "bragg_envelope",
     "bragg_reflectance",
