@@ -87,21 +87,26 @@ GLTF_VALIDATOR_PIN="gltf-validator@2.0.0-dev.3.10"
 # MathJax 3 (npm, pinned, into .venv/node_modules): docs/conf.py stages it into the site so its
 # equations render offline; without npm the pages load MathJax from its CDN when viewed.
 MATHJAX_PIN="mathjax@3.2.2"
-ensure_mathjax() {
-    if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/mathjax/es5/tex-chtml.js" ]]; then
-        echo "run.sh: installing $MATHJAX_PIN (npm; the site's equations offline)" >&2
-        npm install --prefix "$VENV" --no-audit --no-fund --silent "$MATHJAX_PIN" >/dev/null 2>&1 \
-            || echo "run.sh: could not install $MATHJAX_PIN; the site will load MathJax from its CDN" >&2
+
+# npm_install PIN FILE WHY FALLBACK: install the pinned npm package into .venv/node_modules
+# unless FILE (relative to it) is there; without npm, or when it fails, FALLBACK says what happens
+npm_install() {
+    if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/$2" ]]; then
+        echo "run.sh: installing $1 (npm; $3)" >&2
+        npm install --prefix "$VENV" --no-audit --no-fund --silent "$1" >/dev/null 2>&1 \
+            || echo "run.sh: could not install $1; $4" >&2
     fi
+}
+
+ensure_mathjax() {
+    npm_install "$MATHJAX_PIN" mathjax/es5/tex-chtml.js "the site's equations offline" \
+        "the site will load MathJax from its CDN"
 }
 
 ensure_test_tools() {
     ensure_mathjax
-    if command -v npm >/dev/null 2>&1 && [[ ! -f "$VENV/node_modules/gltf-validator/package.json" ]]; then
-        echo "run.sh: installing $GLTF_VALIDATOR_PIN (npm; the glTF validator test)" >&2
-        npm install --prefix "$VENV" --no-audit --no-fund --silent "$GLTF_VALIDATOR_PIN" >/dev/null 2>&1 \
-            || echo "run.sh: could not install $GLTF_VALIDATOR_PIN; the glTF validator test will skip" >&2
-    fi
+    npm_install "$GLTF_VALIDATOR_PIN" gltf-validator/package.json "the glTF validator test" \
+        "the glTF validator test will skip"
     local missing=()
     command -v glslangValidator >/dev/null 2>&1 || missing+=(glslang-tools)
     command -v chromium >/dev/null 2>&1 || missing+=(chromium)
