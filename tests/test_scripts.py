@@ -19,6 +19,7 @@ SCRIPTS = sorted(p.relative_to(ROOT).as_posix() for d in ("training", "luts") fo
 
 #: script → (arguments at a tiny size, with {tmp} for the output folder; files it must write there)
 TINY = {
+    "luts/build_cie_tables.py": (["--out", "{tmp}/cie_tables.npz"], ["cie_tables.npz"]),
     "luts/build_cmf_cumulative.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
                                       "--out", "{tmp}"], ["cie_1931_2_e_380_780nm.npz"]),
     "luts/build_dfg.py": (["--resolution", "4", "--samples", "16", "--out", "{tmp}/dfg.npz"], ["dfg.npz"]),

@@ -2,8 +2,11 @@ r"""Colour matching functions, illuminants and white points as cached tensors.
 
 The numbers are **never retyped**: every table comes from colour-science's datasets
 (``colour.MSDS_CMFS``, ``colour.SDS_ILLUMINANTS``; Mansencal et al., colour-science 0.4)
-and is converted to a tensor once per ``(name, dtype, device)``. ``colour`` itself is
-imported lazily, on the first call that needs a table, so ``import torchirid`` stays fast.
+and is converted to a tensor once per ``(name, dtype, device)``. The registered tables are
+shipped as a copy of colour-science's float64 arrays (``data/cie_tables.npz``, built by
+``luts/build_cie_tables.py`` and tested equal to colour-science's), so the first colour
+does not import colour-science (nor the matplotlib and scipy it imports); a table missing
+from that file is read from colour-science itself, imported at that call.
 
 Registries (short name → colour-science dataset):
 
@@ -39,6 +42,7 @@ import torch
 from .. import _checks
 from .._checks import names
 from .._cache import cached
+from . import _tables
 
 __all__ = [
     "OBSERVERS",
@@ -103,31 +107,29 @@ def _device(device) -> torch.device:
 
 
 # ---------------------------------------------------------------------------------------
-# float64 numpy tables, straight from colour-science (loaded once)
+# float64 numpy tables: shipped copies of colour-science's (loaded once)
 # ---------------------------------------------------------------------------------------
 
 
 @cached(maxsize=None)
 def _cmfs_numpy(observer: str, space: str) -> tuple[np.ndarray, np.ndarray]:
-    import colour  # lazy: colour-science takes ~1 s to import
-
-    data = colour.MSDS_CMFS[_OBSERVER_KEYS[observer]]
-    wavelength = np.array(data.wavelengths, dtype=np.float64)
-    if observer in _RGB_OBSERVERS and space == "XYZ":
-        # colour's own CIE 1964 transformation of the Stiles & Burch 1959 RGB CMFs,
-        # evaluated at the tabulated wavelengths (a pure 3x3 matrix, no interpolation)
-        values = colour.colorimetry.RGB_10_degree_cmfs_to_XYZ_10_degree_cmfs(wavelength)
-    else:
-        values = data.values
-    return wavelength, np.array(values, dtype=np.float64)
+    # data/cie_tables.npz (colour-science's numbers, copied by luts/build_cie_tables.py and
+    # tested equal to them); a table not shipped comes from colour-science itself
+    table = _tables.shipped(_tables.cmfs_member(observer, space))
+    if table is None:
+        wl, values, _ = _tables.colour_cmfs(_OBSERVER_KEYS[observer],
+                                            rgb_to_xyz=observer in _RGB_OBSERVERS and space == "XYZ")
+        table = wl, values
+    return table
 
 
 @cached(maxsize=None)
 def _illuminant_numpy(name: str) -> tuple[np.ndarray, np.ndarray]:
-    import colour
-
-    sd = colour.SDS_ILLUMINANTS[_ILLUMINANT_KEYS[name]]
-    return np.array(sd.wavelengths, dtype=np.float64), np.array(sd.values, dtype=np.float64)
+    table = _tables.shipped(_tables.illuminant_member(name))
+    if table is None:
+        wl, values, _ = _tables.colour_illuminant(_ILLUMINANT_KEYS[name])
+        table = wl, values
+    return table
 
 
 @cached(maxsize=None)

@@ -33,8 +33,6 @@ from __future__ import annotations
 
 import torch
 import torch.nn.functional as F
-from kornia.color import linear_rgb_to_rgb as _kornia_linear_rgb_to_rgb
-from kornia.color import xyz_to_rgb as _kornia_xyz_to_rgb
 
 from .. import _checks
 from .._cache import cached
@@ -335,9 +333,11 @@ def lab_to_xyz(lab, *, illuminant: str = "D65", observer: str = "CIE 1931 2") ->
 # ---------------------------------------------------------------------------------------
 
 
-def _via_kornia(fn, x: torch.Tensor) -> torch.Tensor:
-    """Apply a kornia ``(*, 3, H, W)`` colour function to channels-last ``(*, 3)``."""
-    return fn(x[..., None, None])[..., 0, 0]
+def _via_kornia(name: str, x: torch.Tensor) -> torch.Tensor:
+    """Apply ``kornia.color.<name>``, a ``(*, 3, H, W)`` colour function, to channels-last ``(*, 3)``."""
+    import kornia.color  # noqa: PLC0415  (lazy: kornia costs ~0.15 s to import; only sRGB needs it)
+
+    return getattr(kornia.color, name)(x[..., None, None])[..., 0, 0]
 
 
 def xyz_to_linear_srgb(xyz) -> torch.Tensor:
@@ -366,7 +366,7 @@ def xyz_to_linear_srgb(xyz) -> torch.Tensor:
     """
     xyz = _as_tensor(xyz, "xyz")
     _check_channels(xyz, "xyz", "X, Y, Z")
-    return _via_kornia(_kornia_xyz_to_rgb, xyz)
+    return _via_kornia("xyz_to_rgb", xyz)
 
 
 def linear_srgb_to_xyz(rgb) -> torch.Tensor:
@@ -420,7 +420,7 @@ def linear_srgb_to_srgb(rgb) -> torch.Tensor:
     """
     rgb = _as_tensor(rgb, "rgb")
     _check_channels(rgb, "rgb", "R, G, B")
-    return _via_kornia(_kornia_linear_rgb_to_rgb, rgb)
+    return _via_kornia("linear_rgb_to_rgb", rgb)
 
 
 def xyz_to_srgb(xyz) -> torch.Tensor:
