@@ -7,7 +7,7 @@ the governing quantity is the fringe count of each colour,
 
 .. math:: F = N\\,(n_1 d_1 \\cos θ_1 + n_2 d_2 \\cos θ_2)\\,(ω_{max} − ω_{min})/π ,
 
-(:func:`torchirid.spectral.fringe_count`), not Λ or N alone: short periods (Λ = 10–80 nm, whose
+(:func:`torchirid.spectral.sampling.fringe_count`), not Λ or N alone: short periods (Λ = 10–80 nm, whose
 first Bragg band lies in the UV) and few cells (N = 5) both give few fringes.
 
 Grid (float64, unpolarized, D65 / CIE 1931 2°, 380–780 nm, mirrors embedded in n1 = 1):
@@ -34,7 +34,7 @@ import torch
 
 import torchirid as ti
 from torchirid.color import delta_e_2000, xyz_to_lab
-from torchirid.spectral import fringe_count
+from torchirid.spectral.sampling import fringe_count
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "bragg_color.md"

@@ -1,6 +1,6 @@
 """First-call cost of the compiled Bragg kernel, cold and cached across processes (issue 23.3).
 
-``torchirid.set_compile(True)`` compiles the Bragg closed form with ``torch.compile(dynamic=True,
+``torchirid.options(compile=True)`` compiles the Bragg closed form with ``torch.compile(dynamic=True,
 fullgraph=True)``: one compile covers every grid size and every chunk. Inductor keeps the
 generated code in its on-disk cache (``TORCHINDUCTOR_CACHE_DIR``, default
 ``/tmp/torchinductor_$USER``), so a second process skips code generation and the C++ build and
@@ -28,7 +28,7 @@ CHILD = r'''
 import json, sys, time
 import torch, torchirid as ti
 torch.set_num_threads(2)
-ti.set_compile(True)
+ti.options(compile=True)
 out = {}
 for dtype in sys.argv[1].split(","):
     F = getattr(torch, dtype)

@@ -26,8 +26,10 @@ import torch
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "src"))
 
-from torchirid.estimation import (FilmSample, band_reflectance, detect_extrema, estimate_film,  # noqa: E402
-                                  film_metrics, index_from_peak_pair, synthetic_cube, zns_index)
+from torchirid.estimation import FilmSample, estimate_film, film_metrics, synthetic_cube
+from torchirid.estimation.measurement import band_reflectance
+from torchirid.estimation.peaks import detect_extrema, index_from_peak_pair
+from torchirid.estimation.dispersion import zns_index
 
 MODELS = {"mgf2_400": "constant", "mgf2_600": "constant", "zns_500": "cauchy3"}
 PAPER_SETUP = dict(polarization="s")  # Kobayashi et al. §5.1: the camera sees the s wave through a polarizer

@@ -1,8 +1,8 @@
 #!/usr/bin/env python
 """How many Fourier terms the fitted thin-film IBL colour needs: ΔE2000 against the ground truth.
 
-``torchirid.ibl.fitted_thin_film_xyz`` (the light-mixture table + Kneiphof's eq. 29 per
-component) with M = ``terms`` Fourier terms against ``torchirid.ibl.uniform_thin_film_xyz``
+``torchirid.ibl.thin_film_xyz_fitted`` (the light-mixture table + Kneiphof's eq. 29 per
+component) with M = ``terms`` Fourier terms against ``torchirid.ibl.thin_film_xyz_uniform``
 (the converged uniform-light reference: lobe quadrature, binned cos θ1, spectral Airy
 reflectance), on a grid of dielectric and conductor films:
 
@@ -33,7 +33,7 @@ import time
 import torch
 
 from torchirid.color import delta_e_2000, xyz_to_lab
-from torchirid.ibl import fitted_thin_film_xyz, uniform_thin_film_xyz
+from torchirid.ibl import thin_film_xyz_fitted, thin_film_xyz_uniform
 
 F64 = torch.float64
 THETA_DEG = (0.0, 20.0, 40.0, 55.0, 65.0, 70.0, 75.0, 80.0, 85.0)
@@ -60,11 +60,11 @@ def _grid(theta, alpha, n_film, thickness, bases):
 
 
 def _fitted(c, a, nf, d, ns, terms, masking, sensitivity):
-    """fitted_thin_film_xyz over (G, F), chunked over G (the exact Ŝ holds (·, 3760) per term and component)."""
+    """thin_film_xyz_fitted over (G, F), chunked over G (the exact Ŝ holds (·, 3760) per term and component)."""
     kw = {"masking": masking}
     # ≤ 2²⁴ (≈ 128 MB) per (colours × components × terms × 3760 Ŝ nodes) intermediate of the exact Ŝ
     chunk = max(1, (1 << 24) // (nf.shape[1] * 5 * max(terms, 1) * 3760))
-    rows = [fitted_thin_film_xyz(c[s:s + chunk], a[s:s + chunk], nf, d, ns, terms=terms,
+    rows = [thin_film_xyz_fitted(c[s:s + chunk], a[s:s + chunk], nf, d, ns, terms=terms,
                                  sensitivity=sensitivity, **kw) for s in range(0, c.shape[0], chunk)]
     return torch.cat(rows)
 
@@ -84,11 +84,11 @@ def run(theta, alpha, n_film, thickness, dielectric, conductor, terms, masking):
     for name, bases in classes:
         c, a, nf, d, ns = _grid(theta, alpha, n_film, thickness, bases)
         t = time.perf_counter()
-        ref = xyz_to_lab(uniform_thin_film_xyz(c, a, nf, d, ns, **kw))
+        ref = xyz_to_lab(thin_film_xyz_uniform(c, a, nf, d, ns, **kw))
         t_ref += time.perf_counter() - t
         per_class[name] = (c, a, nf, d, ns, ref)
         if masking != "separable":  # how far the reference moves from the separable G's
-            shift.append(delta_e_2000(ref, xyz_to_lab(uniform_thin_film_xyz(c, a, nf, d, ns))).reshape(-1))
+            shift.append(delta_e_2000(ref, xyz_to_lab(thin_film_xyz_uniform(c, a, nf, d, ns))).reshape(-1))
     n_colours = sum(v[0].shape[0] * v[2].shape[1] for v in per_class.values())
     out.append(f"grid: {len(theta)} θo × {len(alpha)} α × {len(n_film)} η₂ × {len(thickness)} d × "
                f"({len(dielectric)} dielectric + {len(conductor)} conductor bases) = {n_colours} colours; "
@@ -100,7 +100,7 @@ def run(theta, alpha, n_film, thickness, dielectric, conductor, terms, masking):
     out.append("| terms | dielectric max / p95 / median | conductor max / p95 / median | all max / p95 / median "
                "| µs/colour (exact Ŝ) | µs/colour (Ŝ table) |")
     out.append("|---|---|---|---|---|---|")
-    fitted_thin_film_xyz(0.5, 0.1, 1.33, 100.0, 1.5, sensitivity="lut", **kw)  # build the Ŝ table first
+    thin_film_xyz_fitted(0.5, 0.1, 1.33, 100.0, 1.5, sensitivity="lut", **kw)  # build the Ŝ table first
     for m in terms:
         des = {}
         times = {}
@@ -135,8 +135,8 @@ def run(theta, alpha, n_film, thickness, dielectric, conductor, terms, masking):
     sweep = torch.linspace(1.2, 2.5, 27, dtype=F64)
     rows = {}
     for name, n in (("rows", nf), ("sweep", sweep)):
-        ref = xyz_to_lab(uniform_thin_film_xyz(c, 0.056, n, 171.0, complex(1.5, 2.0), **kw))
-        rows[name] = torch.stack([delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, 0.056, n, 171.0, complex(1.5, 2.0),
+        ref = xyz_to_lab(thin_film_xyz_uniform(c, 0.056, n, 171.0, complex(1.5, 2.0), **kw))
+        rows[name] = torch.stack([delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, 0.056, n, 171.0, complex(1.5, 2.0),
                                                                                 terms=m, **kw)), ref)
                                   for m in terms], -1)
     for i, n in enumerate(nf.tolist()):

@@ -86,7 +86,7 @@ def best(fn, repeats, cuda):
 
 def ns(fn, points, repeats, cuda, chunk="auto"):
     try:
-        with torch.no_grad(), ti.chunk_size(chunk):
+        with torch.no_grad(), ti.options(chunk_size=chunk):
             return best(fn, repeats, cuda) / points * 1e9
     except torch.OutOfMemoryError:
         if torch.cuda.is_available():
@@ -190,7 +190,7 @@ def main(argv=None):
             cth = torch.linspace(0.05, 1.0, args.colours, dtype=F, device=dev)
             res[key] = ns(lambda: ti.bragg_xyz(cth, 1.0, 1.5, 125.0, 375.0, 20, method=method),
                                cth.numel(), 2, dev.type == "cuda")
-        with ti.value_checks(False):
+        with ti.options(value_checks=False):
             s = ["–", "–"] if not cuda else [syncs(lambda n=n: ti.bragg_xyz(torch.linspace(0.05, 1.0, n, dtype=F, device=gpu), 1.0, 1.5,
                                                 125.0, 375.0, 20, method=method)) for n in (args.colours // 10, args.colours)]
         row = (f"| {method} | {fmt(res['cpu'], '.0f')} | {fmt(res['gpu'], '.1f')} | "

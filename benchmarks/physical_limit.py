@@ -145,11 +145,11 @@ def measured(threads: int, points: int) -> dict:
 
     out = {name: ns_per_point(f) for name, f in calls.items()}
     out["multilayer, per film"] = (out.pop("multilayer L=40") - out.pop("multilayer L=10")) / 30
-    ti.set_compile(True)  # the compiled closed form: how close a fused loop gets
+    ti.options(compile=True)  # the compiled closed form: how close a fused loop gets
     try:
         out["bragg (Yeh, N = 20), compiled"] = ns_per_point(calls["bragg (Yeh, N = 20)"])
     finally:
-        ti.set_compile(False)
+        ti.options(compile=False)
     return out
 
 

@@ -132,17 +132,17 @@ def main(argv=None):
         ms = methods(pol)
         errs = {}
         for name, fn, comp, _ in ms:
-            ti.set_compile(comp)
+            ti.options(compile=comp)
             errs[name] = err(fn(), pol)
             if comp:
                 time.sleep(2.0)  # let inductor's compile workers go idle before timing
-        ti.set_compile(False)
+        ti.options(compile=False)
         times = {name: [] for name, *_ in ms}
         for _ in range(args.rounds):
             for name, fn, comp, reps in ms:
-                ti.set_compile(comp)
+                ti.options(compile=comp)
                 times[name].append(median_time(fn, reps, warmup=1))
-            ti.set_compile(False)
+            ti.options(compile=False)
         base = times["tmm_fast.coh_tmm"]
         for name, *_ in ms:
             ratios = [b / t for b, t in zip(base, times[name])]
@@ -271,7 +271,7 @@ Reading the table:
 
 * **Against the target** (bragg_reflectance ≥ 300× tmm_fast, multilayer faster than
   tmm_fast): `multilayer` is 6–12× faster than tmm_fast. `bragg_reflectance` reaches the
-  300× bar **with `torchirid.set_compile(True)`** (406–779× over all runs made); the default eager evaluation gives 168–293× in float64 and 229–424× in
+  300× bar **with `torchirid.options(compile=True)`** (406–779× over all runs made); the default eager evaluation gives 168–293× in float64 and 229–424× in
   float32 over the same runs, i.e. below the bar in eager float64. Eager
   float64 is bound by ~9 transcendental evaluations per point (sin a, sin b, sin/cos of
   (a+b)/2, √, atan2, sin NKΛ, log1p, expm1 for both pass band and gap) plus ~30 passes over

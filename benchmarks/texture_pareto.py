@@ -24,7 +24,8 @@ from pathlib import Path
 import torch
 
 from torchirid.color import delta_e_2000, linear_srgb_to_xyz, xyz_to_lab
-from torchirid.realtime import fit_texture, lookup, texture_samples
+from torchirid.realtime import fit_texture, lookup
+from torchirid.realtime.textures import texture_samples
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "texture_pareto.md"

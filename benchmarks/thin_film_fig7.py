@@ -4,7 +4,7 @@
 Both panels — θo × √α at d = 600 nm and θo × d ∈ [0, 1000] nm at α = 0.25 — for the original
 (Belcour–Barla at the ideal reflection direction), Kneiphof's eq. 20–29 with the ground-truth
 light moments, eq. 29 with the ground-truth μ_D, σ²_D, and the fitted light-mixture table,
-against the converged reference (torchirid.ibl.uniform_thin_film_xyz). Film η₂ = 1.3 on a
+against the converged reference (torchirid.ibl.thin_film_xyz_uniform). Film η₂ = 1.3 on a
 base 2 + 0.5i (Kneiphof's Fig. 2 material), air, CIE 1931 2°, D65, M = 2.
 
     PYTHONPATH=src python benchmarks/thin_film_fig7.py [--resolution 64] [--repeats 3] [--write-docs]
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import torch
 
-from torchirid.ibl import fitted_thin_film_xyz, filtered_thin_film_xyz, thin_film_xyz_fourier
+from torchirid.ibl import thin_film_xyz_fitted, thin_film_xyz_filtered, thin_film_xyz_fourier
 from torchirid.color import delta_e_2000, xyz_to_lab
 from torchirid.ibl import uniform_light_moments
 from torchirid.ibl.fitted import shipped_light_mixture_lut
@@ -158,11 +158,11 @@ def _timings(repeats: int, n: int = 4096) -> dict:
     fns = {
         "original": lambda: thin_film_xyz_fourier(c, 1.3, d, complex(2, 0.5), terms=2, sensitivity="exact"),
         "original (Ŝ LUT)": lambda: thin_film_xyz_fourier(c, 1.3, d, complex(2, 0.5), terms=2),
-        "kneiphof": lambda: filtered_thin_film_xyz(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2),
-        "kneiphof (Ŝ 2-D LUT)": lambda: filtered_thin_film_xyz(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2,
+        "kneiphof": lambda: thin_film_xyz_filtered(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2),
+        "kneiphof (Ŝ 2-D LUT)": lambda: thin_film_xyz_filtered(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2,
                                                               sensitivity="lut"),
-        "fitted": lambda: fitted_thin_film_xyz(c, a, 1.3, d, complex(2, 0.5), terms=2),
-        "fitted (Ŝ 2-D LUT)": lambda: fitted_thin_film_xyz(c, a, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut"),
+        "fitted": lambda: thin_film_xyz_fitted(c, a, 1.3, d, complex(2, 0.5), terms=2),
+        "fitted (Ŝ 2-D LUT)": lambda: thin_film_xyz_fitted(c, a, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut"),
     }
     shipped_prefiltered_sensitivity_lut(dtype=f64)  # built once (≈ 4 s), not timed
     samples = {k: [] for k in fns}
@@ -198,7 +198,7 @@ def main(argv=None) -> int:
     cmd = "PYTHONPATH=src python benchmarks/thin_film_fig7.py " + " ".join(argv if argv is not None else sys.argv[1:])
     out = [f"`{cmd.strip()}` — {args.resolution} × {args.resolution} cell centres per panel, η₂ = 1.3 on "
            "2 + 0.5i, air, CIE 1931 2°, D65, M = 2, float64 CPU, "
-           f"{args.threads} threads. Reference: uniform_thin_film_xyz (lobe quadrature 64 × 128, "
+           f"{args.threads} threads. Reference: thin_film_xyz_uniform (lobe quadrature 64 × 128, "
            "2048 cos θ1 bins, 1 nm spectra; converged to ΔE2000 < 0.005). ΔE2000 of the reflectance term "
            "(the albedo A(θo, α) is common to all methods). The fitted table (`ibl.shipped_light_mixture_lut`, "
            "built by `luts/build_light_mixture.py`) holds 48 θo × 48 √α nodes × 5 Gaussians × (mass, mean, "
@@ -227,9 +227,9 @@ def main(argv=None) -> int:
         ref = xyz_to_lab(torch.as_tensor(pan.xyz["reference"]))
         name = "θo × √α (d = 600 nm)" if pan.panel == "roughness" else "θo × d (α = 0.25)"
         for label, x in (("Kneiphof (GT μ_ωi, Σ_ωi), Ŝ LUT",
-                          filtered_thin_film_xyz(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut")),
+                          thin_film_xyz_filtered(wo, mu, cov, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut")),
                          ("fitted mixture table, Ŝ LUT",
-                          fitted_thin_film_xyz(c, a, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut"))):
+                          thin_film_xyz_fitted(c, a, 1.3, d, complex(2, 0.5), terms=2, sensitivity="lut"))):
             de = delta_e_2000(xyz_to_lab(x), ref)
             out.append(f"| {name} | {label} | {de.mean():.2f} | {de.flatten().quantile(0.95):.2f} | {de.max():.2f} |")
     out += ["", "| method (4096 random colours, moments given) | µs / colour |", "|---|---|"]

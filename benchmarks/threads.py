@@ -78,9 +78,9 @@ def measure(rounds):
         for _ in range(rounds):
             for v, (threads, small) in VARIANTS.items():
                 torch.set_num_threads(threads)
-                ti.set_small_work_threads(small)
+                ti.options(small_work_threads=small)
                 times[v].append(timed(fn, calls))
-        ti.set_small_work_threads()
+        ti.options(small_work_threads=1)
         base = times["1 thread"]
         out[name] = {}
         for v, ts in times.items():

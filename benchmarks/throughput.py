@@ -12,7 +12,7 @@ outputs (multilayer returns two). Cost per point against the 36k grid's (sizes �
 process, paired rounds of the 36k grid (best of 5 calls) and the large grid (one call), the
 ratio of their ns/point per round, the median over ``--rounds`` — robust to the load of other
 processes, which single timings on this shared machine are not. Modes: ``chunked`` (the default evaluation), ``one piece``
-(``torchirid.chunk_size(None)``, with ``--unchunked``), ``compiled`` (``set_compile(True)``,
+(``torchirid.options(chunk_size=None)``, with ``--unchunked``), ``compiled`` (``set_compile(True)``,
 chunked; Bragg only — the other kernels have no compiled path; with ``--compiled``), whose first
 call (the compile) is reported separately.
 
@@ -83,10 +83,10 @@ torch.set_num_threads(threads)
 lam, c, _ = grid(size)
 points = lam.numel() * c.numel()
 if mode == "compiled":
-    ti.set_compile(True)
+    ti.options(compile=True)
 f = ours(kernel, lam, c)
 base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-ctx = ti.chunk_size(None) if mode == "one piece" else ti.chunk_size(ti.get_chunk_size())
+ctx = ti.options(chunk_size=None) if mode == "one piece" else ti.options(chunk_size=ti.get_chunk_size())
 first = None
 best = float("inf")
 with ctx, torch.no_grad():

@@ -17,7 +17,7 @@ Writes into src/torchirid/data/textures/ (float32 LUT files, ~10–100 KiB each)
   n_f) — what the explorer page's d, n and base sliders read;
 * ``rough_thin_film.npz``: a rough film (n = 1.3 on 2 + 0.5i, Kneiphof et al.'s example) under
   uniform light, 16 × 8 × 32 texels over (sqrt cos θ_o ∈ [√0.02, 1], α ∈ [0.05, 0.5],
-  d ∈ [100, 800] nm); the reference is :func:`torchirid.ibl.uniform_thin_film_xyz` with 256 bins
+  d ∈ [100, 800] nm); the reference is :func:`torchirid.ibl.thin_film_xyz_uniform` with 256 bins
   and 24 nodes (within ΔE2000 0.07 of its converged defaults, 10× faster).
 
 Each file's parameters hold the family, its ranges and its measured ΔE2000 (fitted and sampled,

@@ -3,7 +3,10 @@
 - the library never imports the application (``torchirid.app``), argparse, matplotlib or tqdm;
 - a library layer imports only lower layers (the ranks below) and its own subpackage;
 - no import cycle between modules (lazy imports inside functions count too);
-- no ``_private`` name crosses a subpackage boundary;
+- no ``_private`` name crosses a subpackage boundary, and a library package takes from another
+  only names of that package's ``__all__`` or the declared shared kernels (``SHARED_KERNELS``);
+- the public surface: a module's ``__all__`` holds only names its package exports (no second
+  tier), and the root and the subpackages stay within the name budget;
 - no module is shadowed by a function of its package; every subpackage has an explicit
   ``__all__``;
 - the public signatures speak one vocabulary (docs/conventions.md).
@@ -32,6 +35,7 @@ RANKS = {
     "_checks": 0.5, "_compile": 0.5, "_quadrature": 0.5, "_io": 0.5, "_lut_file": 0.5,
     "_threads": 0.6,  # the small-work thread policy (uses _checks.traceable)
     "_chunks": 0.75,  # block-wise evaluation (uses _checks.traceable, _threads)
+    "_options": 0.8,  # torchirid.options(): the switches of _checks, _chunks, _threads, _compile
     # tables, materials, colorimetry: no optics inside
     "lut": 1, "materials": 1, "color": 1,
     # exact optics and microfacets
@@ -184,6 +188,105 @@ def test_no_private_name_crosses_a_subpackage():
     assert not bad, "\n".join(bad)
 
 
+#: Kernels that a library package takes from another package's modules without making them public
+#: API (docs/architecture.md, "Rules"): module → names. A new entry is a design decision: either
+#: the kernel belongs here, or the caller should use a public function.
+SHARED_KERNELS = {
+    # the colour-matching tables as NumPy, and the observer/illuminant name checks
+    "torchirid.color.colorimetry": ("weighted_cmfs_numpy", "check_illuminant", "check_observer"),
+    # the complex interface amplitudes, admittances and normal wavenumbers of a stack
+    "torchirid.optics.fresnel": ("admittance", "interface", "normal_wavenumber"),
+    # Yeh's closed form on prepared tensors (no checks): the envelope colour evaluates it per node
+    "torchirid.optics.bragg": ("yeh_reflectance_kernel",),
+    # GGX D and Smith G1 on cosines, without the argument checks (inner loops of quadratures)
+    "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel"),
+}
+
+
+def _public_names(package: str) -> set[str]:
+    return set(importlib.import_module(package).__all__)
+
+
+def test_cross_package_imports_are_public_or_declared():
+    """A library package imports from another one only its public names (its ``__all__``) or a
+    kernel declared in ``SHARED_KERNELS`` (the application may use any non-private name)."""
+    bad = []
+    for m in MODULES:
+        src = _part(m)
+        if src in APPLICATION or src == "<root>" or src.startswith("_"):
+            continue
+        for line, target, name in _imports(m):
+            if not target.startswith("torchirid.") or name is None:
+                continue
+            dst = _part(target)
+            if dst == src or dst.startswith("_") or dst in APPLICATION:
+                continue
+            package = f"torchirid.{dst}"
+            if package not in MODULES:
+                continue
+            if name in _public_names(package) or name in SHARED_KERNELS.get(target, ()):
+                continue
+            bad.append(f"{m}:{line} imports {target}.{name}")
+    assert not bad, "\n".join(bad)
+
+
+def test_shared_kernels_exist_and_are_not_public():
+    for module, names in SHARED_KERNELS.items():
+        mod = importlib.import_module(module)
+        package = ".".join(module.split(".")[:2])
+        for name in names:
+            assert hasattr(mod, name), f"{module}.{name} is declared shared but does not exist"
+            assert name not in _public_names(package), f"{module}.{name} is public: no need to declare it"
+
+
+def _public_packages():
+    for info in pkgutil.iter_modules(torchirid.__path__):
+        if not info.name.startswith("_") and info.name != "app":
+            yield importlib.import_module(f"torchirid.{info.name}")
+
+
+def test_no_second_tier():
+    """A module's ``__all__`` lists only names its package's ``__all__`` exports: a package's
+    ``__all__`` is its whole public surface."""
+    bad = []
+    for package in _public_packages():
+        if not hasattr(package, "__path__"):
+            continue
+        exported = set(package.__all__)
+        for info in pkgutil.walk_packages(package.__path__, prefix=f"{package.__name__}."):
+            if any(p.startswith("_") for p in info.name.split(".")[1:]):
+                continue
+            module = importlib.import_module(info.name)
+            bad += [f"{info.name}.{n}" for n in getattr(module, "__all__", []) if n not in exported]
+    assert not bad, "\n".join(bad)
+
+
+#: the public surface's budget (benchmarks/api_surface.py prints the figures): names of the root's
+#: ``__all__``, and unique names over the root and every public subpackage's ``__all__``
+ROOT_BUDGET, PUBLIC_BUDGET = 45, 180
+
+
+def test_public_surface_budget():
+    subpackages = {p.__name__.split(".")[1] for p in _public_packages()}
+    unique = {n for n in torchirid.__all__ if n not in subpackages and n != "__version__"}
+    for package in _public_packages():
+        unique |= set(package.__all__)
+    assert len(torchirid.__all__) <= ROOT_BUDGET, len(torchirid.__all__)
+    assert len(unique) <= PUBLIC_BUDGET, len(unique)
+
+
+def test_root_names_resolve_lazily():
+    """``import torchirid`` imports no subpackage; each root name resolves on first use."""
+    import subprocess
+    import sys
+
+    code = ("import sys, torchirid; assert not [m for m in sys.modules if m.startswith('torchirid.') "
+            "and m.split('.')[1] in torchirid._SUBPACKAGES], sorted(sys.modules)\n"
+            "missing = [n for n in torchirid.__all__ if getattr(torchirid, n, None) is None]\n"
+            "assert not missing, missing")
+    subprocess.run([sys.executable, "-c", code], check=True)
+
+
 def _packages():
     yield torchirid
     for info in pkgutil.walk_packages(torchirid.__path__, "torchirid."):
@@ -293,7 +396,7 @@ def test_reflectance_functions_take_wavelength_then_geometry():
 
     for fn in (optics.bragg_reflectance, optics.thin_film_reflectance, optics.multilayer, optics.film_reflectance,
                optics.rough_multilayer_reflectance, optics.bragg_dispersion, optics.bragg_envelope,
-               layered.integrated_transmissivity, layered.layer_reflection_probabilities):
+               layered.integrated_transmissivity, layered.single_reflection.layer_reflection_probabilities):
         assert list(inspect.signature(fn).parameters)[:2] == ["wavelength", "cos_theta"], fn.__name__
     for fn in (layered.single_reflection_brdf, layered.single_reflection_pdf, layered.montecarlo_brdf):
         assert list(inspect.signature(fn).parameters)[:4] == ["wavelength", "wi", "wo", "structure"], fn.__name__

@@ -8,6 +8,7 @@ import pytest
 import torch
 
 import torchirid as ti
+from torchirid import _chunks
 
 F64 = torch.float64
 
@@ -45,12 +46,12 @@ _STACK = (torch.tensor([1.0] + [1.38, 2.3] * 5 + [1.52], dtype=torch.complex128)
 @pytest.mark.parametrize("points", [1, 977, 5000])
 def test_chunked_equals_one_piece(name, points):
     lam, c = _grid()
-    with ti.chunk_size(None):
+    with ti.options(chunk_size=None):
         ref = CASES[name](lam, c)
-    with ti.chunk_size(points):
+    with ti.options(chunk_size=points):
         got = CASES[name](lam, c) if points > 1 else CASES[name](lam[:37], c[:5])
     if points == 1:
-        with ti.chunk_size(None):
+        with ti.options(chunk_size=None):
             ref = CASES[name](lam[:37], c[:5])
     assert got.shape == ref.shape and got.dtype == ref.dtype
     # ≤ a few ulp (vectorised loop tails); Bragg's real closed form picks its guarded branch near
@@ -62,38 +63,38 @@ def test_chunked_equals_one_piece(name, points):
 
 def test_float32_and_gradients_unchanged():
     lam, c = _grid(dtype=torch.float32)
-    with ti.chunk_size(None):
+    with ti.options(chunk_size=None):
         ref = CASES["bragg"](lam, c)
-    with ti.chunk_size(1000):
+    with ti.options(chunk_size=1000):
         got = CASES["bragg"](lam, c)
     assert got.dtype == torch.float32
     torch.testing.assert_close(got, ref, rtol=0, atol=2e-6)
     d = torch.tensor(300.0, dtype=F64, requires_grad=True)
     lam, c = _grid()
-    with ti.chunk_size(1000):  # a gradient is wanted: one piece, autograd as usual
+    with ti.options(chunk_size=1000):  # a gradient is wanted: one piece, autograd as usual
         R = ti.thin_film_reflectance(lam, c, 1.33, d, 1.5)
     R.sum().backward()
     assert d.grad is not None and torch.isfinite(d.grad)
 
 
 def test_knob():
-    assert ti.get_chunk_size() == 1 << 15
-    with ti.chunk_size(123):
-        assert ti.get_chunk_size() == 123
-        with ti.chunk_size(0):
-            assert ti.get_chunk_size() is None
-    assert ti.get_chunk_size() == 1 << 15
+    assert _chunks.get_chunk_size() == 1 << 15
+    with ti.options(chunk_size=123):
+        assert _chunks.get_chunk_size() == 123
+        with ti.options(chunk_size=0):
+            assert _chunks.get_chunk_size() is None
+    assert _chunks.get_chunk_size() == 1 << 15
     for bad in (-1, 2.5, True, "1"):
         with pytest.raises(ValueError, match="points"):
-            ti.set_chunk_size(bad)
+            ti.options(chunk_size=bad)
 
 
 def test_the_default_block_size_follows_the_inputs_device(monkeypatch):
     from torchirid import _chunks
 
-    assert ti.get_chunk_size("cuda") == _chunks.DEVICE_CHUNK_SIZE > ti.get_chunk_size("cpu") == 1 << 15
-    with ti.chunk_size(5000):  # a set size holds on every device
-        assert ti.get_chunk_size("cuda") == ti.get_chunk_size() == 5000
+    assert _chunks.get_chunk_size("cuda") == _chunks.DEVICE_CHUNK_SIZE > _chunks.get_chunk_size("cpu") == 1 << 15
+    with ti.options(chunk_size=5000):  # a set size holds on every device
+        assert _chunks.get_chunk_size("cuda") == _chunks.get_chunk_size() == 5000
     seen = []
 
     def kernel(x):
@@ -123,7 +124,7 @@ def test_gradients_checkpointed_equal_one_piece(name, monkeypatch):
         "multilayer": lambda: sum(ti.multilayer(lam, c, _STACK[0], _STACK[1] * (d / 300.0))),
         "bragg": lambda: ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, d, 20),
     }
-    with ti.chunk_size(None):
+    with ti.options(chunk_size=None):
         ref = calls[name]()
         (g_ref,) = torch.autograd.grad(ref.square().sum(), d)
     monkeypatch.setattr(chunks, "CHECKPOINT_POINTS", 1000)
@@ -135,7 +136,7 @@ def test_gradients_checkpointed_equal_one_piece(name, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(torch.utils.checkpoint, "checkpoint", spy)
-    with ti.chunk_size(500):
+    with ti.options(chunk_size=500):
         got = calls[name]()
         (g,) = torch.autograd.grad(got.square().sum(), d)
     assert len(calls_made) >= 6  # 3030 points in blocks of ≤ 500
@@ -171,7 +172,7 @@ def _in_blocks(call):
 
     blocks = []
     real_take = chunks._take
-    with ti.chunk_size(4), pytest.MonkeyPatch.context() as mp:
+    with ti.options(chunk_size=4), pytest.MonkeyPatch.context() as mp:
         mp.setattr(chunks, "_take", lambda *a: blocks.append(1) or real_take(*a))
         got = call()
     assert blocks, "the call was not evaluated in blocks"
@@ -179,7 +180,7 @@ def _in_blocks(call):
 
 
 def _colour_cases():
-    from torchirid.ibl import filtered_thin_film_xyz, fitted_thin_film_xyz, thin_film_xyz_fourier
+    from torchirid.ibl import thin_film_xyz_filtered, thin_film_xyz_fitted, thin_film_xyz_fourier
     from torchirid.layered import RoughBraggLayer
     from torchirid.layered.transmission import integrated_transmissivity
     from torchirid.spectral.envelope import bragg_xyz_envelope
@@ -195,9 +196,9 @@ def _colour_cases():
     return {
         "fourier_lut": lambda: thin_film_xyz_fourier(c, 1.33, d, 0.2 + 3.0j),
         "fourier_exact": lambda: thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="exact", terms=2),
-        "fitted_lut": lambda: fitted_thin_film_xyz(c, 0.2, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
-        "fitted_exact": lambda: fitted_thin_film_xyz(c[::3], 0.2, 1.3, d[::4], 1.5, terms=1),
-        "filtered": lambda: filtered_thin_film_xyz(wo, mu, cov, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
+        "fitted_lut": lambda: thin_film_xyz_fitted(c, 0.2, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
+        "fitted_exact": lambda: thin_film_xyz_fitted(c[::3], 0.2, 1.3, d[::4], 1.5, terms=1),
+        "filtered": lambda: thin_film_xyz_filtered(wo, mu, cov, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
         "transmissivity": lambda: integrated_transmissivity(lam, c, layer, nodes=64),
         "envelope": lambda: bragg_xyz_envelope(c, 1.0, 1.5, 125.0, d[:, None, None] * 0 + 375.0, 20),
         "piecewise": lambda: ti.bragg_xyz(c, 1.0, 1.5, 125.0, d[:, None, None] * 0.5 + 300.0, 20,
@@ -211,7 +212,7 @@ def test_colour_tables_chunked_equal_one_piece(name):
     """The colour and transmissivity tables (trailing XYZ axis, inner quadratures: blocks of
     chunk_size // width points) equal their one-piece evaluation."""
     case = _colour_cases()[name]
-    with ti.chunk_size(None):
+    with ti.options(chunk_size=None):
         ref = case()
     got = _in_blocks(case)
     assert got.shape == ref.shape and got.dtype == ref.dtype
@@ -221,7 +222,7 @@ def test_colour_tables_chunked_equal_one_piece(name):
 def test_fitted_table_gradient_survives_chunking():
     """A table whose values require a gradient (LUT fitting) takes the gradient path, not the
     inference-mode blocks."""
-    from torchirid.ibl import fitted_thin_film_xyz, shipped_light_mixture_lut
+    from torchirid.ibl import thin_film_xyz_fitted, shipped_light_mixture_lut
     from torchirid.lut import LUT
 
     base = shipped_light_mixture_lut()
@@ -229,8 +230,8 @@ def test_fitted_table_gradient_survives_chunking():
     table = LUT(values, base.axes, builder=base.builder, parameters=base.parameters, units=base.units)
     c = torch.linspace(0.1, 1.0, 40, dtype=F64)[:, None]
     d = torch.linspace(100.0, 600.0, 30, dtype=F64)
-    with ti.chunk_size(8):
-        xyz = fitted_thin_film_xyz(c, 0.3, 1.3, d, 1.5, table=table, sensitivity="lut")
+    with ti.options(chunk_size=8):
+        xyz = thin_film_xyz_fitted(c, 0.3, 1.3, d, 1.5, table=table, sensitivity="lut")
     xyz.sum().backward()
     assert values.grad is not None and bool(values.grad.abs().sum() > 0)
 
@@ -247,7 +248,7 @@ def test_single_reflection_brdf_chunked_equals_one_piece(lut):
     wo = torch.stack([-torch.sin(t) * 0.5, torch.sin(t) * 0.3, torch.cos(t)], -1)
     wo = wo / torch.linalg.vector_norm(wo, dim=-1, keepdim=True)
     lam = torch.linspace(400.0, 700.0, 16, dtype=F64)
-    with ti.chunk_size(None):
+    with ti.options(chunk_size=None):
         ref = single_reflection_brdf(lam, wi, wo, s, lut=lut, transmissivity_angles=16, reflectance_angles=32)
     got = _in_blocks(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut, transmissivity_angles=16,
                                                     reflectance_angles=32))
@@ -256,17 +257,17 @@ def test_single_reflection_brdf_chunked_equals_one_piece(lut):
 
 
 def test_ibl_ground_truths_chunked_equal_one_piece():
-    """uniform_thin_film_xyz and path_difference_moments over geometries × films in blocks (the
+    """thin_film_xyz_uniform and path_difference_moments over geometries × films in blocks (the
     broadcast matmul of the one-piece path copied both to the full batch)."""
-    from torchirid.ibl import path_difference_moments, uniform_thin_film_xyz
+    from torchirid.ibl import path_difference_moments, thin_film_xyz_uniform
 
     c = torch.linspace(0.2, 1.0, 12, dtype=F64)[:, None]
     d = torch.linspace(100.0, 700.0, 5, dtype=F64)
     lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
-    for call in (lambda: uniform_thin_film_xyz(c, 0.2, 1.3, d, 1.5, bins=64, nodes=8, wavelength=lam),
+    for call in (lambda: thin_film_xyz_uniform(c, 0.2, 1.3, d, 1.5, bins=64, nodes=8, wavelength=lam),
                  lambda: torch.stack(torch.broadcast_tensors(*path_difference_moments(c, 0.2, 1.3, d, bins=64,
                                                                                       nodes=8)))):
-        with ti.chunk_size(None):
+        with ti.options(chunk_size=None):
             ref = call()
         got = _in_blocks(call)
         assert got.shape == ref.shape

@@ -16,14 +16,14 @@ def test_compiled_bragg_matches_eager():
     c = torch.cos(torch.linspace(0, math.pi / 2, 50, dtype=torch.float64))[:, None].clamp(0, 1)
     R0 = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20, polarization="s")
     (g0,) = torch.autograd.grad(R0.sum(), lam)
-    assert not ti.compile_enabled()
-    ti.set_compile(True)
+    assert not ti.options("compile")
+    ti.options(compile=True)
     try:
         with _no_warning():
             R1 = ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20, polarization="s")
             (g1,) = torch.autograd.grad(R1.sum(), lam)
     finally:
-        ti.set_compile(False)
+        ti.options(compile=False)
     assert (R1 - R0).abs().max() <= 1e-11
     assert (g1 - g0).abs().max() <= 1e-8 * g0.abs().max()
 
@@ -47,8 +47,8 @@ class _no_warning:
 
 
 def test_set_compile_validates():
-    with pytest.raises(ValueError, match="enabled"):
-        ti.set_compile("yes")
+    with pytest.raises(ValueError, match="compile must be True or False"):
+        ti.options(compile="yes")
 
 
 @pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None, reason="no C compiler")
@@ -61,10 +61,10 @@ def test_compiled_piecewise_matches_eager(monkeypatch):
     c = torch.cos(torch.deg2rad(torch.linspace(0, 89, 12, dtype=torch.float64)))
     d1 = torch.tensor([50.0, 250.0, 450.0], dtype=torch.float64)[:, None]
     x0 = ti.bragg_xyz(c, 1.0, 1.5, d1, 500.0 - d1, 20, method="piecewise")
-    ti.set_compile(True)
+    ti.options(compile=True)
     try:
         with _no_warning():
             x1 = ti.bragg_xyz(c, 1.0, 1.5, d1, 500.0 - d1, 20, method="piecewise")
     finally:
-        ti.set_compile(False)
+        ti.options(compile=False)
     assert (x1 - x0).abs().max() <= 1e-12

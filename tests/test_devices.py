@@ -23,7 +23,7 @@ import pytest
 import torch
 
 import torchirid as ti
-from api_cases import CASES, pick
+from api_cases import CASES, case_id, pick
 from tensors import F64
 
 RTOL, ATOL = 1e-8, 1e-12
@@ -53,7 +53,7 @@ def assert_close_on(out, ref, device, what, rtol=RTOL):
     assert bool((err <= tol).all()), f"{what}: max |Δ| {float(err.max()):.3g} on {device}"
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", list(CASES), ids=[case_id(n) for n in CASES])
 def test_every_call_runs_on_the_device_of_its_inputs(name, device):
     fn, build, _, which = CASES[name]
     ref = pick(fn(**build()), which)
@@ -61,7 +61,10 @@ def test_every_call_runs_on_the_device_of_its_inputs(name, device):
     assert_close_on(out, ref, device, name)
 
 
-@pytest.mark.parametrize("name", [n for n in CASES if n not in {"smith_g"}])
+_GRAD_CASES = [n for n in CASES if n not in {"smith_g"}]
+
+
+@pytest.mark.parametrize("name", _GRAD_CASES, ids=[case_id(n) for n in _GRAD_CASES])
 def test_gradients_are_computed_on_the_device(name, device):
     """Backward through each call on the device: the gradient of the first per-sample argument is
     on the device and equals the CPU one."""
@@ -152,9 +155,9 @@ def test_chunked_evaluation_on_the_device_equals_one_piece(device):
         "bragg_xyz": lambda: ti.bragg_xyz(c[:, 0], 1.0, 1.5, 125.0, 375.0, 20, method="piecewise"),
     }
     for name, call in calls.items():
-        with ti.chunk_size(None):
+        with ti.options(chunk_size=None):
             whole = call()
-        with ti.chunk_size(4096):
+        with ti.options(chunk_size=4096):
             blocks = call()
         assert blocks.device.type == device.type
         assert torch.allclose(blocks, whole, rtol=1e-12, atol=1e-15), name
@@ -172,7 +175,7 @@ def _hot_kernels(device, size):
         "bragg_reflectance": lambda: ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20),
         "thin_film_reflectance": lambda: ti.thin_film_reflectance(lam, c, 1.33, 300.0, 1.5),
         "multilayer": lambda: ti.multilayer(lam, c, idx, thk)[0],
-        "fresnel_reflectance": lambda: ti.fresnel_reflectance(c, 1.0, 1.5),
+        "fresnel_reflectance": lambda: ti.optics.fresnel_reflectance(c, 1.0, 1.5),
         "rough_multilayer_reflectance": lambda: ti.rough_multilayer_reflectance(
             lam, c, idx[:3], thk[:1], 20.0, 300.0),
     }
@@ -183,7 +186,7 @@ def test_hot_kernels_never_read_values_back_to_the_host():
     only reads), the spectral kernels run on ``meta`` tensors: shapes and dtypes only, no values,
     so any ``.item()``, ``.tolist()``, host copy or data-dependent branch would raise."""
     meta = torch.device("meta")
-    with ti.value_checks(False):
+    with ti.options(value_checks=False):
         for name, call in _hot_kernels(meta, 10_000).items():
             out = call()
             assert out.device.type == "meta" and out.numel() >= 10_000 // 100, name
@@ -208,10 +211,10 @@ def test_cuda_synchronisations_do_not_grow_with_the_blocks():
         return sum("synchroniz" in str(w.message) for w in caught)
 
     counts = {}
-    with ti.value_checks(False):
+    with ti.options(value_checks=False):
         small, big = _hot_kernels(dev, 4_000), _hot_kernels(dev, 160_000)
         for name in small:
-            with ti.chunk_size(4_000):
+            with ti.options(chunk_size=4_000):
                 small[name]()  # warm-up (caches)
                 counts[name] = (syncs(small[name]), syncs(big[name]))
     grew = {k: v for k, v in counts.items() if v[1] > v[0]}

@@ -2,7 +2,7 @@
 ``estimation.read_cube``, which was not there).
 
 A reference is backticked text whose first dotted part is ``torchirid`` or one of its
-subpackages/modules (``optics.multilayer``, ``torchirid.ibl.fitted_thin_film_xyz(...)``,
+subpackages/modules (``optics.multilayer``, ``torchirid.ibl.thin_film_xyz_fitted(...)``,
 ``spectral.piecewise.MIN_FRINGES``); a call's arguments are ignored. It resolves by importing
 the longest module prefix and getting the rest as attributes."""
 
@@ -26,11 +26,22 @@ NAME = re.compile(r"^(?:torchirid\.)?([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)(\(.*\))?$
 OLD_NAME_CONTEXT = re.compile(r"→|\bwas\b|\bold\b|\bno longer\b|\bremoved\b|\brenamed\b|\bnot\b|\|\s*`[^`]*`\s*\|", re.I)
 
 
+def _lines(doc):
+    """The lines to check: the changelog's latest section only (older sections quote the names of
+    their time), every line elsewhere."""
+    lines = doc.read_text(encoding="utf-8").splitlines()
+    if doc.name == "CHANGELOG.md":
+        heads = [i for i, line in enumerate(lines) if line.startswith("## ")]
+        if len(heads) > 1:
+            lines = lines[: heads[1]]
+    return enumerate(lines, 1)
+
+
 def _references():
     for doc in DOCS:
         if not doc.exists():
             continue
-        for lineno, line in enumerate(doc.read_text(encoding="utf-8").splitlines(), 1):
+        for lineno, line in _lines(doc):
             for text in re.findall(r"`([^`\n]+)`", line):
                 m = NAME.match(text.strip())
                 if not m:

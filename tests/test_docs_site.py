@@ -1,7 +1,8 @@
 """The documentation site builds (issue 26): Sphinx with autodoc over every public name, nitpicky
 cross-references (``-n``), every warning an error (``-W``), offline — so a docstring that does not
 render, or a reference to a name that is not documented, fails CI. The gallery's pages are built
-without running the scripts (``plot_gallery=0``); each script runs here at a tiny size."""
+without running the scripts (``plot_gallery=0``); each script runs here at a tiny size. The tests
+of the built site are marked ``integration`` (Sphinx, npm's MathJax); the gallery scripts are not."""
 
 from __future__ import annotations
 
@@ -36,12 +37,14 @@ def build(tmp_path_factory):
     return out / "html", r, [normalise(x) for x in warnings.read_text().splitlines() if x.strip()]
 
 
+@pytest.mark.integration  # the Sphinx build
 def test_the_site_builds_without_a_warning(build):
     _, r, warnings = build
     assert not warnings, "documentation warnings (fix the docstring or the reference):\n" + "\n".join(warnings)
     assert r.returncode == 0, r.stderr[-3000:]
 
 
+@pytest.mark.integration  # the Sphinx build
 def test_every_public_name_has_a_page_entry(build):
     html, _, _ = build
     import torchirid
@@ -100,12 +103,14 @@ def test_gallery_script_runs_at_a_tiny_size(script, gallery_runs):
     assert error is None, error
 
 
+@pytest.mark.integration  # the Sphinx build
 def test_the_gallery_has_its_pages(build):
     html, _, _ = build
     for script in EXAMPLES:
         assert (html / "auto_examples" / f"{script.stem}.html").is_file(), script.stem
 
 
+@pytest.mark.integration  # the Sphinx build
 def test_equations_render_offline(build):
     """With MathJax vendored (``bash run.sh test``/``docs`` install npm's mathjax), every page with
     maths loads it from the site itself, and the fonts it needs are there: nothing fetched."""

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid.export import (export_lut, load_exported_lut, thin_film_material,
+from torchirid.export import (export_lut, read_exported_lut, thin_film_material,
                               write_thin_film_material)
 from torchirid.lut import LUT
 
@@ -41,7 +41,7 @@ def test_raw_round_trip(tmp_path, sizes, channels, dtype):
     assert (data.name, side.name) == ("t.bin", "t.bin.json")
     raw = np.fromfile(data, dtype="<f4").reshape(*sizes, *channels)
     np.testing.assert_array_equal(raw, src.values.to(torch.float32).numpy())
-    back = load_exported_lut(tmp_path / "t.bin")
+    back = read_exported_lut(tmp_path / "t.bin")
     _check_round_trip(src, back)
     if dtype == torch.float32:
         assert back.hash == src.hash
@@ -70,10 +70,10 @@ def test_corrupt_and_bad_args(tmp_path):
     b[5] ^= 0xFF
     data.write_bytes(bytes(b))
     with pytest.raises(ValueError, match="data_sha256"):
-        load_exported_lut(tmp_path / "c")
+        read_exported_lut(tmp_path / "c")
     data.write_bytes(bytes(b[:-4]))
     with pytest.raises(ValueError, match="bytes"):
-        load_exported_lut(tmp_path / "c")
+        read_exported_lut(tmp_path / "c")
     with pytest.raises(ValueError, match="format must be"):
         export_lut(src, tmp_path / "c", format="png")
     with pytest.raises(ValueError, match="channel_names"):
@@ -92,7 +92,7 @@ def test_raw_and_exr_exports_to_one_stem_keep_their_own_sidecars(tmp_path):
     pytest.importorskip("OpenEXR")
     raw_src, exr_src = _lut((4, 3), (2,), seed=1), _lut((5, 2), (3,), seed=2)
     raw_files = export_lut(raw_src, tmp_path / "t", format="raw")
-    _check_round_trip(raw_src, load_exported_lut(tmp_path / "t"))  # the stem: the only export
+    _check_round_trip(raw_src, read_exported_lut(tmp_path / "t"))  # the stem: the only export
     before = [f.read_bytes() for f in raw_files]
     exr_files = export_lut(exr_src, tmp_path / "t.exr", format="exr")  # a suffix on the stem is dropped
     assert [f.name for f in raw_files + exr_files] == ["t.bin", "t.bin.json", "t.exr", "t.exr.json"]
@@ -101,16 +101,16 @@ def test_raw_and_exr_exports_to_one_stem_keep_their_own_sidecars(tmp_path):
     assert json.loads(exr_files[1].read_text())["container"] == "exr"
     for path, src in ((raw_files[0], raw_src), (raw_files[1], raw_src), (tmp_path / "t.bin", raw_src),
                       (exr_files[0], exr_src), (exr_files[1], exr_src)):
-        _check_round_trip(src, load_exported_lut(path))
+        _check_round_trip(src, read_exported_lut(path))
     with pytest.raises(ValueError, match="ambiguous") as info:
-        load_exported_lut(tmp_path / "t")
+        read_exported_lut(tmp_path / "t")
     assert "t.bin.json" in str(info.value) and "t.exr.json" in str(info.value)
     with pytest.raises(FileNotFoundError, match="nope"):
-        load_exported_lut(tmp_path / "nope")
+        read_exported_lut(tmp_path / "nope")
     raw_files[1].unlink()
     with pytest.raises(FileNotFoundError, match=r"t\.bin\.json"):
-        load_exported_lut(raw_files[0])  # a data file never borrows another container's sidecar
-    _check_round_trip(exr_src, load_exported_lut(tmp_path / "t"))  # the stem: the EXR export is left
+        read_exported_lut(raw_files[0])  # a data file never borrows another container's sidecar
+    _check_round_trip(exr_src, read_exported_lut(tmp_path / "t"))  # the stem: the EXR export is left
 
 
 @pytest.mark.parametrize("sizes,channels", [((6, 5), ()), ((6, 5), (4,)), ((4, 3), (7,)),
@@ -120,7 +120,7 @@ def test_exr_round_trip(tmp_path, sizes, channels):
     src = _lut(sizes, channels)
     data, side = export_lut(src, tmp_path / "e", format="exr")
     assert (data.name, side.name) == ("e.exr", "e.exr.json")
-    back = load_exported_lut(side)
+    back = read_exported_lut(side)
     _check_round_trip(src, back)
     lay = json.loads(side.read_text())["exr_layout"]
     img = OpenEXR.File(str(data), separate_channels=True)

@@ -1,7 +1,7 @@
 """The fits differentiate internally (L-BFGS on scatterograms, Levenberg–Marquardt Jacobians):
 called inside a caller's ``torch.inference_mode()`` (how inference pipelines and LUT scripts
 run) they must still work, and give what they give outside it. Inference-mode first calls that
-fill caches, followed by autograd calls, are tested over the whole API in test_nan_harness.py."""
+fill caches, followed by autograd calls, are tested over the whole API in contract/test_nan_harness.py."""
 
 from __future__ import annotations
 
@@ -24,12 +24,12 @@ def test_film_estimation_inside_inference_mode():
                              index_model_name=ref.index_model, iterations=2)
     assert fe.n == ref.n and torch.equal(fe.thickness, ref.thickness)
     assert torch.isfinite(rf.thickness).all()
-    terms = est.band_terms(sc.wavelength, sc.cos_theta[:, None], 1.38, 1.64)
+    terms = est.measurement.band_terms(sc.wavelength, sc.cos_theta[:, None], 1.38, 1.64)
     y, d = sc.cube.reshape(-1, *sc.cube.shape[-2:]), ref.thickness.reshape(-1)
     dterms = [torch.ones(t.shape + (1,), dtype=F64) for t in terms]
-    r0 = est.lm_jacobian(y, d, terms, dterms)
+    r0 = est.refine.lm_jacobian(y, d, terms, dterms)
     with torch.inference_mode():
-        r1 = est.lm_jacobian(y, d, terms, dterms)
+        r1 = est.refine.lm_jacobian(y, d, terms, dterms)
     assert all(torch.allclose(a, b) for a, b in zip(r0, r1))
 
 

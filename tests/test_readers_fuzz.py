@@ -24,9 +24,9 @@ import pytest
 import torch
 
 from torchirid.estimation.cube_io import read_cube, write_envi, write_npz
-from torchirid.export import export_lut, load_exported_lut
-from torchirid.fitting.measured import load_scatterogram, save_scatterogram_exr, save_scatterogram_png
-from torchirid.ibl.prefilter import load_environment
+from torchirid.export import export_lut, read_exported_lut
+from torchirid.fitting.measured import read_scatterogram, write_scatterogram, write_scatterogram
+from torchirid.ibl.prefilter import read_environment
 from torchirid.layered.filter_lut import FilterLUT, transmission_filter_lut
 from torchirid.lut import LUT
 from torchirid.spectral.correction import fitted_coefficients
@@ -115,13 +115,12 @@ def _build_envi_data(d: Path) -> Path:
 
 
 def _build_png(d: Path) -> Path:
-    return save_scatterogram_png(_xyz(8), d / "scan.png")
+    return write_scatterogram(d / "scan.png", _xyz(8))
 
 
 def _build_exr(d: Path) -> Path:
     pytest.importorskip("OpenEXR")
-    return save_scatterogram_exr(torch.rand(16, 16, 3, generator=torch.Generator().manual_seed(0)) * 0.5,
-                                 d / "scan.exr")  # (noise: a half file cuts into the pixel chunks)
+    return write_scatterogram(d / "scan.exr", torch.rand(16, 16, 3, generator=torch.Generator().manual_seed(0)) * 0.5)  # (noise: a half file cuts into the pixel chunks)
 
 
 def _build_env_exr(d: Path) -> Path:
@@ -152,7 +151,7 @@ def _build_export(fmt: str, target: int) -> Callable[[Path], Path]:
 
 
 def _read_export(target: Path) -> LUT:
-    return load_exported_lut(target.with_name("table"))  # from the stem: the reader finds the sidecar
+    return read_exported_lut(target.with_name("table"))  # from the stem: the reader finds the sidecar
 
 
 def _build_correction(d: Path) -> Path:
@@ -195,18 +194,18 @@ READERS: dict[str, Reader] = {
     }),
     "envi-data": Reader(_build_envi_data, lambda p: read_cube(p.with_suffix(".hdr")), needs=("spectral",),
                         data_file=True, generic=("empty", "half", "few", "text")),
-    "png": Reader(_build_png, load_scatterogram, other=_ZIP_BYTES, shapes={
-        "one-pixel": lambda p: save_scatterogram_png(_xyz(1), p),
+    "png": Reader(_build_png, read_scatterogram, other=_ZIP_BYTES, shapes={
+        "one-pixel": lambda p: write_scatterogram(p, _xyz(1)),
         "no-image-data": lambda p: p.write_bytes(p.read_bytes()[:33] + p.read_bytes()[-12:]),  # IHDR + IEND
     }),
-    "exr-scatterogram": Reader(_build_exr, load_scatterogram, needs=("OpenEXR",), shapes={
-        "one-pixel": lambda p: save_scatterogram_exr(_xyz(1), p),
+    "exr-scatterogram": Reader(_build_exr, read_scatterogram, needs=("OpenEXR",), shapes={
+        "one-pixel": lambda p: write_scatterogram(p, _xyz(1)),
         "no-rgb": lambda p: _write_exr(p, {"Z": np.zeros((4, 4))}),
     }),
-    "exr-environment": Reader(_build_env_exr, load_environment, needs=("OpenEXR",), shapes={
+    "exr-environment": Reader(_build_env_exr, read_environment, needs=("OpenEXR",), shapes={
         "no-rgb": lambda p: _write_exr(p, {"Z": np.zeros((4, 8))}),
     }),
-    "hdr-environment": Reader(_build_env_hdr, load_environment, shapes={
+    "hdr-environment": Reader(_build_env_hdr, read_environment, shapes={
         "orientation": lambda p: p.write_bytes(_rgbe(4, 16, orientation=b"+Y")),
         "header-only": lambda p: p.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n"),
         "too-many-rows": lambda p: p.write_bytes(_rgbe(4, 16).replace(b"-Y 4", b"-Y 9")),

@@ -20,7 +20,7 @@ def two_threads():
     torch.set_num_threads(2)
     yield
     torch.set_num_threads(before)
-    ti.set_small_work_threads()
+    ti.options(small_work_threads=1)
 
 
 def _threads_seen_by_kernel(monkeypatch, call):
@@ -53,10 +53,10 @@ def test_large_calls_keep_the_callers_threads(two_threads, monkeypatch):
 
 
 def test_policy_off_and_bragg_xyz(two_threads, monkeypatch):
-    ti.set_small_work_threads(None)
+    ti.options(small_work_threads=None)
     lam = torch.linspace(400.0, 700.0, 31, dtype=F64)
     assert _threads_seen_by_kernel(monkeypatch, lambda: ti.thin_film_reflectance(lam, 0.8, 1.33, 300.0, 1.5)) == [2]
-    ti.set_small_work_threads(1)
+    ti.options(small_work_threads=1)
     inside = []
     real = torch.Tensor.__matmul__
     monkeypatch.setattr(torch.Tensor, "__matmul__", lambda a, b: inside.append(torch.get_num_threads()) or real(a, b))
@@ -83,8 +83,8 @@ def test_nested_and_failing_blocks_restore(two_threads):
 def test_knob_validation():
     for bad in (-1, 1.5, True, "1"):
         with pytest.raises(ValueError, match="threads"):
-            ti.set_small_work_threads(bad)
-    ti.set_small_work_threads(0)
-    assert ti.get_small_work_threads() is None
-    ti.set_small_work_threads()
-    assert ti.get_small_work_threads() == 1
+            ti.options(small_work_threads=bad)
+    ti.options(small_work_threads=0)
+    assert ti.options("small_work_threads") is None
+    ti.options(small_work_threads=1)
+    assert ti.options("small_work_threads") == 1

@@ -1,7 +1,7 @@
 """The kernels under ``torch.func.vmap`` and ``torch.compile(fullgraph=True)`` (issue 22.7).
 
 Value checks read tensors back to Python, which vmap cannot do and which breaks a full graph.
-``torchirid.value_checks(False)`` (or ``set_value_checks``) turns them off, and torch.compile
+``torchirid.options(value_checks=False)`` (or ``set_value_checks``) turns them off, and torch.compile
 turns them off by itself while it traces; either way the kernels take their masked branches
 unconditionally. Reference: the same functions called eagerly on the whole batch."""
 
@@ -39,32 +39,32 @@ def _cases():
 def test_vmap_with_value_checks_off(name):
     one, batched = _cases()[name]
     ref = batched(D)
-    with ti.value_checks(False):
+    with ti.options(value_checks=False):
         got = torch.func.vmap(one)(D)
     torch.testing.assert_close(got, ref, rtol=0, atol=1e-13)
 
 
 def test_vmap_needs_the_switch():
     one, _ = _cases()["thin_film"]
-    assert ti.value_checks_enabled()
+    assert ti.options("value_checks")
     with pytest.raises(RuntimeError, match="vmap"):  # (.item() / data-dependent control flow)
         torch.func.vmap(one)(D)
 
 
 def test_switch_is_scoped_and_checked():
-    with ti.value_checks(False):
-        assert not ti.value_checks_enabled()
+    with ti.options(value_checks=False):
+        assert not ti.options("value_checks")
         ti.thin_film_reflectance(5e-7, 1.0, 1.4, 100.0, 1.5)  # no unit check with the checks off
-    assert ti.value_checks_enabled()
+    assert ti.options("value_checks")
     with pytest.raises(ValueError, match="wavelength must be in nm"):
         ti.thin_film_reflectance(5e-7, 1.0, 1.4, 100.0, 1.5)
-    with pytest.raises(ValueError, match="enabled"):
-        ti.set_value_checks("no")
-    ti.set_value_checks(False)
+    with pytest.raises(ValueError, match="value_checks must be True or False"):
+        ti.options(value_checks="no")
+    ti.options(value_checks=False)
     try:
-        assert not ti.value_checks_enabled()
+        assert not ti.options("value_checks")
     finally:
-        ti.set_value_checks(True)
+        ti.options(value_checks=True)
 
 
 @pytest.mark.slow

@@ -72,7 +72,8 @@ def run_preset(name, args, generator):
     t0 = time.perf_counter()
     fit = match_scatterogram(target, incident_deg=incs, n1=row["n1"], wavelength=lam, max_iter=args.max_iter,
                              short_iter=args.short_iter, starts=args.starts,
-                             log=(lambda s: print(f"  [{name}] {s}", file=sys.stderr)) if args.verbose else None)
+                             progress=(lambda done, total: print(f"  [{name}] stage {done}/{total}", file=sys.stderr))
+                             if args.verbose else None)
     seconds = time.perf_counter() - t0
     # figures on the target's own scale (peak Y = 1)
     _, disc = scatterogram_directions(args.resolution)
@@ -147,7 +148,8 @@ def main(argv=None) -> int:
     p.add_argument("--threads", type=int, default=1,
                    help="torch threads (default 1: small renders gain nothing from intra-op threads)")
     p.add_argument("--notes", default=None, help="also write the markdown table and the JSON here")
-    p.add_argument("--verbose", action="store_true", help="log the stages to stderr")
+    p.add_argument("--verbose", action="store_true",
+                   help="print the stages done to stderr (their losses are in the JSON's stages)")
     args = p.parse_args(argv)
     torch.set_num_threads(args.threads)
     names = [s.strip() for s in args.presets.split(",") if s.strip()]

@@ -11,7 +11,7 @@ the converged spectral integration (``method="spectral"``, the reference), the l
 piecewise-constant spectrum (``"piecewise"``, s = 8 fringe-averaged boxes), the paper's
 subdivided approximation (s = 3 with its weights) and the fringe-averaged envelope
 (``"envelope"``). Each fast panel is titled with its ΔE2000 against the reference
-(:func:`torchirid.delta_e_2000`), mean and 95th percentile over the panel. CIE 1931 2°, D65,
+(:func:`torchirid.color.delta_e_2000`), mean and 95th percentile over the panel. CIE 1931 2°, D65,
 sRGB clipped to [0, 1]. One call per method covers the whole grid: Λ, d1/Λ and θ broadcast.
 
 The short periods (Λ = 244 nm) have only one or two reflectance fringes in 380–780 nm, outside
@@ -68,7 +68,7 @@ axes[0].set_yticks([Rn * (i + 0.5) for i in range(L)], [f"Λ = {p:g} nm" for p i
 for ax, (name, colour) in zip(axes[1:], xyz.items()):
     ax.imshow(torchirid.xyz_to_srgb(colour).clamp(0, 1).reshape(rows, A, 3).numpy(), aspect="auto",
               interpolation="nearest", extent=extent)
-    de = torchirid.delta_e_2000(torchirid.xyz_to_lab(colour), reference)
+    de = torchirid.color.delta_e_2000(torchirid.xyz_to_lab(colour), reference)
     title = name if colour is xyz["reference (spectral)"] else (
         f"{name}\nΔE2000 mean {float(de.mean()):.2f}, p95 {float(de.quantile(0.95)):.1f}")
     ax.set_title(title, fontsize=10)

@@ -13,7 +13,7 @@ the green preset (``torchirid.layered.presets.jewel_beetle``, Λ = 160 nm; α = 
 its 0.05, so that each lobe covers several pixels of a small image) rendered with
 :func:`torchirid.fitting.render_targets`, times 3 (the exposure, unknown to the fit) and 1 %
 Gaussian noise per pixel and channel; a photograph would be read with
-:func:`torchirid.fitting.load_scatterogram`. The search is narrowed to keep the example fast:
+:func:`torchirid.fitting.read_scatterogram`. The search is narrowed to keep the example fast:
 Λ in 120–360 nm every 4 nm, two starts, N ∈ {6, 8, 10}. Columns: the target, the fit, their
 per-pixel CIEDE2000, and the refit at twice the period (2Λ): a visible-only scatterogram
 cannot tell the first-order peak of Λ from the second-order peak of 2Λ, and the fit is

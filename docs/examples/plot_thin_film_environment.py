@@ -8,16 +8,16 @@ an environment map and shaded with Kneiphof et al.'s split sum (eq. 12): the map
 by :func:`torchirid.ibl.prefilter_environment`, the albedo from
 :func:`torchirid.ibl.shipped_dfg_lut`, and three reflectance terms — Belcour–Barla's Fourier
 colour at the mirror direction, Kneiphof's filtered colour with the map's light moments, and
-torchirid's fitted light-mixture table (:func:`torchirid.ibl.fitted_thin_film_xyz`, a
+torchirid's fitted light-mixture table (:func:`torchirid.ibl.thin_film_xyz_fitted`, a
 uniform-light model) — :func:`torchirid.ibl.shade_thin_film_environment` with
 ``method="belcour_barla"``, ``"kneiphof"`` and ``"fitted"``.
 
 There is no HDR photograph in the repository: the map is the library's synthetic sky
 (:func:`torchirid.ibl.synthetic_environment`: a blue gradient, a grey ground and a sun), and a
-photograph would go through :func:`torchirid.ibl.load_environment`. The library has no
+photograph would go through :func:`torchirid.ibl.read_environment`. The library has no
 reference renderer for a non-uniform environment, so the reference here is eq. 11 summed over
 every texel of the map (the prefilter's own quadrature): the GGX BRDF
-(:func:`torchirid.microfacet_brdf`) with the film's reflectance
+(:func:`torchirid.microfacet.microfacet_brdf`) with the film's reflectance
 (:func:`torchirid.thin_film_reflectance`, 41 wavelengths, taken to linear RGB like the map)
 at each texel's half vector. The bottom row shows each method's per-pixel CIEDE2000 against it,
 the panel titles their means over the sphere.
@@ -30,7 +30,8 @@ import torch
 
 import torchirid
 from torchirid.color import delta_e_2000, linear_srgb_to_xyz, spectrum_to_xyz, xyz_to_lab, xyz_to_linear_srgb
-from torchirid.ibl import equirect_directions, prefilter_environment, shade_thin_film_environment, synthetic_environment
+from torchirid.ibl import prefilter_environment, shade_thin_film_environment, synthetic_environment
+from torchirid.ibl.prefilter import equirect_directions
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
 f64 = torch.float64
@@ -85,7 +86,7 @@ tangent = tangent / tangent.norm(dim=-1, keepdim=True)
 frame = torch.stack([tangent, torch.linalg.cross(normal, tangent), normal], -2)  # (P, 3, 3): rows t, b, n
 wi = torch.einsum("pij,tj->pti", frame, light)                  # (P, T, 3) in each pixel's frame
 wo = torch.einsum("pij,j->pi", frame, view)[:, None, :]
-brdf = torchirid.microfacet_brdf(wi, wo, alpha, reflectance=film_reflectance)      # (P, T, 3)
+brdf = torchirid.microfacet.microfacet_brdf(wi, wo, alpha, reflectance=film_reflectance)      # (P, T, 3)
 reference = torch.einsum("ptc,pt,tc->pc", brdf, wi[..., 2].clamp_min(0.0) * omega, texel)
 
 exposure = 0.8 / float(linear_srgb_to_xyz(reference)[:, 1].quantile(0.98))

@@ -8,73 +8,35 @@ is ``n_incident`` and the exit medium ``n_substrate``; tensor arguments broadcas
 float64 → complex128); polarization is "s", "p" or "unpolarized" (mean of the s and p
 reflectances).
 
-The top level holds the entry points users reach for; everything else lives in the
-subpackages, each with its own ``__all__``:
+The top level holds the entry points users reach for first; everything else lives in the
+subpackages, whose ``__all__`` is their whole public surface:
 
 - :mod:`torchirid.optics` — Fresnel, thin films, multilayers, Bragg mirrors, rough surfaces;
 - :mod:`torchirid.microfacet` — GGX microfacets;
 - :mod:`torchirid.layered` — rough Bragg layers, F_α, the layered BRDF, scatterograms;
 - :mod:`torchirid.color` — CMFs, illuminants, XYZ / Lab / sRGB, ΔE;
 - :mod:`torchirid.spectral` — the colour of Bragg mirrors (spectral, sampled, piecewise, envelope);
-- :mod:`torchirid.ibl` — thin-film colour for image-based lighting (Belcour–Barla, Kneiphof);
+- :mod:`torchirid.ibl` — thin-film colour, also for image-based lighting (Belcour–Barla, Kneiphof);
 - :mod:`torchirid.estimation` — film index and thickness from hyperspectral cubes;
 - :mod:`torchirid.fitting` — matching layered Bragg materials to scatterograms;
+- :mod:`torchirid.realtime` — textures and GLSL for shaders;
 - :mod:`torchirid.materials`, :mod:`torchirid.lut`, :mod:`torchirid.export`.
 
-The ``torchirid`` command and the figures live in :mod:`torchirid.app` (not imported here).
+Subpackages load on first use (``import torchirid`` alone imports none of them), and so do
+the entry points below. :func:`options` reads and sets the library's switches (value checks,
+block size, threads for small calls, ``torch.compile``); :func:`clear_caches` empties every
+cache. The ``torchirid`` command and the figures live in ``torchirid.app`` (not imported here);
+``torchirid.scale`` (Dask) is imported explicitly.
 """
 
-from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, spectral
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from ._cache import clear_caches
-from ._checks import set_value_checks, value_checks, value_checks_enabled
-from ._chunks import chunk_size, get_chunk_size, set_chunk_size
-from ._threads import get_small_work_threads, set_small_work_threads
-from ._compile import compile_enabled, set_compile
+from ._options import options
 from ._version import __version__
-from .color import delta_e, delta_e_2000, illuminant_spd, cmfs, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
-from .estimation import estimate_film
-from .estimation.cube_io import read_cube
-from .export import export_lut
-from .fitting import load_scatterogram, match_scatterogram
-from .ibl import (
-    filtered_thin_film_xyz,
-    fitted_thin_film_xyz,
-    load_environment,
-    prefilter_environment,
-    shade_thin_film_environment,
-    thin_film_xyz_fourier,
-    uniform_thin_film_xyz,
-)
-from .layered import (
-    LayeredBragg,
-    RoughBraggLayer,
-    montecarlo_brdf,
-    sample_single_reflection,
-    single_reflection_brdf,
-    transmission_filter,
-)
-from .lut import LUT
-from .layered import scatterogram
-from .materials import available_materials, refractive_index
-from .microfacet import MicrofacetBRDF, microfacet_brdf
-from .optics import (
-    BraggMirror,
-    FilmStack,
-    Multilayer,
-    ThinFilm,
-    bragg_dispersion,
-    bragg_envelope,
-    bragg_reflectance,
-    film_reflectance,
-    film_reflectance_lut,
-    fresnel_reflectance,
-    lookup_film_reflectance,
-    multilayer,
-    rough_multilayer_diffuse,
-    rough_multilayer_reflectance,
-    thin_film_reflectance,
-)
-from .spectral import BRAGG_XYZ_METHODS, bragg_xyz
 
 __all__ = [
     "__version__",
@@ -89,72 +51,100 @@ __all__ = [
     "materials",
     "microfacet",
     "optics",
+    "realtime",
     "spectral",
     # reflectance
     "BraggMirror",
-    "FilmStack",
     "Multilayer",
     "ThinFilm",
-    "bragg_dispersion",
-    "bragg_envelope",
     "bragg_reflectance",
-    "film_reflectance",
-    "fresnel_reflectance",
     "multilayer",
-    "rough_multilayer_diffuse",
     "rough_multilayer_reflectance",
     "thin_film_reflectance",
     # colour
-    "cmfs",
     "delta_e",
-    "delta_e_2000",
-    "illuminant_spd",
     "spectrum_to_xyz",
     "xyz_to_lab",
     "xyz_to_srgb",
-    # Bragg colour
-    "BRAGG_XYZ_METHODS",
+    # colour of structures
     "bragg_xyz",
-    # layered BRDF
+    "thin_film_xyz",
+    # environment lighting
+    "prefilter_environment",
+    "read_environment",
+    "shade_thin_film_environment",
+    # rough layered structures
     "LayeredBragg",
     "MicrofacetBRDF",
     "RoughBraggLayer",
-    "microfacet_brdf",
     "montecarlo_brdf",
-    "sample_single_reflection",
     "scatterogram",
     "single_reflection_brdf",
-    "transmission_filter",
-    # thin-film IBL
-    "filtered_thin_film_xyz",
-    "fitted_thin_film_xyz",
-    "load_environment",
-    "prefilter_environment",
-    "shade_thin_film_environment",
-    "thin_film_xyz_fourier",
-    "uniform_thin_film_xyz",
-    # estimation and matching
+    # measurements
     "estimate_film",
-    "load_scatterogram",
     "match_scatterogram",
     "read_cube",
+    "read_scatterogram",
     # tables, materials, exports
     "LUT",
-    "available_materials",
     "export_lut",
-    "film_reflectance_lut",
-    "lookup_film_reflectance",
     "refractive_index",
-    # switches
+    # configuration
     "clear_caches",
-    "compile_enabled",
-    "set_compile",
-    "set_value_checks",
-    "chunk_size",
-    "get_chunk_size",
-    "set_chunk_size",
-    "get_small_work_threads",
-    "set_small_work_threads",
-    "value_checks",
-    "value_checks_enabled",
+    "options",
 ]
+
+_SUBPACKAGES = frozenset(
+    ("color", "estimation", "export", "fitting", "ibl", "layered", "lut", "materials", "microfacet", "optics",
+     "realtime", "spectral", "scale"))
+
+#: entry point → the subpackage that defines it
+_ENTRY_POINTS = {
+    **dict.fromkeys(("BraggMirror", "Multilayer", "ThinFilm", "bragg_reflectance", "multilayer",
+                     "rough_multilayer_reflectance", "thin_film_reflectance"), "optics"),
+    **dict.fromkeys(("delta_e", "spectrum_to_xyz", "xyz_to_lab", "xyz_to_srgb"), "color"),
+    "bragg_xyz": "spectral",
+    **dict.fromkeys(("thin_film_xyz", "prefilter_environment", "read_environment", "shade_thin_film_environment"),
+                    "ibl"),
+    **dict.fromkeys(("LayeredBragg", "RoughBraggLayer", "montecarlo_brdf", "scatterogram",
+                     "single_reflection_brdf"), "layered"),
+    "MicrofacetBRDF": "microfacet",
+    **dict.fromkeys(("estimate_film", "read_cube"), "estimation"),
+    **dict.fromkeys(("match_scatterogram", "read_scatterogram"), "fitting"),
+    "LUT": "lut",
+    "export_lut": "export",
+    "refractive_index": "materials",
+}
+
+
+def __getattr__(name: str):
+    """Import a subpackage, or the subpackage of an entry point, on first use (PEP 562)."""
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f".{name}", __name__)
+    package = _ENTRY_POINTS.get(name)
+    if package is None:
+        raise AttributeError(f"module 'torchirid' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{package}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+if TYPE_CHECKING:  # the names for static tools; at run time they load on first use
+    from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, realtime
+    from . import spectral
+    from .color import delta_e, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
+    from .estimation import estimate_film, read_cube
+    from .export import export_lut
+    from .fitting import match_scatterogram, read_scatterogram
+    from .ibl import prefilter_environment, read_environment, shade_thin_film_environment, thin_film_xyz
+    from .layered import LayeredBragg, RoughBraggLayer, montecarlo_brdf, scatterogram, single_reflection_brdf
+    from .lut import LUT
+    from .materials import refractive_index
+    from .microfacet import MicrofacetBRDF
+    from .optics import BraggMirror, Multilayer, ThinFilm, bragg_reflectance, multilayer
+    from .optics import rough_multilayer_reflectance, thin_film_reflectance
+    from .spectral import bragg_xyz

@@ -29,10 +29,10 @@ def value_checks_enabled() -> bool:
     automatically while ``torch.compile`` traces (``torch.compiler.is_compiling()``).
 
     >>> import torchirid
-    >>> torchirid.value_checks_enabled()
+    >>> torchirid._checks.value_checks_enabled()
     True
-    >>> with torchirid.value_checks(False):
-    ...     torchirid.value_checks_enabled()
+    >>> with torchirid.options(value_checks=False):
+    ...     torchirid._checks.value_checks_enabled()
     False
     """
     return _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling()
@@ -50,7 +50,7 @@ def set_value_checks(enabled: bool = True) -> None:
 
     >>> import torch, torchirid
     >>> f = torch.func.vmap(lambda d: torchirid.thin_film_reflectance(550.0, 1.0, 1.4, d, 1.5))
-    >>> with torchirid.value_checks(False):
+    >>> with torchirid.options(value_checks=False):
     ...     R = f(torch.tensor([100.0, 200.0], dtype=torch.float64))
     >>> R.shape
     torch.Size([2])
@@ -71,7 +71,7 @@ def value_checks(enabled: bool = True):
     ... except ValueError as error:
     ...     print(str(error).split(";")[0])
     wavelength must be in nm, between 1 and 1e+06 nm
-    >>> with torchirid.value_checks(False):  # no check: a number, but a wrong one
+    >>> with torchirid.options(value_checks=False):  # no check: a number, but a wrong one
     ...     R = torchirid.thin_film_reflectance(0.55, 1.0, 1.4, 100.0, 1.5)
     """
     if not isinstance(enabled, bool):
@@ -215,6 +215,8 @@ def as_real(x, name: str, dtype, device) -> torch.Tensor:
         raise ValueError(f"{name} must be a real number, got a bool")
     if isinstance(x, numbers.Real):
         return torch.as_tensor(float(x), dtype=dtype, device=device)
+    if isinstance(x, torch.Tensor) and x.dtype == dtype and x.device == device:
+        return x  # (already a real tensor of dtype where it belongs)
     try:
         t = torch.as_tensor(x, device=device)
         if isinstance(x, (list, tuple)) and not (t.is_complex() or t.dtype == torch.bool):
@@ -236,6 +238,8 @@ def as_index(x, name: str, dtype, device) -> torch.Tensor:
         return torch.as_tensor(x, dtype=complex_dtype(dtype), device=device)
     if isinstance(x, numbers.Real):
         return torch.as_tensor(float(x), dtype=dtype, device=device)
+    if isinstance(x, torch.Tensor) and (x.dtype == dtype or x.dtype == complex_dtype(dtype)) and x.device == device:
+        return x  # (already a real or complex tensor of the precision where it belongs)
     try:
         t = torch.as_tensor(x, device=device)
     except (TypeError, ValueError, RuntimeError) as exc:
@@ -256,6 +260,75 @@ def _scalar(t: torch.Tensor):
     return None
 
 
+def reads_cheaply(t: torch.Tensor) -> bool:
+    """Whether a guard may read ``t``'s values back to skip a masked pass that would change
+    nothing (a critical-angle nudge, a 0/0 guard, a same-medium substitution): on the CPU, where
+    reading a value costs less than one small op, and not under vmap / ``torch.compile``
+    (:func:`traceable`). On an accelerator a read waits for every queued kernel: the masked pass
+    runs instead."""
+    return t.is_cpu and not traceable()
+
+
+#: up to this many elements a guard reads a tensor's values into Python (``tolist``, ~0.3 µs)
+#: rather than reducing it with ``all`` / ``any`` (2–8 µs on a few elements)
+_READ_ELEMENTS = 64
+
+
+def _flat_values(t: torch.Tensor) -> list:
+    """The values of a small tensor as a flat Python list."""
+    v = t.tolist()
+    for _ in range(t.ndim - 1):
+        v = [x for row in v for x in row]
+    return v if t.ndim else [v]
+
+
+def small_values(t: torch.Tensor) -> list | None:
+    """The values of ``t`` as a flat Python list if it holds at most a few elements (read with one
+    ``tolist``, where ``any`` / ``all`` / ``min`` would cost a reduction each), else None."""
+    return _flat_values(t) if t.numel() <= _READ_ELEMENTS else None
+
+
+def known_nonzero(t: torch.Tensor) -> bool:
+    """True when ``t`` holds no zero, as read back where that is cheap (:func:`reads_cheaply`; a
+    few elements are read into Python without a reduction); False where it holds a zero or cannot
+    be read — the caller then takes its guarded (masked) branch. NaN is not zero."""
+    if not t.is_cpu or traceable():
+        return False
+    if t.numel() <= _READ_ELEMENTS:
+        return all(v != 0 for v in _flat_values(t))
+    return bool(t.all())
+
+
+def any_true(mask: torch.Tensor) -> bool:
+    """``bool(mask.any())``, read on any device (for a guard that must know), a few elements without
+    the reduction."""
+    if mask.numel() <= _READ_ELEMENTS:
+        return any(_flat_values(mask))
+    return bool(mask.any())
+
+
+def nonzero(t: torch.Tensor) -> bool:
+    """Whether ``t`` holds no zero (``not bool((t == 0).any())``), read on any device, a few
+    elements without a pass over them. NaN is not zero."""
+    if t.numel() <= _READ_ELEMENTS:
+        return all(v != 0 for v in _flat_values(t))
+    return not bool((t == 0).any())
+
+
+def known_false(mask: torch.Tensor) -> bool:
+    """True when the boolean ``mask`` is False everywhere, as read back where that is cheap
+    (:func:`reads_cheaply`); False where some element is True or it cannot be read."""
+    if not mask.is_cpu or traceable():
+        return False
+    if mask.numel() <= _READ_ELEMENTS:
+        return not any(_flat_values(mask))
+    return not bool(mask.any())
+
+
+#: √(smallest normal) per real dtype (:func:`flush_grazing`)
+_TINY_ROOT = {dt: torch.finfo(dt).tiny ** 0.5 for dt in (torch.float64, torch.float32, torch.float16, torch.bfloat16)}
+
+
 def flush_grazing(c: torch.Tensor) -> torch.Tensor:
     """Cosines below √(smallest normal) (≈1.5e-154 in float64, 1.1e-19 in float32) become 0.
 
@@ -263,12 +336,18 @@ def flush_grazing(c: torch.Tensor) -> torch.Tensor:
     squares and admittances underflow to subnormals that complex division cannot scale
     (0/0 → NaN). NaN passes through unchanged.
     """
-    tiny = torch.finfo(c.dtype).tiny ** 0.5
+    tiny = _TINY_ROOT.get(c.dtype)
+    if tiny is None:
+        tiny = torch.finfo(c.dtype).tiny ** 0.5
     if traceable():  # no data-dependent branch (vmap, torch.compile)
         return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
-    with torch.no_grad():
-        if not bool((c.abs() < tiny).any()):  # the common case: nothing to flush, no extra pass
+    if c.numel() == 1:  # one cosine: read it (no pass over the data; NaN is not < tiny)
+        if not abs(c.item()) < tiny:
             return c
+    else:
+        with torch.no_grad():
+            if not bool((c.abs() < tiny).any()):  # the common case: nothing to flush, no extra pass
+                return c
     return torch.where(c.abs() < tiny, torch.zeros_like(c), c)
 
 

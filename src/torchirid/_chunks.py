@@ -89,10 +89,10 @@ def set_chunk_size(points: int | str | None = AUTO) -> None:
     batch of up to twice the block size is evaluated in one piece.
 
     >>> import torchirid
-    >>> torchirid.set_chunk_size(1 << 16); torchirid.get_chunk_size()
+    >>> torchirid._chunks.set_chunk_size(1 << 16); torchirid._chunks.get_chunk_size()
     65536
-    >>> torchirid.set_chunk_size()  # back to the default: per device
-    >>> torchirid.get_chunk_size(), torchirid.get_chunk_size("cuda")
+    >>> torchirid._chunks.set_chunk_size()  # back to the default: per device
+    >>> torchirid._chunks.get_chunk_size(), torchirid._chunks.get_chunk_size("cuda")
     (32768, 16777216)
     """
     _STATE["points"] = _check(points)
@@ -109,7 +109,7 @@ def get_chunk_size(device=None) -> int | None:
     """The block size in points on ``device`` (default: the CPU's); None: chunking off.
 
     >>> import torchirid
-    >>> torchirid.get_chunk_size(), torchirid.get_chunk_size("cuda")  # the defaults per device
+    >>> torchirid._chunks.get_chunk_size(), torchirid._chunks.get_chunk_size("cuda")  # the defaults per device
     (32768, 16777216)
     """
     points = _STATE["points"]
@@ -123,11 +123,11 @@ def chunk_size(points: int | str | None):
     >>> import torch, torchirid
     >>> wavelength = torch.linspace(380.0, 780.0, 401, dtype=torch.float64)[:, None]  # nm
     >>> cos_theta = torch.linspace(0.0, 1.0, 200, dtype=torch.float64)
-    >>> with torchirid.chunk_size(4096):  # 80 200 points in blocks of 4096
+    >>> with torchirid.options(chunk_size=4096):  # 80 200 points in blocks of 4096
     ...     R = torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20)
     >>> torch.equal(R, torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20))
     True
-    >>> torchirid.get_chunk_size()  # restored on exit
+    >>> torchirid._chunks.get_chunk_size()  # restored on exit
     32768
     """
     points = _check(points)
@@ -173,10 +173,15 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     """
     batch = tuple(batch)
     chunk = _STATE["points"]
+    total = math.prod(batch)
+    # a few points: one piece whatever the block size (a block holds at least min(chunk,
+    # MIN_BLOCK_POINTS) points) — no block-size lookup, no gradient test
+    if total <= 2 * MIN_BLOCK_POINTS and (chunk is None or chunk == AUTO or total <= 2 * min(chunk, MIN_BLOCK_POINTS)):
+        with _threads.limited(total * max(1, int(width))):  # one thread for small work (torchirid._threads)
+            return _expand(kernel(*tensors, **options), batch, out_core)
     if chunk == AUTO:
         chunk = default_chunk_size(next((t.device for t in tensors if isinstance(t, torch.Tensor)), None))
     points = None if chunk is None else max(min(chunk, MIN_BLOCK_POINTS), chunk // max(1, int(width)))
-    total = math.prod(batch)
     core = (0,) * len(tensors) if core is None else tuple(core)
     grad = _wants_grad(tensors) or _wants_grad(grad_inputs)
     if (points is None or total <= 2 * points or (grad and total * width <= CHECKPOINT_POINTS)
@@ -232,8 +237,9 @@ def _tail(t, out_core):
 
 def _expand(result, batch, out_core=0):
     if isinstance(result, tuple):
-        return tuple(r.expand((*batch, *_tail(r, out_core))) for r in result)
-    return result.expand((*batch, *_tail(result, out_core)))
+        return tuple(_expand(r, batch, out_core) for r in result)
+    shape = (*batch, *_tail(result, out_core))
+    return result if result.shape == shape else result.expand(shape)
 
 
 def _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options):

@@ -35,9 +35,9 @@ def set_compile(enabled: bool = True) -> None:
     environment variable ``TORCHIRID_COMPILE=1`` switches it on at import.
 
     >>> import torchirid
-    >>> torchirid.set_compile(True); torchirid.compile_enabled()
+    >>> torchirid._compile.set_compile(True); torchirid._compile.compile_enabled()
     True
-    >>> torchirid.set_compile(False)  # back to the default: eager kernels
+    >>> torchirid._compile.set_compile(False)  # back to the default: eager kernels
     """
     if not isinstance(enabled, bool):
         raise ValueError(f"enabled must be True or False; got {enabled!r}")
@@ -48,7 +48,7 @@ def compile_enabled() -> bool:
     """Whether compiled kernels are in use (:func:`set_compile`, ``TORCHIRID_COMPILE``).
 
     >>> import torchirid
-    >>> torchirid.compile_enabled()  # off unless TORCHIRID_COMPILE=1 was set
+    >>> torchirid._compile.compile_enabled()  # off unless TORCHIRID_COMPILE=1 was set
     False
     """
     return _state["enabled"]

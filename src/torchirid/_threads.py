@@ -17,7 +17,6 @@ with one thread.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import os
 import threading
@@ -53,9 +52,9 @@ def set_small_work_threads(threads: int | None = 1) -> None:
     ``None`` or 0: leave torch's thread count alone.
 
     >>> import torchirid
-    >>> torchirid.set_small_work_threads(None); torchirid.get_small_work_threads() is None
+    >>> torchirid._threads.set_small_work_threads(None); torchirid._threads.get_small_work_threads() is None
     True
-    >>> torchirid.set_small_work_threads()  # back to the default: one thread
+    >>> torchirid._threads.set_small_work_threads()  # back to the default: one thread
     """
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 0):
         raise ValueError(f"threads must be an int >= 1, or 0 / None to leave torch's setting; got {threads!r}")
@@ -66,35 +65,51 @@ def get_small_work_threads() -> int | None:
     """The thread count for small calls (None: torch's setting is left alone).
 
     >>> import torchirid
-    >>> torchirid.get_small_work_threads()  # the default: small calls run on one thread
+    >>> torchirid._threads.get_small_work_threads()  # the default: small calls run on one thread
     1
     """
     return _STATE["threads"]
 
 
-@contextlib.contextmanager
-def limited(work: int):
-    """Run the ``with`` block with the small-work thread count if ``work`` (elements) is below
-    ``torchirid._threads.SMALL_WORK``; nested and concurrent uses restore the count once the last one leaves."""
-    n = _STATE["threads"]
-    if n is None or work >= SMALL_WORK or _checks.traceable():
-        yield
-        return
-    with _LOCK:
-        if _STATE["depth"] == 0:
-            current = torch.get_num_threads()
-            _STATE["saved"] = current if current > n else None
-            if _STATE["saved"] is not None:
-                torch.set_num_threads(n)
-        _STATE["depth"] += 1
-    try:
-        yield
-    finally:
+class limited:
+    """Context manager: run the ``with`` block with the small-work thread count if ``work``
+    (elements) is below ``torchirid._threads.SMALL_WORK``; nested and concurrent uses restore the
+    count once the last one leaves.
+
+    A class rather than a generator-based context manager: small calls enter it on every call,
+    and this costs them a lock and a thread-count read (a switch only where the caller runs on
+    more threads than the policy's).
+    """
+
+    __slots__ = ("work", "counted")
+
+    def __init__(self, work: int):
+        self.work = work
+        self.counted = False
+
+    def __enter__(self):
+        n = _STATE["threads"]
+        if n is None or self.work >= SMALL_WORK or _checks.traceable():
+            return None
         with _LOCK:
-            _STATE["depth"] -= 1
-            if _STATE["depth"] == 0 and _STATE["saved"] is not None:
-                torch.set_num_threads(_STATE["saved"])
-                _STATE["saved"] = None
+            if _STATE["depth"] == 0:
+                current = torch.get_num_threads()
+                _STATE["saved"] = current if current > n else None
+                if _STATE["saved"] is not None:
+                    torch.set_num_threads(n)
+            _STATE["depth"] += 1
+        self.counted = True
+        return None
+
+    def __exit__(self, *exc):
+        if self.counted:
+            self.counted = False
+            with _LOCK:
+                _STATE["depth"] -= 1
+                if _STATE["depth"] == 0 and _STATE["saved"] is not None:
+                    torch.set_num_threads(_STATE["saved"])
+                    _STATE["saved"] = None
+        return False
 
 
 def limited_by(work):

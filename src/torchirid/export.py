@@ -1,7 +1,7 @@
 r"""Exports for renderers: LUTs as raw float32 / OpenEXR files with a JSON sidecar, and a
 thin-film material as glTF ``KHR_materials_iridescence`` / OpenPBR parameters.
 
-LUT exports (:func:`export_lut`, read back with :func:`load_exported_lut`)
+LUT exports (:func:`export_lut`, read back with :func:`read_exported_lut`)
 --------------------------------------------------------------------------
 ``export_lut(lut, "out/dfg", format="raw")`` writes
 
@@ -57,7 +57,7 @@ from ._io import atomic_write, check_readable, file_error, read_exr_channels
 from .lut import LUT
 from ._version import __version__
 
-__all__ = ["export_lut", "load_exported_lut", "thin_film_material", "write_thin_film_material",
+__all__ = ["export_lut", "read_exported_lut", "thin_film_material", "write_thin_film_material",
            "EXPORT_FORMATS"]
 
 #: Containers of :func:`export_lut`.
@@ -95,7 +95,7 @@ def _sidecar_of(data_path: Path) -> Path:
 
 
 def _find_sidecar(path) -> tuple[Path, str | None]:
-    """(the sidecar of ``path``, the data file name asked for or None) for :func:`load_exported_lut`."""
+    """(the sidecar of ``path``, the data file name asked for or None) for :func:`read_exported_lut`."""
     p = Path(path)
     low = p.name.lower()
     if low.endswith(".json"):  # the sidecar itself
@@ -333,7 +333,7 @@ def _read_sidecar(side_path: Path) -> dict:
     return side
 
 
-def load_exported_lut(path, *, dtype: torch.dtype | None = None) -> LUT:
+def read_exported_lut(path, *, dtype: torch.dtype | None = None) -> LUT:
     """Rebuild the :class:`~torchirid.lut.LUT` written by :func:`export_lut` (for checks).
 
     ``path`` is the stem, the data file (``.bin``/``.exr``) or its sidecar; a stem with both a
@@ -354,7 +354,7 @@ def load_exported_lut(path, *, dtype: torch.dtype | None = None) -> LUT:
         >>> dfg = shipped_dfg_lut()  # float64
         >>> with tempfile.TemporaryDirectory() as folder:
         ...     data, _ = export_lut(dfg, os.path.join(folder, "dfg"))
-        ...     back = load_exported_lut(data)  # or the stem, or the sidecar
+        ...     back = read_exported_lut(data)  # or the stem, or the sidecar
         >>> back.axis_names, back.dtype, back.builder == dfg.builder
         (('cos_theta_o', 'alpha'), torch.float64, True)
         >>> torch.allclose(back.values, dfg.values, atol=1e-6)  # the values went through float32

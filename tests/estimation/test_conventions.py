@@ -97,7 +97,7 @@ def test_cuda_inputs_stay_on_cuda_and_agree_with_cpu(cube):
     assert {t.device.type for t in (est.params, est.thickness, est.rms, est.thickness_peak)} == {"cuda"}
     assert abs(est.n - ref.n) < 1e-9 and torch.allclose(est.thickness.cpu(), ref.thickness, rtol=0, atol=1e-6)
     on_gpu = E.synthetic_cube("mgf2_400", height=6, width=6, seed=0, polarization="s",
-                              wavelength=E.default_wavelengths().to(dev))
+                              wavelength=E.synthetic.default_wavelengths().to(dev))
     assert on_gpu.cube.device.type == "cuda" and torch.allclose(on_gpu.cube.cpu(), cube.cube, rtol=0, atol=1e-12)
 
 
@@ -175,8 +175,8 @@ def test_no_import_cycle_inside_the_package():
     (lambda c: E.peak_method(c.cube, c.wavelength, c.cos_theta, 1.64, score_stride=0), "score_stride"),
     (lambda c: E.peak_method(c.cube, c.wavelength, c.cos_theta, 1.64, window=2.5), "window"),
     (lambda c: E.refine_film(c.cube, c.wavelength, c.cos_theta, 1.64, c.thickness, 1.4, iterations=-1), "iterations"),
-    (lambda c: E.detect_extrema(c.cube, c.wavelength, max_extrema=0), "max_extrema"),
-    (lambda c: E.band_nodes(4.0, 2.0), "nodes"),
+    (lambda c: E.peaks.detect_extrema(c.cube, c.wavelength, max_extrema=0), "max_extrema"),
+    (lambda c: E.measurement.band_nodes(4.0, 2.0), "nodes"),
     (lambda c: E.synthetic_cube(height=2.0), "height"),
 ])
 def test_bad_arguments_are_named_before_any_work(cube, call, match):

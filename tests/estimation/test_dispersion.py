@@ -3,7 +3,8 @@ import math
 import pytest
 import torch
 
-from torchirid.estimation import fit_index_model, index_model, index_model_size, sellmeier_index, zns_index
+from torchirid.estimation import fit_index_model, index_model
+from torchirid.estimation.dispersion import index_model_size, sellmeier_index, zns_index
 
 F64 = torch.float64
 

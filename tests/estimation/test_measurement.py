@@ -5,8 +5,15 @@ import pytest
 import torch
 
 import torchirid
-from torchirid.estimation import (airy_terms, band_nodes, band_reflectance, band_reflectance_fast, band_terms,
-                                  reflectance_from_terms, zns_index)
+from torchirid.estimation.measurement import (
+    airy_terms,
+    band_nodes,
+    band_reflectance,
+    band_reflectance_fast,
+    band_terms,
+    reflectance_from_terms,
+)
+from torchirid.estimation.dispersion import zns_index
 
 F64 = torch.float64
 tmm = pytest.importorskip("tmm")

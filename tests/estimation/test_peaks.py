@@ -4,8 +4,15 @@ import pytest
 import torch
 
 import torchirid
-from torchirid.estimation import (detect_extrema, index_from_peak_pair, index_from_tracks, peak_method,
-                                  synthetic_cube, thickness_candidates, track_extrema)
+from torchirid.estimation import synthetic_cube
+from torchirid.estimation.peaks import (
+    detect_extrema,
+    index_from_peak_pair,
+    index_from_tracks,
+    peak_method,
+    thickness_candidates,
+    track_extrema,
+)
 
 F64 = torch.float64
 

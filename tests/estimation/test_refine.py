@@ -3,8 +3,9 @@ import math
 import pytest
 import torch
 
-from torchirid.estimation import (band_reflectance_fast, d_only_gauss_newton, estimate_film,
-                                  film_metrics, index_model, refine_film, synthetic_cube)
+from torchirid.estimation import estimate_film, film_metrics, index_model, refine_film, synthetic_cube
+from torchirid.estimation.measurement import band_reflectance_fast
+from torchirid.estimation.refine import d_only_gauss_newton
 from torchirid.estimation.refine import _smooth_terms, model_terms
 from torchirid.estimation.residuals import residual_parts
 
@@ -88,8 +89,44 @@ def test_metrics_are_zero_for_the_truth():
     assert m["d_error_mean"] == 0 and m["n_error"] < 2e-3 and m["delta_e_mean"] < 0.1
 
 
+def _check_progress(seen):
+    """progress(done, total): non-decreasing int pairs, done <= total, ending at done == total."""
+    assert seen and all(type(d) is int and type(t) is int and 0 <= d <= t for d, t in seen)
+    assert all(a[0] <= b[0] and a[1] <= b[1] for a, b in zip(seen, seen[1:]))
+    assert seen[-1][0] == seen[-1][1]
+
+
+def test_refine_film_progress_counts_iterations_and_the_order_check():
+    cube = synthetic_cube("mgf2_400", height=4, width=4, seed=1)
+    d0 = torch.full((4, 4), 400.0, dtype=F64)
+    seen = []
+    res = refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, d0, 1.35, iterations=5,
+                      progress=lambda d, t: seen.append((d, t)))
+    _check_progress(seen)
+    assert {t for _, t in seen} == {6}  # 5 iterations + the order check
+    assert [d for d, _ in seen[:res.iterations]] == list(range(1, res.iterations + 1))
+    seen.clear()
+    refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, d0, 1.35, iterations=0, order_check=False,
+                progress=lambda d, t: seen.append((d, t)))
+    assert seen == [(0, 0)]
+
+
+def test_estimate_film_progress_counts_stages():
+    c = synthetic_cube("mgf2_400", height=2, width=2, seed=1)
+    seen = []
+    estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, thickness_range=(300.0, 500.0), iterations=2,
+                  final_iterations=1, progress=lambda d, t: seen.append((d, t)))
+    _check_progress(seen)
+    # peaks, index scan, 3 order hypotheses, order check, thickness, 1 final joint iteration
+    assert seen == [(d, 8) for d in range(1, 9)]
+
+
 def test_refine_errors():
     cube = synthetic_cube("mgf2_400", height=2, width=2)
+    with pytest.raises(ValueError, match="progress"):
+        refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, cube.thickness, 1.4, progress="bar")
+    with pytest.raises(ValueError, match="progress"):
+        estimate_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, progress=1)
     with pytest.raises(ValueError, match="index_model_name"):
         refine_film(cube.cube, cube.wavelength, cube.cos_theta, 1.64, cube.thickness, 1.4, index_model_name="drude")
     with pytest.raises(ValueError, match="thickness_init"):
@@ -122,7 +159,8 @@ def test_dead_pixels_smoothness_and_float32():
     ("thick_zns", "cauchy3", {}),  # ZnS 1200 nm: index slope and order trade off
 ])
 def test_hard_cases(sample, model, kw):
-    from torchirid.estimation import FilmSample, zns_index
+    from torchirid.estimation import FilmSample
+    from torchirid.estimation.dispersion import zns_index
 
     s = {"thin": FilmSample("thin", "MgF2 150 nm", 1.37, 150.0),
          "thick_zns": FilmSample("thick", "ZnS 1200 nm", zns_index, 1200.0)}.get(sample, sample)

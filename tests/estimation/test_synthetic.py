@@ -2,7 +2,8 @@
 import pytest
 import torch
 
-from torchirid.estimation import SAMPLES, band_reflectance, synthetic_cube
+from torchirid.estimation import SAMPLES, synthetic_cube
+from torchirid.estimation.measurement import band_reflectance
 
 F64 = torch.float64
 

@@ -13,11 +13,11 @@ from torchirid.color import xyz_to_lab
 from torchirid.fitting import (
     ScatterogramFit,
     bragg_structure,
-    load_scatterogram,
+    read_scatterogram,
     match_scatterogram,
     render_targets,
-    save_scatterogram_exr,
-    save_scatterogram_png,
+    write_scatterogram,
+    write_scatterogram,
     scatterogram_loss,
 )
 from torchirid.color import linear_srgb_to_xyz
@@ -87,8 +87,21 @@ def test_grid_stage_finds_the_basin(green_target):
     assert abs(fit.stages["grid"]["minima"][0][0] - 160.0) <= 8.0
 
 
+def test_progress_counts_stages_up_to_done_equals_total(green_target):
+    """grid (1) + starts (2) + one other N (1) + polish (1) + two harmonics, both outside period_range (2);
+    the polish's loss, once a log message, is in stages."""
+    seen = []
+    fit = match_scatterogram(green_target, incident_deg=INCS, n1=1.59, cells=(7, 8), period_range=(140.0, 330.0),
+                             period_step=10.0, starts=2, short_iter=2, max_iter=1, harmonics=(2.0, 0.5),
+                             wavelength=LAM, progress=lambda d, t: seen.append((d, t)))
+    assert seen == [(d, 7) for d in range(1, 8)] and all(type(d) is int and type(t) is int for d, t in seen)
+    assert fit.stages["polish"] == [{"cells": fit.cells, "loss": fit.loss}]
+
+
 def test_match_value_errors(green_target):
     ok = dict(incident_deg=INCS, wavelength=LAM)
+    with pytest.raises(ValueError, match="progress"):
+        match_scatterogram(green_target, progress="tqdm", **ok)
     with pytest.raises(ValueError, match="incident"):
         match_scatterogram(green_target, incident_deg=[(0.0, 0.0)])
     with pytest.raises(ValueError, match="target_xyz"):
@@ -123,8 +136,8 @@ def _in_gamut_xyz(res, seed=0):
 def test_png_round_trip(tmp_path, bits, tol):
     _, disc = scatterogram_directions(16)
     xyz = torch.where(disc[..., None], _in_gamut_xyz(16), torch.zeros(()))
-    path = save_scatterogram_png(xyz, tmp_path / "sg.png", exposure=0.5, bits=bits, mask=disc)
-    image = load_scatterogram(path, exposure=2.0)
+    path = write_scatterogram(tmp_path / "sg.png", xyz, exposure=0.5, bits=bits, mask=disc)
+    image = read_scatterogram(path, exposure=2.0)
     assert image.xyz.shape == (16, 16, 3) and image.params["bits"] == bits
     assert bool((image.mask == disc).all())
     torch.testing.assert_close(image.xyz, xyz, atol=tol, rtol=0)
@@ -134,7 +147,7 @@ def test_png_round_trip_rendered_and_fitted_grid(tmp_path):
     """A rendered scatterogram written with the auto exposure and read back into the fit's grid."""
     sg = scatterogram(jewel_beetle("red"), incident_deg=(0.0, 0.0), resolution=16, wavelength=LAM)
     e = 0.8 / float(sg.xyz[..., 1].max())
-    image = load_scatterogram(save_scatterogram_png(sg, tmp_path / "red.png", exposure=e), exposure=1 / e)
+    image = read_scatterogram(write_scatterogram(tmp_path / "red.png", sg, exposure=e), exposure=1 / e)
     lab_in, lab_out = xyz_to_lab(sg.xyz * e), xyz_to_lab(image.xyz * e)
     # out-of-gamut (negative linear RGB) colours are clipped on writing: compare where in gamut
     from torchirid.color import xyz_to_linear_srgb
@@ -149,7 +162,7 @@ def test_png_center_radius_rotation_and_saturation(tmp_path):
     _, disc = scatterogram_directions(res)
     xyz = torch.where(disc[..., None], _in_gamut_xyz(res, seed=1), torch.zeros(()))
     small = tmp_path / "small.png"
-    save_scatterogram_png(xyz, small, bits=16, mask=disc)
+    write_scatterogram(small, xyz, bits=16, mask=disc)
     rgb, _, _ = _read_png(small)
     canvas = np.zeros((30, 40, 3), np.uint16)
     canvas[5:5 + res, 11:11 + res] = np.rint(rgb * 65535).astype(np.uint16)
@@ -158,7 +171,7 @@ def test_png_center_radius_rotation_and_saturation(tmp_path):
     canvas[5:5 + res, 11:11 + res] = np.rot90(canvas[5:5 + res, 11:11 + res], k=1)
     big = tmp_path / "big.png"
     _write_png(big, canvas)
-    image = load_scatterogram(big, center=(11 + 7.5, 5 + 7.5), radius_px=8.0, resolution=res, rotation_deg=-90.0)
+    image = read_scatterogram(big, center=(11 + 7.5, 5 + 7.5), radius_px=8.0, resolution=res, rotation_deg=-90.0)
     assert int((disc & ~image.mask).sum()) == 1  # the saturated pixel
     torch.testing.assert_close(image.xyz[image.mask], xyz[image.mask], atol=1e-4, rtol=0)
 
@@ -169,8 +182,8 @@ def test_png_other_projection_resamples(tmp_path):
     d, disc = scatterogram_directions(res, projection="orthographic")
     y = torch.where(disc, torch.nan_to_num(d[..., 2]), torch.zeros(()))  # cos θ as a grey level
     white = torch.tensor([0.95047, 1.0, 1.08883], dtype=F64)
-    path = save_scatterogram_png(0.5 * y[..., None] * white, tmp_path / "ortho.png", mask=disc)
-    image = load_scatterogram(path, projection="orthographic", grid_projection="equidistant", resolution=res)
+    path = write_scatterogram(tmp_path / "ortho.png", 0.5 * y[..., None] * white, mask=disc)
+    image = read_scatterogram(path, projection="orthographic", grid_projection="equidistant", resolution=res)
     d2, _ = scatterogram_directions(res, projection="equidistant")
     inner = image.mask & (d2[..., 2] > math.cos(math.radians(70.0)))  # cos θ is steep in ρ near the rim
     assert int(inner.sum()) > 1500
@@ -179,32 +192,32 @@ def test_png_other_projection_resamples(tmp_path):
 
 def test_load_value_errors(tmp_path):
     with pytest.raises(FileNotFoundError):
-        load_scatterogram(tmp_path / "scan.exr")
+        read_scatterogram(tmp_path / "scan.exr")
     not_exr = tmp_path / "fake.exr"
     not_exr.write_bytes(b"not an exr file")
     with pytest.raises(ValueError, match="OpenEXR"):
-        load_scatterogram(not_exr)
+        read_scatterogram(not_exr)
     bad = tmp_path / "bad.png"
     bad.write_bytes(b"not a png at all")
     with pytest.raises(ValueError, match="PNG"):
-        load_scatterogram(bad)
-    good = save_scatterogram_png(_in_gamut_xyz(4), tmp_path / "g.png")
+        read_scatterogram(bad)
+    good = write_scatterogram(tmp_path / "g.png", _in_gamut_xyz(4))
     with pytest.raises(ValueError, match="projection"):
-        load_scatterogram(good, projection="fisheye")
+        read_scatterogram(good, projection="fisheye")
     with pytest.raises(ValueError, match="radius_px"):
-        load_scatterogram(good, radius_px=0.0)
+        read_scatterogram(good, radius_px=0.0)
     with pytest.raises(ValueError, match="exposure"):
-        load_scatterogram(good, exposure=-1.0)
+        read_scatterogram(good, exposure=-1.0)
     with pytest.raises(ValueError, match="center"):
-        load_scatterogram(good, center=(1.0,))
+        read_scatterogram(good, center=(1.0,))
     with pytest.raises(ValueError, match="resolution"):
-        load_scatterogram(good, resolution=0)
+        read_scatterogram(good, resolution=0)
     with pytest.raises(ValueError, match="saturation"):
-        load_scatterogram(good, saturation=1.0)
+        read_scatterogram(good, saturation=1.0)
     with pytest.raises(ValueError, match="bits"):
-        save_scatterogram_png(_in_gamut_xyz(4), tmp_path / "h.png", bits=12)
+        write_scatterogram(tmp_path / "h.png", _in_gamut_xyz(4), bits=12)
     with pytest.raises(FileNotFoundError):
-        load_scatterogram(tmp_path / "missing.png")
+        read_scatterogram(tmp_path / "missing.png")
 
 
 # ---------------------------------------------------------------------------- OpenEXR
@@ -213,8 +226,8 @@ def test_exr_round_trip(tmp_path):
     pytest.importorskip("OpenEXR")
     _, disc = scatterogram_directions(16)
     xyz = torch.where(disc[..., None], _in_gamut_xyz(16, seed=2), torch.zeros(()))
-    path = save_scatterogram_exr(xyz, tmp_path / "sg.exr", exposure=0.5, mask=disc)
-    image = load_scatterogram(path, exposure=2.0)
+    path = write_scatterogram(tmp_path / "sg.exr", xyz, exposure=0.5, mask=disc)
+    image = read_scatterogram(path, exposure=2.0)
     assert image.xyz.shape == (16, 16, 3) and image.params["format"] == "exr"
     assert bool((image.mask == disc).all())  # black off the disc is valid, but off the grid's disc
     torch.testing.assert_close(image.xyz, xyz, rtol=1e-6, atol=1e-9)
@@ -227,7 +240,7 @@ def test_exr_round_trip_rendered_unclipped(tmp_path):
 
     sg = scatterogram(jewel_beetle("green"), incident_deg=(0.0, 0.0), resolution=16, wavelength=LAM)
     e = 3.0 / float(sg.xyz[..., 1].max())
-    image = load_scatterogram(save_scatterogram_exr(sg, tmp_path / "green.exr", exposure=e), exposure=1 / e)
+    image = read_scatterogram(write_scatterogram(tmp_path / "green.exr", sg, exposure=e), exposure=1 / e)
     rgb = xyz_to_linear_srgb(sg.xyz * e)[sg.mask]
     assert bool((rgb < 0).any()) and bool((rgb > 1).any())  # the test covers both
     assert bool((image.mask == sg.mask).all())
@@ -258,10 +271,10 @@ def test_exr_invalid_pixels_leave_mask(tmp_path):
     OpenEXR.File(header, dict(channels)).write(str(path))  # (the binding turns the dict's arrays into Channels)
     bad = {(3, 7), (8, 8), (9, 4), (10, 10)}
     assert all(disc[p] for p in bad | {(6, 6)})
-    image = load_scatterogram(path)
+    image = read_scatterogram(path)
     assert {tuple(p) for p in (disc & ~image.mask).nonzero().tolist()} == bad
     assert bool(torch.isfinite(image.xyz).all())
-    image = load_scatterogram(path, saturation=10.0)
+    image = read_scatterogram(path, saturation=10.0)
     assert {tuple(p) for p in (disc & ~image.mask).nonzero().tolist()} == bad | {(6, 6)}
     assert image.params["saturation"] == 10.0
     # the half-float G channel is read as stored
@@ -278,6 +291,6 @@ def test_exr_without_openexr_says_pip_install(tmp_path, monkeypatch):
     path.write_bytes(b"\x76\x2f\x31\x01" + bytes(60))  # the OpenEXR magic number
     monkeypatch.setitem(sys.modules, "OpenEXR", None)  # import OpenEXR raises ImportError
     with pytest.raises(ImportError, match="pip install openexr"):
-        load_scatterogram(path)
+        read_scatterogram(path)
     with pytest.raises(ImportError, match="pip install openexr"):
-        save_scatterogram_exr(_in_gamut_xyz(4), tmp_path / "out.exr")
+        write_scatterogram(tmp_path / "out.exr", _in_gamut_xyz(4))

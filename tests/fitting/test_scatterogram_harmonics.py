@@ -14,13 +14,8 @@ import math
 import pytest
 import torch
 
-from torchirid.fitting import (
-    DEFAULT_HARMONICS,
-    ScatterogramAlternative,
-    bragg_structure,
-    match_scatterogram,
-    render_targets,
-)
+from torchirid.fitting import ScatterogramAlternative, bragg_structure, match_scatterogram, render_targets
+from torchirid.fitting.scatterogram import DEFAULT_HARMONICS
 from torchirid.fitting.scatterogram import _Space
 
 F64 = torch.float64
@@ -97,6 +92,20 @@ def test_other_ranges_bound_fit_and_refits(target):
         assert 0.3 <= r.delta <= 0.45
         assert 0.01 <= r.n2 - r.n1 <= 0.04
         assert 0.05 <= r.alpha <= 0.2
+
+
+def test_a_harmonic_that_replaces_the_fit_adds_its_round_to_the_progress_total():
+    """From Λ = 250 nm (8 px, no grid) the 2Λ/3 refit (≈ 167 nm) fits better and replaces the fit: the
+    progress total grows by its round (one other N, the polish, two harmonics) and ends at done == total."""
+    t = 1.7 * render_targets(bragg_structure(178.0, 0.6, 1.6, 1.66, 10, 0.03), INCS, resolution=8, wavelength=LAM)
+    seen = []
+    fit = match_scatterogram(t, incident_deg=INCS, n1=1.6, cells=(9, 10), period_range=None,
+                             init={"period": 250.0, "delta": 0.4}, short_iter=3, max_iter=1, harmonics=(0.5, 2 / 3),
+                             wavelength=LAM, progress=lambda done, total: seen.append((done, total)))
+    swaps = fit.stages["harmonics"]["swaps"]
+    assert len(swaps) >= 1 and len(fit.stages["polish"]) == len(swaps) + 1
+    assert [d for d, _ in seen] == list(range(1, len(seen) + 1)) and seen[-1][0] == seen[-1][1]
+    assert all(a[1] <= b[1] for a, b in zip(seen, seen[1:])) and seen[0][1] == 5 < seen[-1][1]
 
 
 def test_bounded_parametrisation_never_leaves_its_range():

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid.ibl import DFG_BUILDER, dfg_lut
+from torchirid.ibl import dfg_lut
+from torchirid.ibl.dfg import DFG_BUILDER
 from torchirid.microfacet import smith_g1
 
 F64 = torch.float64

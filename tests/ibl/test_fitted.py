@@ -5,10 +5,19 @@ import math
 import pytest
 import torch
 
-from torchirid import delta_e_2000, xyz_to_lab
-from torchirid.ibl import (light_mixture_lut, cos_theta1_distribution, fitted_thin_film_xyz,
-                           filtered_thin_film_xyz, light_mixture, shipped_light_mixture_lut, thin_film_xyz_fourier,
-                           uniform_light_moments, uniform_thin_film_xyz)
+from torchirid import xyz_to_lab
+from torchirid.color import delta_e_2000
+from torchirid.ibl import (
+    light_mixture_lut,
+    thin_film_xyz_fitted,
+    thin_film_xyz_filtered,
+    light_mixture,
+    shipped_light_mixture_lut,
+    thin_film_xyz_fourier,
+    uniform_light_moments,
+    thin_film_xyz_uniform,
+)
+from torchirid.ibl.uniform import cos_theta1_distribution
 
 F64 = torch.float64
 FILM = dict(n_film=1.3, thickness=600.0, n_substrate=complex(2.0, 0.5))
@@ -43,11 +52,11 @@ def test_fitted_beats_kneiphof_and_original():
     c = torch.cos(th)
     a = torch.tensor([0.03, 0.2, 0.45, 0.9], dtype=F64)[None, :]
     d = 600.0
-    ref = xyz_to_lab(uniform_thin_film_xyz(c, a, **FILM, nodes=48))
-    fit = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, **FILM)), ref)
+    ref = xyz_to_lab(thin_film_xyz_uniform(c, a, **FILM, nodes=48))
+    fit = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, **FILM)), ref)
     A, mu, cov = uniform_light_moments(c, a, nodes=48)
     wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1).expand(5, 4, 3)
-    kn = delta_e_2000(xyz_to_lab(filtered_thin_film_xyz(wo, mu, cov, **FILM)), ref)
+    kn = delta_e_2000(xyz_to_lab(thin_film_xyz_filtered(wo, mu, cov, **FILM)), ref)
     orig = delta_e_2000(xyz_to_lab(thin_film_xyz_fourier(c.expand(5, 4), **FILM, terms=2, sensitivity="exact")), ref)
     assert fit.mean() < 0.5 and fit.max() < 2.0
     assert fit.mean() < 0.25 * kn.mean() and fit.mean() < 0.1 * orig.mean()
@@ -59,8 +68,8 @@ def test_fitted_generalises_to_other_films(base):
     c = torch.tensor([0.9, 0.5, 0.2], dtype=F64)
     a = torch.tensor([0.1, 0.4, 0.7], dtype=F64)
     for nf, d in ((1.6, 350.0), (2.0, 900.0)):
-        ref = xyz_to_lab(uniform_thin_film_xyz(c, a, nf, d, base, nodes=48))
-        de = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, nf, d, base)), ref)
+        ref = xyz_to_lab(thin_film_xyz_uniform(c, a, nf, d, base, nodes=48))
+        de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, nf, d, base)), ref)
         assert de.max() < 2.0
 
 
@@ -69,14 +78,14 @@ def test_gradients_and_validation():
     d = torch.tensor([650.0], dtype=F64, requires_grad=True)
     nf = torch.tensor(1.4, dtype=F64, requires_grad=True)
     c = torch.tensor([0.4], dtype=F64)
-    assert torch.autograd.gradcheck(lambda d, nf: fitted_thin_film_xyz(c, 0.3, nf, d, 1.5, table=lut), (d, nf))
-    xyz = fitted_thin_film_xyz(c, 0.3, nf, d, 1.5)
+    assert torch.autograd.gradcheck(lambda d, nf: thin_film_xyz_fitted(c, 0.3, nf, d, 1.5, table=lut), (d, nf))
+    xyz = thin_film_xyz_fitted(c, 0.3, nf, d, 1.5)
     xyz.sum().backward()
     assert torch.isfinite(d.grad).all() and torch.isfinite(nf.grad)
     with pytest.raises(ValueError, match="table"):
-        fitted_thin_film_xyz(c, 0.3, 1.3, 600.0, 1.5, table="nope")
+        thin_film_xyz_fitted(c, 0.3, 1.3, 600.0, 1.5, table="nope")
     with pytest.raises(ValueError, match="cos_theta_o"):
-        fitted_thin_film_xyz(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5)
+        thin_film_xyz_fitted(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5)
     with pytest.raises(ValueError, match="quantiles"):
         light_mixture(torch.tensor(0.5, dtype=F64), 0.3, quantiles=(0.5, 0.2))
 
@@ -86,36 +95,36 @@ def test_sensitivity_lut_mode_close_to_exact():
     c = torch.tensor([0.9, 0.5, 0.15], dtype=F64)
     a = torch.tensor([0.05, 0.3, 0.6], dtype=F64)
     d = torch.tensor([150.0, 600.0, 950.0], dtype=F64)
-    ex = xyz_to_lab(fitted_thin_film_xyz(c, a, 1.3, d, complex(2.0, 0.5)))
-    lut = xyz_to_lab(fitted_thin_film_xyz(c, a, 1.3, d, complex(2.0, 0.5), sensitivity="lut"))
+    ex = xyz_to_lab(thin_film_xyz_fitted(c, a, 1.3, d, complex(2.0, 0.5)))
+    lut = xyz_to_lab(thin_film_xyz_fitted(c, a, 1.3, d, complex(2.0, 0.5), sensitivity="lut"))
     assert delta_e_2000(lut, ex).max() < 0.3
     with pytest.raises(ValueError, match="sensitivity"):
-        fitted_thin_film_xyz(c, a, 1.3, d, 1.5, sensitivity="table")
+        thin_film_xyz_fitted(c, a, 1.3, d, 1.5, sensitivity="table")
 
 
 def test_film_batches_broadcast_against_scalar_lobe_arguments():
     """A scalar cos θo / α with a batch of film parameters (the mixture axis used to meet the film
     axes: a shape error, or shape (3,) for a thickness of shape (1,))."""
-    from torchirid.ibl import fitted_thin_film_xyz
+    from torchirid.ibl import thin_film_xyz_fitted
 
     d = torch.tensor([300.0, 450.0], dtype=torch.float64)
-    out = fitted_thin_film_xyz(0.8, 0.3, 1.33, d, 1.5)
+    out = thin_film_xyz_fitted(0.8, 0.3, 1.33, d, 1.5)
     assert out.shape == (2, 3)
     for i in range(2):
-        assert torch.allclose(out[i], fitted_thin_film_xyz(0.8, 0.3, 1.33, d[i], 1.5), rtol=1e-12, atol=0)
-    assert fitted_thin_film_xyz(0.8, 0.3, 1.33, d[:1], 1.5).shape == (1, 3)
+        assert torch.allclose(out[i], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[i], 1.5), rtol=1e-12, atol=0)
+    assert thin_film_xyz_fitted(0.8, 0.3, 1.33, d[:1], 1.5).shape == (1, 3)
     sub = torch.tensor([1.5, 2.0 + 0.5j], dtype=torch.complex128)
-    both = fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], sub)
-    assert torch.allclose(both[1], fitted_thin_film_xyz(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j), rtol=1e-12, atol=0)
+    both = thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], sub)
+    assert torch.allclose(both[1], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j), rtol=1e-12, atol=0)
 
 
 def test_alpha_above_the_table_raises_instead_of_clamping():
     """α > 1 is outside the fitted table: a ValueError, not a silent α = 1 (the uniform-light
     reference computes α = 2 and differs)."""
-    from torchirid.ibl import fitted_thin_film_xyz, uniform_thin_film_xyz
+    from torchirid.ibl import thin_film_xyz_fitted, thin_film_xyz_uniform
 
     c = torch.tensor(0.8, dtype=torch.float64)
     with pytest.raises(ValueError, match="alpha must be <= 1"):
-        fitted_thin_film_xyz(c, 2.0, 1.3, 600.0, 1.5)
-    assert torch.isfinite(fitted_thin_film_xyz(c, 1.0, 1.3, 600.0, 1.5)).all()
-    assert torch.isfinite(uniform_thin_film_xyz(c, 2.0, 1.3, 600.0, 1.5, nodes=16)).all()
+        thin_film_xyz_fitted(c, 2.0, 1.3, 600.0, 1.5)
+    assert torch.isfinite(thin_film_xyz_fitted(c, 1.0, 1.3, 600.0, 1.5)).all()
+    assert torch.isfinite(thin_film_xyz_uniform(c, 2.0, 1.3, 600.0, 1.5, nodes=16)).all()

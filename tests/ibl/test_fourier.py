@@ -10,11 +10,13 @@ from torchirid.ibl import (
     fourier_sensitivity_lut,
     prefiltered_sensitivity_lut,
     fourier_sensitivity,
-    fourier_sensitivity_exact,
     shipped_fourier_sensitivity_lut,
+    thin_film_xyz_fourier,
+)
+from torchirid.ibl.fourier import (
+    fourier_sensitivity_exact,
     prefiltered_fourier_sensitivity,
     thin_film_fourier_terms,
-    thin_film_xyz_fourier,
 )
 
 F64 = torch.float64

@@ -11,11 +11,19 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid import delta_e_2000, spectrum_to_xyz, thin_film_reflectance, xyz_to_lab
-from torchirid.ibl import (MASKING_MODES, cos_theta1_distribution, fitted_thin_film_xyz, light_mixture,
-                           light_mixture_lut, light_mixture_path, path_difference_moments,
-                           shipped_light_mixture_lut, uniform_light_moments, uniform_lobe_quadrature,
-                           uniform_thin_film_xyz)
+from torchirid import spectrum_to_xyz, thin_film_reflectance, xyz_to_lab
+from torchirid.color import delta_e_2000
+from torchirid.ibl import (
+    thin_film_xyz_fitted,
+    light_mixture,
+    light_mixture_lut,
+    path_difference_moments,
+    shipped_light_mixture_lut,
+    uniform_light_moments,
+    thin_film_xyz_uniform,
+)
+from torchirid.ibl.uniform import MASKING_MODES, cos_theta1_distribution, uniform_lobe_quadrature
+from torchirid.ibl.fitted import light_mixture_path
 from torchirid.microfacet import ggx_d, smith_g1, smith_lambda
 
 F64 = torch.float64
@@ -71,7 +79,7 @@ def test_height_correlated_weights_bound_separable_ones():
 
 
 def test_height_correlated_colour_and_path_moments_match_brute_force():
-    """uniform_thin_film_xyz and path_difference_moments with the joint G against the brute-force
+    """thin_film_xyz_uniform and path_difference_moments with the joint G against the brute-force
     grid (XYZ[R](cos θ1) interpolated linearly from 4097 exact nodes)."""
     c, alpha, nf, d, ns = 0.35, 0.4, 1.33, 450.0, complex(1.5, 2.0)
     w, _, c1 = _brute(c, alpha, HC, n=300)
@@ -83,9 +91,9 @@ def test_height_correlated_colour_and_path_moments_match_brute_force():
     i0 = x.floor().clamp(max=4095).long()
     t = (x - i0)[:, None]
     ref = (p[:, None] * ((1 - t) * f[i0] + t * f[i0 + 1])).sum(0)
-    got = uniform_thin_film_xyz(torch.tensor(c, dtype=F64), alpha, nf, d, ns, nodes=96, masking=HC)
+    got = thin_film_xyz_uniform(torch.tensor(c, dtype=F64), alpha, nf, d, ns, nodes=96, masking=HC)
     assert delta_e_2000(xyz_to_lab(got), xyz_to_lab(ref)) < 0.01
-    sep = uniform_thin_film_xyz(torch.tensor(c, dtype=F64), alpha, nf, d, ns, nodes=96)
+    sep = thin_film_xyz_uniform(torch.tensor(c, dtype=F64), alpha, nf, d, ns, nodes=96)
     assert delta_e_2000(xyz_to_lab(sep), xyz_to_lab(ref)) > 0.05  # the option matters here
     D = 2 * nf * d * torch.sqrt(1 - (1 / nf) ** 2 * (1 - c1 * c1))
     mD, vD, _, _ = path_difference_moments(torch.tensor(c, dtype=F64), alpha, nf, d, nodes=96, masking=HC)
@@ -124,9 +132,9 @@ def test_fitted_height_correlated_matches_its_reference():
     c = torch.cos(th)
     a = torch.tensor([0.5, 1.0], dtype=F64)[None, :]
     film = (1.33, 300.0, 1.5)
-    ref = xyz_to_lab(uniform_thin_film_xyz(c, a, *film, nodes=48, masking=HC))
-    de = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, *film, masking=HC)), ref)
-    wrong = delta_e_2000(xyz_to_lab(fitted_thin_film_xyz(c, a, *film)), ref)
+    ref = xyz_to_lab(thin_film_xyz_uniform(c, a, *film, nodes=48, masking=HC))
+    de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film, masking=HC)), ref)
+    wrong = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film)), ref)
     assert de.max() < 1.0 and de.mean() < 0.6  # measured 0.84 / 0.55
     assert wrong.max() > 2 * de.max() and wrong.mean() > 2 * de.mean()  # measured 2.19 / 1.29
 
@@ -137,11 +145,11 @@ def test_masking_validation_and_table_mismatch():
              lambda m: uniform_light_moments(c, 0.3, nodes=4, masking=m),
              lambda m: cos_theta1_distribution(c, 0.3, nodes=4, masking=m),
              lambda m: path_difference_moments(c, 0.3, 1.3, 500.0, nodes=4, masking=m),
-             lambda m: uniform_thin_film_xyz(c, 0.3, 1.3, 500.0, 1.5, nodes=4, masking=m),
+             lambda m: thin_film_xyz_uniform(c, 0.3, 1.3, 500.0, 1.5, nodes=4, masking=m),
              lambda m: light_mixture(c, 0.3, nodes=4, masking=m),
              lambda m: light_mixture_lut(theta_nodes=2, alpha_nodes=2, nodes=4, masking=m),
              lambda m: shipped_light_mixture_lut(masking=m),
-             lambda m: fitted_thin_film_xyz(c, 0.3, 1.3, 500.0, 1.5, masking=m)]
+             lambda m: thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, masking=m)]
     for call in calls:
         with pytest.raises(ValueError, match="masking must be one of 'separable', 'height-correlated'"):
             call("smith-joint")
@@ -149,5 +157,5 @@ def test_masking_validation_and_table_mismatch():
     lut = light_mixture_lut(theta_nodes=2, alpha_nodes=2, nodes=4, masking=HC)
     assert lut.parameters["masking"] == HC
     with pytest.raises(ValueError, match="masking"):
-        fitted_thin_film_xyz(c, 0.3, 1.3, 500.0, 1.5, table=lut)  # a joint-G table, separable requested
-    assert torch.isfinite(fitted_thin_film_xyz(c, 0.3, 1.3, 500.0, 1.5, table=lut, masking=HC)).all()
+        thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut)  # a joint-G table, separable requested
+    assert torch.isfinite(thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut, masking=HC)).all()

@@ -4,14 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid.ibl import (
-    MOMENT_CHANNELS,
-    equirect_directions,
-    light_moments_to_mean_cov,
-    load_environment,
-    prefilter_environment,
-    synthetic_environment,
-)
+from torchirid.ibl import read_environment, prefilter_environment, synthetic_environment
+from torchirid.ibl.prefilter import MOMENT_CHANNELS, equirect_directions, light_moments_to_mean_cov
 
 F64 = torch.float64
 SUN = torch.tensor([0.5, 0.3, 0.8124], dtype=F64)
@@ -129,7 +123,7 @@ def test_load_environment_exr_round_trip(tmp_path):
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     OpenEXR.File(header, {c: np.ascontiguousarray(rgb[..., i]) for i, c in enumerate("RGB")}).write(
         str(tmp_path / "env.exr"))
-    env = load_environment(tmp_path / "env.exr")
+    env = read_environment(tmp_path / "env.exr")
     assert env.shape == (6, 10, 3) and env.dtype == F64
     assert np.array_equal(env.numpy(), rgb.astype(np.float64))
     pre = prefilter_environment(env, 0.5, resolution=2)
@@ -170,32 +164,32 @@ def test_load_environment_hdr(tmp_path, rle):
     body = b"".join(_rle_line(px[r]) for r in range(5)) if rle else px.tobytes()
     path = tmp_path / "env.hdr"
     path.write_bytes(b"#?RADIANCE\n# made by a test\nFORMAT=32-bit_rle_rgbe\n\n-Y 5 +X 12\n" + body)
-    env = load_environment(path)
+    env = read_environment(path)
     assert env.shape == (5, 12, 3)
     assert np.array_equal(env.numpy(), expected)
-    assert load_environment(path, dtype=torch.float32).dtype == torch.float32
+    assert read_environment(path, dtype=torch.float32).dtype == torch.float32
 
 
 def test_load_environment_errors(tmp_path):
     with pytest.raises(ValueError, match=r"\.exr, \.hdr"):
-        load_environment(tmp_path / "env.png")
+        read_environment(tmp_path / "env.png")
     bad = tmp_path / "bad.hdr"
     bad.write_bytes(b"P6\n")
     with pytest.raises(ValueError, match="not a Radiance"):
-        load_environment(bad)
+        read_environment(bad)
     bad.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_xyze\n\n-Y 1 +X 1\n\x00\x00\x00\x00")
     with pytest.raises(ValueError, match="FORMAT"):
-        load_environment(bad)
+        read_environment(bad)
     bad.write_bytes(b"#?RADIANCE\n\n+Y 1 +X 1\n\x00\x00\x00\x00")
     with pytest.raises(ValueError, match="orientation"):
-        load_environment(bad)
+        read_environment(bad)
     bad.write_bytes(b"#?RADIANCE\n\n-Y 2 +X 2\n\x00\x00\x00\x00")
     with pytest.raises(ValueError, match="truncated"):
-        load_environment(bad)
+        read_environment(bad)
     notexr = tmp_path / "x.exr"
     notexr.write_bytes(b"abcd")
     with pytest.raises(ValueError, match="not an OpenEXR"):
-        load_environment(notexr)
+        read_environment(notexr)
 
 
 def test_constant_environment_mean_length_matches_1d_quadrature():
@@ -219,7 +213,7 @@ def test_feeds_filtered_thin_film_xyz():
     Σ ≈ 0, and the filtered colour equals Belcour–Barla's eq. 4 at cos θ1 = ⟨h, sun⟩ for the
     view — not at the mirror value ⟨n, ω_o⟩ of the lobe's axis.
     """
-    from torchirid.ibl import filtered_thin_film_xyz, thin_film_xyz_fourier
+    from torchirid.ibl import thin_film_xyz_filtered, thin_film_xyz_fourier
 
     env = synthetic_environment(32, 64, sky=False)
     pre = prefilter_environment(env, [0.05, 0.3], resolution=(16, 32))
@@ -234,7 +228,7 @@ def test_feeds_filtered_thin_film_xyz():
     sun_hat = m / m.norm()
     assert float(sun_hat @ SUN) > math.cos(math.radians(2.0)) and float(torch.linalg.eigvalsh(C).max()) < 1e-3
     film = (1.3, 600.0, complex(2.0, 0.5))
-    xyz = filtered_thin_film_xyz(v, m, C, *film)
+    xyz = thin_film_xyz_filtered(v, m, C, *film)
     cos1_sun = torch.sqrt(0.5 * (1.0 + sun_hat @ v))
     at_sun = thin_film_xyz_fourier(cos1_sun, *film, terms=2, sensitivity="exact")
     at_mirror = thin_film_xyz_fourier(v @ n, *film, terms=2, sensitivity="exact")
@@ -243,7 +237,7 @@ def test_feeds_filtered_thin_film_xyz():
 
 
 def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
-    from torchirid.export import export_lut, load_exported_lut
+    from torchirid.export import export_lut, read_exported_lut
     from torchirid.ibl import PrefilteredEnvironment, prefilter_environment, synthetic_environment
     from torchirid.lut import LUT
 
@@ -258,7 +252,7 @@ def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
     assert torch.allclose(back.directions, pre.directions)
     pytest.importorskip("OpenEXR")
     files = export_lut(lut, tmp_path / "pre", format="exr")
-    exr = load_exported_lut(files[0])
+    exr = read_exported_lut(files[0])
     assert torch.allclose(exr.values.double(), lut.values, rtol=1e-6, atol=1e-6)
     with pytest.raises(ValueError, match="2 roughness levels"):
         prefilter_environment(env, 0.5, resolution=2).to_lut()
@@ -268,7 +262,8 @@ def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
 
 @pytest.mark.slow
 def test_shipped_dfg_matches_builder():
-    from torchirid.ibl import DFG_SHIPPED, dfg_lut, shipped_dfg_lut
+    from torchirid.ibl import dfg_lut, shipped_dfg_lut
+    from torchirid.ibl.dfg import DFG_SHIPPED
 
     lut = shipped_dfg_lut()
     assert lut.parameters["resolution"] == DFG_SHIPPED["resolution"]

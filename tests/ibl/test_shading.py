@@ -6,17 +6,17 @@ import torch
 from torchirid.color import delta_e_2000, white_point_xyz, xyz_to_lab, xyz_to_linear_srgb
 from torchirid.ibl import (
     SHADING_METHODS,
-    filtered_thin_film_xyz,
-    fitted_thin_film_xyz,
-    light_moments_to_mean_cov,
+    thin_film_xyz_filtered,
+    thin_film_xyz_fitted,
     prefilter_environment,
     shade_thin_film_environment,
     shipped_dfg_lut,
     synthetic_environment,
     thin_film_xyz_fourier,
     uniform_light_moments,
-    uniform_thin_film_xyz,
+    thin_film_xyz_uniform,
 )
+from torchirid.ibl.prefilter import light_moments_to_mean_cov
 
 F64 = torch.float64
 Z = torch.tensor([0.0, 0.0, 1.0], dtype=F64)
@@ -68,7 +68,7 @@ def test_constant_environment_against_uniform_ground_truth(constant_pre):
     xyz = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz")
     bb = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz", method="belcour_barla")
     A, mu, cov = uniform_light_moments(c, a)
-    ref = uniform_thin_film_xyz(c, a, *FILM)
+    ref = thin_film_xyz_uniform(c, a, *FILM)
     # the split-sum albedo (shipped 64² DFG) against the converged lobe quadrature
     ab = shipped_dfg_lut()(cos_theta_o=c, alpha=a)
     assert float((ab.sum(-1) - A).abs().max()) < 1e-3
@@ -77,7 +77,7 @@ def test_constant_environment_against_uniform_ground_truth(constant_pre):
     de_bb = delta_e_2000(_lab(bb / (2.0 * A[..., None])), _lab(ref))
     rot = torch.tensor([[math.cos(phi), -math.sin(phi), 0], [math.sin(phi), math.cos(phi), 0], [0, 0, 1]],
                        dtype=F64)
-    de_exact = delta_e_2000(_lab(filtered_thin_film_xyz(v, mu @ rot.T, rot @ cov @ rot.T, *FILM)), _lab(ref))
+    de_exact = delta_e_2000(_lab(thin_film_xyz_filtered(v, mu @ rot.T, rot @ cov @ rot.T, *FILM)), _lab(ref))
     assert float(de.max()) < 11.0 and float(de.mean()) < 4.5
     assert float(de.mean()) < float(de_exact.mean()) < float(de_bb.mean())  # Kneiphof beats the original
     assert float(de[:, 1:].mean()) < 0.5 * float(de_bb[:, 1:].mean())  # α ≥ 0.25: the paper's claim
@@ -233,9 +233,9 @@ def test_fitted_method_is_the_table_times_the_split_sum(constant_pre):
     c, alpha = torch.cos(th), torch.tensor(0.25, dtype=F64)
     out = shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method="fitted", output="xyz")
     A, B = shipped_dfg_lut()(cos_theta_o=c, alpha=alpha.expand(3)).unbind(-1)
-    expected = 2.0 * (A + B)[:, None] * fitted_thin_film_xyz(c, alpha, *FILM)
+    expected = 2.0 * (A + B)[:, None] * thin_film_xyz_fitted(c, alpha, *FILM)
     assert torch.allclose(out, expected, rtol=1e-9, atol=0)
-    ref = uniform_thin_film_xyz(c, alpha, *FILM)
+    ref = thin_film_xyz_uniform(c, alpha, *FILM)
     errors = {m: float(delta_e_2000(_lab(shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method=m,
                                                                      output="xyz") / (2.0 * (A + B))[:, None]),
                                     _lab(ref)).mean())

@@ -6,10 +6,18 @@ import numpy as np
 import pytest
 import torch
 
-from torchirid import spectrum_to_xyz, thin_film_reflectance, xyz_to_lab, delta_e_2000
-from torchirid.ibl import (cos_theta1_distribution, dfg_lut, filtered_thin_film_xyz, gaussian_path_thin_film_xyz,
-                           path_difference_moments, thin_film_xyz_fourier, uniform_light_moments,
-                           uniform_lobe_quadrature, uniform_thin_film_xyz)
+from torchirid import spectrum_to_xyz, thin_film_reflectance, xyz_to_lab
+from torchirid.color import delta_e_2000
+from torchirid.ibl import (
+    dfg_lut,
+    thin_film_xyz_filtered,
+    thin_film_xyz_gaussian_path,
+    path_difference_moments,
+    thin_film_xyz_fourier,
+    uniform_light_moments,
+    thin_film_xyz_uniform,
+)
+from torchirid.ibl.uniform import cos_theta1_distribution, uniform_lobe_quadrature
 from torchirid.microfacet import ggx_d, smith_g1
 
 F64 = torch.float64
@@ -62,14 +70,14 @@ def test_albedo_matches_dfg_table():
 def test_quadrature_converges_and_mirror_limit():
     c = torch.tensor([0.02, 0.5, 0.99], dtype=F64)
     a = torch.tensor([0.05, 0.02, 0.9], dtype=F64)
-    x64 = uniform_thin_film_xyz(c, a, **FILM, nodes=64)
-    x128 = uniform_thin_film_xyz(c, a, **FILM, nodes=128)
+    x64 = thin_film_xyz_uniform(c, a, **FILM, nodes=64)
+    x128 = thin_film_xyz_uniform(c, a, **FILM, nodes=128)
     assert delta_e_2000(xyz_to_lab(x64), xyz_to_lab(x128)).max() < 0.01
     # α → 0: the smooth film at cos θ1 = cos θo
     wl = torch.linspace(360, 830, 471, dtype=F64)
     c = torch.tensor([0.3, 0.7, 1.0], dtype=F64)
     smooth = spectrum_to_xyz(thin_film_reflectance(wl, c[:, None], 1.3, 600.0, complex(2.0, 0.5)), wl)
-    assert (uniform_thin_film_xyz(c, 1e-6, **FILM) - smooth).abs().max() < 1e-4
+    assert (thin_film_xyz_uniform(c, 1e-6, **FILM) - smooth).abs().max() < 1e-4
 
 
 def test_reference_equals_direct_sum_without_binning():
@@ -80,7 +88,7 @@ def test_reference_equals_direct_sum_without_binning():
     wl = torch.linspace(360, 830, 471, dtype=F64)
     f = spectrum_to_xyz(thin_film_reflectance(wl, c1[:, None], 1.3, 600.0, complex(2.0, 0.5)), wl)
     direct = (w[:, None] * f).sum(0) / w.sum()
-    binned = uniform_thin_film_xyz(torch.tensor(c, dtype=F64), a, **FILM, nodes=24, bins=4096)
+    binned = thin_film_xyz_uniform(torch.tensor(c, dtype=F64), a, **FILM, nodes=24, bins=4096)
     assert (direct - binned).abs().max() < 2e-6
 
 
@@ -112,13 +120,13 @@ def test_path_difference_moments_direct():
 def test_gaussian_path_consistency():
     c = torch.tensor([0.3, 0.9], dtype=F64)
     D = 2 * 1.3 * 600 * torch.sqrt(1 - (1 / 1.3) ** 2 * (1 - c * c))
-    a = gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=0.0)
+    a = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0)
     b = thin_film_xyz_fourier(c, **FILM, sensitivity="exact")  # (the same default terms in both)
     assert (a - b).abs().max() < 1e-12
-    a2 = gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=0.0, terms=2)
+    a2 = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0, terms=2)
     assert (a2 - thin_film_xyz_fourier(c, **FILM, terms=2, sensitivity="exact")).abs().max() < 1e-12
     with pytest.raises(ValueError, match="path_var"):
-        gaussian_path_thin_film_xyz(c, **FILM, path_mean=D, path_var=-1.0)
+        thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=-1.0)
 
 
 def test_kneiphof_beats_original_at_high_roughness():
@@ -126,11 +134,11 @@ def test_kneiphof_beats_original_at_high_roughness():
     th = torch.deg2rad(torch.tensor([10.0, 40.0, 65.0, 80.0], dtype=F64))[:, None]
     c = torch.cos(th)
     a = torch.tensor([0.25, 0.5, 0.8], dtype=F64)[None, :]
-    ref = xyz_to_lab(uniform_thin_film_xyz(c, a, **FILM, nodes=48))
+    ref = xyz_to_lab(thin_film_xyz_uniform(c, a, **FILM, nodes=48))
     orig = thin_film_xyz_fourier(c.expand(4, 3), **FILM, terms=2, sensitivity="exact")
     A, mu, cov = uniform_light_moments(c, a, nodes=48)
     wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1).expand(4, 3, 3)
-    kn = filtered_thin_film_xyz(wo, mu, cov, **FILM)
+    kn = thin_film_xyz_filtered(wo, mu, cov, **FILM)
     assert delta_e_2000(xyz_to_lab(kn), ref).mean() < 0.5 * delta_e_2000(xyz_to_lab(orig), ref).mean()
 
 

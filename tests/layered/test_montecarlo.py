@@ -258,10 +258,14 @@ def test_shapes_broadcast_and_float32():
     f64 = montecarlo_brdf(LAM, WI, WO, COATED, samples=4000)
     assert _z(f64, (f32.double(), err32.double())) < Z
     # a single layer is accepted as a structure; a (3,) direction gives (W,)
-    done = []  # the progress callback gets the cumulative number of finished paths, per batch
-    f1, _ = montecarlo_brdf(LAM, WI[0], WO[0], A, samples=4, batch_size=3, progress=done.append)
+    done = []  # progress(done, total): the paths traced so far out of samples × pairs, per batch
+    f1, _ = montecarlo_brdf(LAM, WI[0], WO[0], A, samples=4, batch_size=3,
+                            progress=lambda d, t: done.append((d, t)))
     assert f1.shape == (3,)
-    assert done == [3, 4]
+    assert done == [(3, 4), (4, 4)] and all(type(d) is int and type(t) is int for d, t in done)
+    done.clear()  # two pairs, 3 samples, batches of 4 paths
+    montecarlo_brdf(LAM, WI, WO, A, samples=3, batch_size=4, progress=lambda d, t: done.append((d, t)))
+    assert done == [(4, 6), (6, 6)]
 
 
 @pytest.mark.parametrize(

@@ -120,7 +120,7 @@ def test_quarter_wave_stack(N):
     d1, d2 = lam0 / (4 * n1), lam0 / (4 * n2)
     R = ti.bragg_reflectance(t64(lam0), t64(1.0), n1, n2, d1, d2, N)
     assert abs(float(R) - quarter_wave_R(n1, n2, N)) <= 1e-12
-    x = ti.bragg_dispersion(t64(lam0), t64(1.0), n1, n2, d1, d2)
+    x = ti.optics.bragg_dispersion(t64(lam0), t64(1.0), n1, n2, d1, d2)
     assert float(x) == pytest.approx(-0.5 * (n1 / n2 + n2 / n1), abs=1e-14)
 
 
@@ -139,7 +139,7 @@ def test_brewster_angle_p_reflectance_vanishes():
     R = ti.bragg_reflectance(lam, c, n1, n2, 125.0, 375.0, 20, polarization="p")
     assert R.abs().max() <= 1e-12
     # s is not affected, and the band gaps close for p (|cos KΛ| ≤ 1 everywhere, Fourneau app. A)
-    x = ti.bragg_dispersion(lam, c, n1, n2, 125.0, 375.0, polarization="p")
+    x = ti.optics.bragg_dispersion(lam, c, n1, n2, 125.0, 375.0, polarization="p")
     assert x.abs().max() <= 1 + 1e-12
     Rs = ti.bragg_reflectance(lam, c, n1, n2, 125.0, 375.0, 20, polarization="s")
     assert Rs.max() > 0.5
@@ -183,7 +183,7 @@ def _mp_cos_KL(lam, c, n1, n2, d1, d2, pol):
 def _band_edges(c, n1, n2, d1, d2, pol, count=4):
     """Wavelengths (nm, float64) where cos KΛ = ±1, refined with mpmath at 40 digits."""
     lam = torch.linspace(380, 780, 4001, dtype=F64)
-    x = ti.bragg_dispersion(lam, t64(c), n1, n2, d1, d2, polarization=pol)
+    x = ti.optics.bragg_dispersion(lam, t64(c), n1, n2, d1, d2, polarization=pol)
     edges = []
     with mpmath.workdps(40):
         for sign in (1.0, -1.0):
@@ -257,7 +257,7 @@ def test_dispersion_matches_eq8_in_high_precision():
         lam, c, n2 = rng.uniform(380, 780), rng.uniform(0, 1), rng.uniform(1.1, 2.5)
         d1, d2 = rng.uniform(0, 500), rng.uniform(0, 500)
         for pol in ("s", "p"):
-            x = float(ti.bragg_dispersion(t64(lam), t64(c), 1.0, n2, d1, d2, polarization=pol))
+            x = float(ti.optics.bragg_dispersion(t64(lam), t64(c), 1.0, n2, d1, d2, polarization=pol))
             with mpmath.workdps(30):
                 ref = float(_mp_cos_KL(lam, c, 1.0, n2, d1, d2, pol))
             assert abs(x - ref) <= 1e-12
@@ -267,11 +267,11 @@ def test_envelope_bounds_the_spectrum():
     lam = torch.linspace(380, 780, 2001, dtype=F64)
     c = t64([1.0, 0.7, 0.3])[:, None]
     for pol in ("s", "p", "unpolarized"):
-        Re = ti.bragg_envelope(lam, c, 1.0, 1.5, 315.0, 315.0, polarization=pol)
+        Re = ti.optics.bragg_envelope(lam, c, 1.0, 1.5, 315.0, 315.0, polarization=pol)
         for N in (5, 10, 50):
             R = ti.bragg_reflectance(lam, c, 1.0, 1.5, 315.0, 315.0, N, polarization=pol)
             assert torch.all(R <= Re + 1e-12)
-        x = ti.bragg_dispersion(lam, c, 1.0, 1.5, 315.0, 315.0, polarization="s")
+        x = ti.optics.bragg_dispersion(lam, c, 1.0, 1.5, 315.0, 315.0, polarization="s")
         if pol == "s":
             assert torch.all(Re[x.abs() > 1] == 1)
 
@@ -280,12 +280,12 @@ def test_envelope_at_airy_points_is_the_slab():
     # where cos KΛ = 0 the envelope equals |r1|², the reflectance of one cell (Fourneau §3.2.1)
     c, n1, n2, d1, d2 = 0.9, 1.0, 1.5, 315.0, 315.0
     lam = torch.linspace(380, 780, 40001, dtype=F64)
-    x = ti.bragg_dispersion(lam, t64(c), n1, n2, d1, d2).numpy()
+    x = ti.optics.bragg_dispersion(lam, t64(c), n1, n2, d1, d2).numpy()
     i = np.nonzero(np.sign(x[:-1]) != np.sign(x[1:]))[0][0]
     with mpmath.workdps(30):
         root = float(mpmath.findroot(lambda L: _mp_cos_KL(L, c, n1, n2, d1, d2, "s"),
                                      (float(lam[i]), float(lam[i + 1])), solver="anderson"))
-    Re = ti.bragg_envelope(t64(root), t64(c), n1, n2, d1, d2, polarization="s")
+    Re = ti.optics.bragg_envelope(t64(root), t64(c), n1, n2, d1, d2, polarization="s")
     R1 = ti.bragg_reflectance(t64(root), t64(c), n1, n2, d1, d2, 1, polarization="s")
     assert abs(float(Re) - float(R1)) <= 1e-10
 

@@ -140,7 +140,7 @@ def test_zero_over_zero_reruns_with_the_guard(monkeypatch):
         for b in (2, 4):  # the rerun leaves the other points as they are alone
             Rb, Tb = _multilayer(wl[b], c[b], idx[b], d[b], pol)
             assert abs(R[b].item() - Rb.item()) <= 1e-15 and abs(T[b].item() - Tb.item()) <= 1e-15
-        with torchirid.value_checks(False):
+        with torchirid.options(value_checks=False):
             Rt, Tt = _multilayer(wl, c, idx, d, pol)
         torch.testing.assert_close((Rt, Tt), (R, T), rtol=0, atol=1e-15)
 

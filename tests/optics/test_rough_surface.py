@@ -1,7 +1,6 @@
 """Tests of torchirid.optics.rough_surface (Hirayama 2000 §4.2 with He–Torrance 1991).
 
-References: mpmath closed forms (g, e^{-g}, He's shadowing eq. 24–25, the effective-roughness
-equation 80, the D series eq. 78 summed term by term at 30 digits), the ``tmm`` package
+References (the He–Torrance pieces alone against mpmath: test_he_torrance.py): the ``tmm`` package
 (transmittance into the last film) and an independent Airy sum written out here (one film on
 a rough substrate); physics: σ → 0 is the smooth multilayer *exactly*, energy
 k_r + ∫ k_d cos ≤ 1 by hemisphere quadrature, Kirchhoff's k_r + ∫k_d ≈ |F|² at normal
@@ -12,7 +11,6 @@ from __future__ import annotations
 
 import math
 
-import mpmath
 import numpy as np
 import pytest
 import torch
@@ -49,108 +47,8 @@ def _hemisphere(nt=48, nphi=48):
 
 
 # ---------------------------------------------------------------------------------------
-# He–Torrance pieces vs mpmath
+# the rough interface with a film stack (the He–Torrance pieces alone: test_he_torrance.py)
 # ---------------------------------------------------------------------------------------
-
-
-@pytest.mark.parametrize("lam, ci, co, sigma, n", [(550.0, 1.0, 1.0, 25.0, 1.0), (400.0, 0.3, 0.9, 50.0, 1.4),
-                                                   (780.0, 0.0, 0.5, 5.0, 2.0)])
-def test_roughness_factor_and_attenuation_vs_mpmath(lam, ci, co, sigma, n):
-    mpmath.mp.dps = 30
-    g_ref = (2 * mpmath.pi * sigma * n * (mpmath.mpf(ci) + co) / lam) ** 2
-    g = rs.roughness_factor(t64(lam), ci, co, sigma, n_incident=n)
-    assert abs(float(g) - float(g_ref)) <= 1e-14 * max(1.0, float(g_ref))
-    e = rs.coherent_attenuation(t64(lam), ci, sigma, n_incident=n)
-    e_ref = mpmath.exp(-(4 * mpmath.pi * sigma * n * mpmath.mpf(ci) / lam) ** 2)
-    assert abs(float(e) - float(e_ref)) <= 1e-15
-
-
-def _S_ref(c, sigma, tau):
-    c = mpmath.mpf(c)
-    a = tau * c / (2 * sigma * mpmath.sqrt(1 - c * c))
-    lam = (mpmath.exp(-a * a) / (mpmath.sqrt(mpmath.pi) * a) - mpmath.erfc(a)) / 2
-    return (1 - mpmath.erfc(a) / 2) / (lam + 1)
-
-
-@pytest.mark.parametrize("theta_deg", [30.0, 60.0, 80.0, 89.0, 89.99])
-@pytest.mark.parametrize("sigma, tau", [(50.0, 300.0), (25.0, 100.0), (100.0, 100.0)])
-def test_shadowing_vs_mpmath(theta_deg, sigma, tau):
-    mpmath.mp.dps = 30
-    c = math.cos(math.radians(theta_deg))
-    S = rs.he_shadowing(t64(c), sigma, tau)
-    assert abs(float(S) - float(_S_ref(c, sigma, tau))) <= 1e-13
-
-
-def test_shadowing_limits():
-    c = t64([0.0, 1e-12, 0.5, 1.0])
-    S = rs.he_shadowing(c, 50.0, 300.0)
-    assert S[0] == 0.0 and S[-1] == 1.0
-    assert 0 < S[1] < 1e-6
-    assert torch.all(rs.he_shadowing(c[1:], 0.0, 300.0) == 1.0)  # smooth: nothing shadowed
-
-
-@pytest.mark.parametrize("ti, tr", [(85.0, 85.0), (70.0, 89.0), (10.0, 20.0), (88.0, 30.0)])
-def test_effective_roughness_solves_eq80(ti, tr):
-    mpmath.mp.dps = 30
-    s0, tau = 50.0, 300.0
-
-    def K(t):
-        tan = mpmath.tan(mpmath.radians(t))
-        return tan * mpmath.erfc(tau / (2 * s0 * tan))
-
-    f0 = (K(ti) + K(tr)) / mpmath.sqrt(8 * mpmath.pi)
-    lo, hi = mpmath.mpf(0), mpmath.mpf(10)  # bisection: x e^{x²/2} is increasing
-    for _ in range(120):
-        mid = (lo + hi) / 2
-        lo, hi = (mid, hi) if mid * mpmath.exp(mid * mid / 2) < f0 else (lo, mid)
-    x = (lo + hi) / 2
-    ref = s0 / mpmath.sqrt(1 + x * x)
-    got = rs.effective_roughness(t64(math.cos(math.radians(ti))), t64(math.cos(math.radians(tr))), s0, tau)
-    assert abs(float(got) - float(ref)) <= 1e-11 * s0
-
-
-def _rho_dd_ref(lam, ci, co, cphi, sigma, tau, n_sub):
-    """He eq. 76–84 (no shadowing, σ₀ itself), term by term in mpmath; F from tmm."""
-    mpmath.mp.dps = 30
-    ci, co, cphi = mpmath.mpf(ci), mpmath.mpf(co), mpmath.mpf(cphi)
-    si, so = mpmath.sqrt(1 - ci**2), mpmath.sqrt(1 - co**2)
-    win = mpmath.matrix([si, 0, ci])
-    wout = mpmath.matrix([so * cphi, so * mpmath.sqrt(1 - cphi**2), co])
-    v = win + wout
-    k = 2 * mpmath.pi / lam
-    g = (2 * mpmath.pi * sigma * (ci + co) / lam) ** 2
-    vxy2 = k**2 * (v[0] ** 2 + v[1] ** 2)
-    D = mpmath.pi**2 * tau**2 / (4 * lam**2) * mpmath.nsum(
-        lambda m: g**m * mpmath.exp(-g) / (mpmath.factorial(m) * m) * mpmath.exp(-vxy2 * tau**2 / (4 * m)), [1, mpmath.inf]
-    )
-    vv = v[0] ** 2 + v[1] ** 2 + v[2] ** 2
-    G = (vv / v[2]) ** 2
-    cos_b = float(mpmath.sqrt(vv / 4))
-    F, _ = tmm_RT(lam, min(cos_b, 1.0), [1.0, n_sub], [], "unpolarized")
-    return float(F * G * D / (mpmath.pi * ci * co))
-
-
-@pytest.mark.parametrize("lam, ci, co, cphi, sigma", [
-    (550.0, 1.0, 0.95, -1.0, 25.0),
-    (400.0, 0.8, 0.6, -0.3, 50.0),
-    (450.0, 0.9, 0.9, -1.0, 300.0),  # g ≈ 50: the series needs ~130 terms
-    (700.0, 0.5, 0.7, 0.4, 10.0),
-])
-def test_directional_diffuse_vs_mpmath_series(lam, ci, co, cphi, sigma):
-    n_sub = 1.2 + 6.9j
-    got = rs.he_directional_diffuse(t64(lam), ci, co, cphi, sigma, TAU, n_sub, shadowing=False)
-    ref = _rho_dd_ref(lam, ci, co, cphi, sigma, TAU, n_sub)
-    assert got > 0
-    assert abs(float(got) - ref) <= 1e-9 * ref
-
-
-def test_directional_diffuse_is_symmetric_and_zero_when_smooth():
-    lam = t64([420.0, 560.0, 690.0])[:, None]
-    cl, cv, cp = t64([0.9, 0.4, 0.2]), t64([0.3, 0.8, 0.99]), t64([-0.8, 0.1, 0.6])
-    a = rs.he_directional_diffuse(lam, cl, cv, cp, 40.0, TAU, 1 + 6j)
-    b = rs.he_directional_diffuse(lam, cv, cl, cp, 40.0, TAU, 1 + 6j)
-    torch.testing.assert_close(a, b, rtol=1e-13, atol=0)
-    assert torch.all(rs.he_directional_diffuse(lam, cl, cv, cp, 0.0, TAU, 1 + 6j) == 0)
 
 
 @pytest.mark.parametrize("sigma", [5.0, 10.0, 25.0])
@@ -162,7 +60,7 @@ def test_kirchhoff_energy_split_at_normal_incidence(sigma):
     d = t64(np.zeros(0))
     kd = rs.rough_multilayer_diffuse(lam, 1.0, c, cphi, n, d, sigma, TAU, shadowing=False)
     Ed = float((kd * c * wc).sum() * dphi)
-    F = float(torchirid.fresnel_reflectance(t64(1.0), 1.0, 1 + 6.6j))
+    F = float(torchirid.optics.fresnel_reflectance(t64(1.0), 1.0, 1 + 6.6j))
     g = float(rs.roughness_factor(lam, 1.0, 1.0, sigma))
     assert abs(Ed - F * (1 - math.exp(-g))) <= 0.03 * F * (1 - math.exp(-g))  # measured -1.5 %, -1.5 %, -1.8 %
 
@@ -228,7 +126,7 @@ def test_bare_substrate_reflectance_closed_form():
     c = t64([1.0, 0.6, 0.2])
     n_sub = complex(material_nk("Si", 550.0))
     kr = rs.rough_multilayer_reflectance(lam, c, tc128([1.0, n_sub]), t64(np.zeros(0)), 40.0, TAU)
-    F = torchirid.fresnel_reflectance(c, 1.0, n_sub)
+    F = torchirid.optics.fresnel_reflectance(c, 1.0, n_sub)
     sig = rs.effective_roughness(c, c, 40.0, TAU)
     ref = F * torch.exp(-rs.roughness_factor(lam, c, c, sig)) * rs.he_shadowing(c, 40.0, TAU) ** 2
     torch.testing.assert_close(kr, ref, rtol=1e-13, atol=0)

@@ -1,7 +1,7 @@
 """Tests of torchirid.thin_film_reflectance (Airy summation of one film on a substrate).
 
 References: the ``tmm`` package (oracles.tmm_RT) on the explicit stack
-``[n_incident, n_film, n_substrate]`` and torchirid.fresnel_reflectance for the bare interface
+``[n_incident, n_film, n_substrate]`` and torchirid.optics.fresnel_reflectance for the bare interface
 (d = 0); physics spot checks (grazing, normal incidence, Brewster), broadcasting, dtypes,
 gradients (float64 gradcheck, finite gradients at the hard cases) and NaN propagation.
 """
@@ -126,7 +126,7 @@ def test_zero_thickness_is_bare_interface(n0, nf, ns, polarization):
     wl = t64([400.0, 550.0, 700.0])[:, None]
     R0 = torchirid.thin_film_reflectance(wl, c, tc128(nf), 0.0, tc128(ns), n_incident=n0,
                                          polarization=polarization)
-    Rf = torchirid.fresnel_reflectance(c, n0, tc128(ns), polarization=polarization)
+    Rf = torchirid.optics.fresnel_reflectance(c, n0, tc128(ns), polarization=polarization)
     assert torch.isfinite(R0).all()
     assert (R0 - Rf).abs().max().item() <= 1e-14
     # continuity d -> 0: 1e-6 nm changes R by far less than 1e-6
@@ -138,7 +138,7 @@ def test_zero_thickness_is_bare_interface(n0, nf, ns, polarization):
 def test_zero_thickness_grazing_same_outer_and_substrate():
     # d = 0 means 'no film': the bare n_incident | n_incident interface, R = 0 (fresnel convention)
     R = torchirid.thin_film_reflectance(t64(500.0), 0.0, 1.4, 0.0, 1.0)
-    Rf = torchirid.fresnel_reflectance(t64(0.0), 1.0, 1.0)
+    Rf = torchirid.optics.fresnel_reflectance(t64(0.0), 1.0, 1.0)
     assert torch.isfinite(R) and abs(R.item() - Rf.item()) <= 1e-14
 
 

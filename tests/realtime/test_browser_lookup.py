@@ -17,7 +17,8 @@ from torchirid.realtime import bragg_wavelength, glsl_source, lookup, shipped_te
 
 playwright = pytest.importorskip("playwright.sync_api", reason="the Python playwright package is not installed")
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-pytestmark = pytest.mark.skipif(CHROMIUM is None, reason="no chromium executable (Debian: apt-get install chromium)")
+pytestmark = [pytest.mark.integration,  # a browser
+              pytest.mark.skipif(CHROMIUM is None, reason="no chromium executable (Debian: apt-get install chromium)")]
 
 F64 = torch.float64
 
@@ -225,7 +226,8 @@ def test_bragg_reflectance_in_the_browser_is_the_library_reflectance(browser, n0
 def test_bragg_envelope_colour_in_the_browser_is_the_library_envelope_colour(browser):
     import math
 
-    from torchirid.spectral import bragg_xyz_envelope, envelope_weights
+    from torchirid.spectral import bragg_xyz_envelope
+    from torchirid.spectral.envelope import envelope_weights
 
     samples = 64
     weights = envelope_weights(samples)

@@ -3,7 +3,8 @@ and driven in headless Chromium (Playwright; software WebGL2): every slider move
 console errors, and the colours it draws agree with the library's spectral colour for the same
 material and direction (ΔE2000 ≤ 1.0 mean, ≤ 2.5 max, ≥ 3 materials per family).
 ``bash run.sh test`` installs Debian's chromium and the Python playwright package where it can;
-elsewhere the browser tests skip with their reason."""
+elsewhere the browser tests skip with their reason. They are marked ``integration``; the page
+and server tests are not."""
 
 from __future__ import annotations
 
@@ -167,6 +168,7 @@ def _strip_delta_e(page, family, material):
     return delta_e_2000(xyz_to_lab(linear_srgb_to_xyz(got)), xyz_to_lab(linear_srgb_to_xyz(want))).numpy()
 
 
+@pytest.mark.integration  # a browser
 def test_the_page_draws_every_view_without_console_errors(page):
     for view in ("sphere", "scatterogram", "rmap", "strip"):
         px = _read(page, view)
@@ -188,6 +190,7 @@ SLIDERS = [  # (family, slider, new value, the views it must change)
 ]
 
 
+@pytest.mark.integration  # a browser
 @pytest.mark.parametrize("family, slider, value, views", SLIDERS, ids=[f"{f}-{s}" for f, s, *_ in SLIDERS])
 def test_every_slider_moves_the_page(page, family, slider, value, views):
     _set(page, family=family)
@@ -204,6 +207,7 @@ def test_every_slider_moves_the_page(page, family, slider, value, views):
     assert not page.console_errors, page.console_errors
 
 
+@pytest.mark.integration  # a browser
 @pytest.mark.parametrize("family, material", [("bragg", m) for m in BRAGG] + [("film", m) for m in FILMS],
                          ids=[f"bragg-{m[0]:g}nm-{m[1]}-N{m[2]}" for m in BRAGG]
                          + [f"film-{m[0]:g}nm-n{m[1]}-{list(BASES)[m[2]]}" for m in FILMS])
@@ -213,6 +217,7 @@ def test_the_colour_strip_is_the_library_colour(page, family, material):
     assert not page.console_errors, page.console_errors
 
 
+@pytest.mark.integration  # a browser
 def test_the_reflectance_map_is_the_library_reflectance(page):
     for family, material in (("bragg", BRAGG[1]), ("film", FILMS[2])):
         if family == "bragg":

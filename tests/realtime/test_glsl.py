@@ -51,6 +51,7 @@ def test_the_library_names_its_functions_and_has_no_version_line():
             "tirid_bragg_reflectance", "tirid_bragg_envelope_xyz", "tirid_xyz_to_linear_srgb"} <= names
 
 
+@pytest.mark.integration  # the GLSL reference compiler
 @pytest.mark.skipif(shutil.which("glslangValidator") is None,
                     reason="glslangValidator not installed (Debian: apt-get install glslang-tools)")
 def test_compiles_as_glsl_es_300(tmp_path):

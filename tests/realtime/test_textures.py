@@ -11,8 +11,16 @@ import pytest
 import torch
 
 import torchirid as ti
-from torchirid.realtime import (SHIPPED_TEXTURES, bragg_wavelength, exact_colour, fit_texture, lookup, path_difference,
-                                texture_coordinate, texture_lut, texture_samples, to_texture)
+from torchirid.realtime import (
+    SHIPPED_TEXTURES,
+    bragg_wavelength,
+    exact_colour,
+    fit_texture,
+    lookup,
+    path_difference,
+    texture_lut,
+)
+from torchirid.realtime.textures import texture_coordinate, texture_samples, to_texture
 
 F64 = torch.float64
 FILM = {"n_film": 1.33, "n_substrate": 1.5}
@@ -116,6 +124,7 @@ def test_bragg_texture_is_fitted_over_the_warped_axis():
     (lambda: fit_texture("thin_film", (4, 1), FILM_RANGES, FILM), "sizes"),
     (lambda: fit_texture("thin_film", (4, 4), ((1.0, 0.1), (100.0, 500.0)), FILM), "ranges"),
     (lambda: fit_texture("thin_film", (4, 4), FILM_RANGES, FILM, iterations=0), "iterations"),
+    (lambda: fit_texture("thin_film", (4, 4), FILM_RANGES, FILM, progress=True), "progress"),
     (lambda: texture_samples("thin_film", FILM_RANGES, FILM, samples=0), "samples"),
     (lambda: fit_texture("thin_film", (4, 4), FILM_RANGES, FILM,
                          samples=texture_samples("thin_film", ((0.0, 1.0), (100.0, 500.0)), FILM, samples=5,
@@ -124,6 +133,16 @@ def test_bragg_texture_is_fitted_over_the_warped_axis():
 def test_bad_arguments(call, match):
     with pytest.raises(ValueError, match=match):
         call()
+
+
+def test_progress_counts_loss_evaluations_up_to_done_equals_total():
+    seen = []
+    fit = fit_texture("thin_film", (4, 8), FILM_RANGES, FILM, samples=200, validation=200, iterations=5,
+                      progress=lambda done, total: seen.append((done, total)))
+    assert seen and all(type(d) is int and type(t) is int and 0 <= d <= t for d, t in seen)
+    assert all(a <= b for a, b in zip(seen, seen[1:])) and len({t for _, t in seen}) == 1
+    assert seen[-1][0] == seen[-1][1] == 5 * 5 // 4 + 1  # the L-BFGS evaluation budget
+    assert [d for d, _ in seen[:len(fit.history)]] == list(range(1, len(fit.history) + 1))  # one per evaluation
 
 
 def test_texture_lut_carries_the_family_axes():

@@ -7,7 +7,8 @@ import pytest
 import torch
 
 from torchirid.layered import LayeredBragg, RoughBraggLayer, montecarlo_brdf
-from torchirid.scale import block_seeds, merge_moments, montecarlo_brdf_blocks
+from torchirid.scale import montecarlo_brdf_blocks
+from torchirid.scale.montecarlo import block_seeds, merge_moments
 
 F64 = torch.float64
 S = LayeredBragg([RoughBraggLayer(1.0, 1.5, 100.0, 100.0, 5, 0.2)], base_albedo=0.5)
@@ -54,6 +55,8 @@ def test_bad_arguments():
         montecarlo_brdf_blocks(LAM, WI, WO, S, samples=6, blocks=4)
     with pytest.raises(ValueError, match="seed"):
         montecarlo_brdf_blocks(LAM, WI, WO, S, samples=64, blocks=2, seed=-1)
+    with pytest.raises(ValueError, match="progress"):
+        montecarlo_brdf_blocks(LAM, WI, WO, S, samples=64, blocks=2, progress=1)
 
 
 def test_bit_identical_on_a_local_cluster():

@@ -12,7 +12,7 @@ import torch
 import torchirid as ti
 
 pytest.importorskip("zarr", reason="torchirid.scale needs zarr (the scale extra)")
-from torchirid.scale import build_table, load_table, open_table  # noqa: E402
+from torchirid.scale import build_table, read_table, open_table  # noqa: E402
 
 F64 = torch.float64
 AXES = {"wavelength": np.linspace(400.0, 700.0, 31), "thickness": np.linspace(100.0, 500.0, 9)}
@@ -28,7 +28,7 @@ def test_in_process_build_is_the_function_on_the_grid(tmp_path):
     b = build_table(ti.thin_film_reflectance, AXES, tmp_path / "t.zarr", chunks={"wavelength": 8, "thickness": 4},
                     kwargs=KWARGS, units={"wavelength": "nm", "thickness": "nm", "values": "1"})
     assert (b.computed, b.skipped) == (12, 0)
-    lut = load_table(tmp_path / "t.zarr")
+    lut = read_table(tmp_path / "t.zarr")
     assert list(lut.axes) == ["wavelength", "thickness"] and lut.units["wavelength"] == "nm"
     assert "thin_film_reflectance" in lut.builder and lut.parameters["kwargs"] == KWARGS
     torch.testing.assert_close(lut.values, _direct(), rtol=0, atol=1e-15)
@@ -41,7 +41,7 @@ def test_xyz_channels(tmp_path):
     axes = {"cos_theta": np.linspace(0.2, 1.0, 5), "d1": np.linspace(100.0, 140.0, 3)}
     build_table(ti.bragg_xyz, axes, tmp_path / "x.zarr", chunks=2, channels=(3,),
                 kwargs={"n1": 1.0, "n2": 1.5, "d2": 375.0, "cells": 20, "method": "envelope"})
-    lut = load_table(tmp_path / "x.zarr")
+    lut = read_table(tmp_path / "x.zarr")
     ref = ti.bragg_xyz(torch.tensor(axes["cos_theta"])[:, None], 1.0, 1.5, torch.tensor(axes["d1"]), 375.0, 20,
                        method="envelope")
     assert lut.values.shape == (5, 3, 3)
@@ -58,12 +58,12 @@ def test_interrupted_build_resumes_only_missing_chunks(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         build_table(ti.thin_film_reflectance, AXES, store, chunks=4, kwargs=KWARGS, progress=stop_after_five)
     with pytest.raises(ValueError, match="unfinished"):
-        load_table(store)
+        read_table(store)
     seen = []
     b = build_table(ti.thin_film_reflectance, AXES, store, chunks=4, kwargs=KWARGS,
                     progress=lambda d, t: seen.append((d, t)))
     assert (b.computed, b.skipped) == (24 - 5, 5) and seen[0] == (5, 24) and seen[-1] == (24, 24)
-    torch.testing.assert_close(load_table(store).values, _direct(), rtol=0, atol=1e-15)
+    torch.testing.assert_close(read_table(store).values, _direct(), rtol=0, atol=1e-15)
 
 
 def test_a_different_build_is_refused(tmp_path):
@@ -89,6 +89,8 @@ def test_bad_arguments(tmp_path, bad, match):
                     kwargs=args["kwargs"], channels=args["channels"])
     with pytest.raises(ValueError, match="module-level"):
         build_table(lambda **k: 0, AXES, tmp_path / "u.zarr")
+    with pytest.raises(ValueError, match="progress"):
+        build_table(ti.thin_film_reflectance, AXES, tmp_path / "v.zarr", kwargs=KWARGS, progress="bar")
 
 
 def test_bad_scheduler_address_fails_fast(tmp_path):
@@ -107,7 +109,7 @@ def test_local_cluster_equals_in_process(tmp_path):
     b = build_table(ti.thin_film_reflectance, AXES, tmp_path / "b.zarr", chunks=4, kwargs=KWARGS,
                     scheduler="local", workers=2)
     assert b.computed == 24
-    assert torch.equal(load_table(tmp_path / "a.zarr").values, load_table(tmp_path / "b.zarr").values)
+    assert torch.equal(read_table(tmp_path / "a.zarr").values, read_table(tmp_path / "b.zarr").values)
 
 
 def test_bad_calls_are_refused_before_anything_is_written(tmp_path):
@@ -133,7 +135,7 @@ def test_cli_build_table_and_resume(tmp_path, capsys):
     assert "8 chunks computed, 0 found done" in capsys.readouterr().out
     assert main(argv) == 0
     assert "0 chunks computed, 8 found done" in capsys.readouterr().out
-    torch.testing.assert_close(load_table(tmp_path / "t.zarr").values, _direct(), rtol=0, atol=1e-15)
+    torch.testing.assert_close(read_table(tmp_path / "t.zarr").values, _direct(), rtol=0, atol=1e-15)
     with pytest.raises(SystemExit) as e:
         main(argv[:2] + ["--axis", "wavelength=400:700:5", "--set", "bogus=1", "--out", str(tmp_path / "u.zarr")])
     assert e.value.code == 2 and "bogus" in capsys.readouterr().err
@@ -166,4 +168,4 @@ def test_a_worker_lost_mid_build_costs_only_its_chunks(tmp_path):
     assert killed and killed["done"] < killed["total"] - 4, killed  # the kill came with chunks left
     assert killed["address"] not in after
     assert b.computed == 24
-    assert torch.equal(load_table(tmp_path / "t.zarr").values, load_table(tmp_path / "ref.zarr").values)
+    assert torch.equal(read_table(tmp_path / "t.zarr").values, read_table(tmp_path / "ref.zarr").values)

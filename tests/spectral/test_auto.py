@@ -19,7 +19,7 @@ def test_auto_meets_its_tolerance_on_random_mirrors(tolerance):
         d1, d2 = f * lam_, (1 - f) * lam_
         ref = ti.xyz_to_lab(ti.bragg_xyz(c, 1.0, n2, d1, d2, N))
         got = ti.xyz_to_lab(ti.bragg_xyz(c, 1.0, n2, d1, d2, N, method="auto", tolerance=tolerance))
-        errs.append(ti.delta_e_2000(got, ref))
+        errs.append(ti.color.delta_e_2000(got, ref))
     assert np.percentile(torch.cat(errs).numpy(), 95) <= tolerance
 
 

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from tensors import F64, t64
-from torchirid import fresnel_reflectance
+from torchirid.optics import fresnel_reflectance
 from torchirid.spectral import correction as corr
 from torchirid.spectral.correction import (
     PAPER_COEFFICIENTS,

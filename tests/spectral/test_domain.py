@@ -14,7 +14,7 @@ import torch
 
 import torchirid as ti
 from torchirid.color import delta_e_2000, xyz_to_lab
-from torchirid.spectral import fringe_count
+from torchirid.spectral.sampling import fringe_count
 from torchirid.spectral.auto import choose_bragg_method
 from torchirid.spectral.piecewise import MIN_FRINGES
 

@@ -9,7 +9,8 @@ import torch
 import torchirid as ti
 from tensors import F64, t64
 from torchirid.color import delta_e_2000, xyz_to_lab
-from torchirid.spectral import bragg_xyz_envelope, envelope_weights, fringe_averaged_reflectance
+from torchirid.spectral import bragg_xyz_envelope
+from torchirid.spectral.envelope import envelope_weights, fringe_averaged_reflectance
 
 
 def test_fringe_average_equals_the_mean_of_exact_spectra_over_cells():
@@ -22,7 +23,7 @@ def test_fringe_average_equals_the_mean_of_exact_spectra_over_cells():
         cells = torch.arange(200, 4200)[:, None, None]
         mean = ti.bragg_reflectance(lam, c, 1.0, 1.5, 130.0, 240.0, cells, polarization=pol).mean(0)
         # pass bands only (inside the gaps the model is the finite-N R, N = 20, not a mean)
-        x = ti.bragg_dispersion(lam, c, 1.0, 1.5, 130.0, 240.0, polarization=pol)
+        x = ti.optics.bragg_dispersion(lam, c, 1.0, 1.5, 130.0, 240.0, polarization=pol)
         passband = x.abs() < 0.98
         assert passband.sum() > 50
         assert (model - mean)[passband].abs().max() <= 1e-3  # measured 5e-4 (s), 1.7e-4 (p)

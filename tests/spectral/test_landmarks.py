@@ -8,7 +8,8 @@ import torch
 
 import torchirid as ti
 from tensors import F64, t64
-from torchirid.spectral import bragg_landmarks, dispersion_parts
+from torchirid.spectral import bragg_landmarks
+from torchirid.spectral.landmarks import dispersion_parts
 
 W_MIN, W_MAX = 2 * math.pi / 780, 2 * math.pi / 380
 
@@ -34,7 +35,7 @@ def test_landmarks_match_a_dense_scan():
         for pol in ("s", "p"):
             A, B, delta = _setup(c, 1.0, n2, d1, d2, pol)
             L = bragg_landmarks(W_MIN, W_MAX, t64(A), t64(B), t64(delta), iterations=40)
-            x = ti.bragg_dispersion(2 * math.pi / omega, t64(c), 1.0, n2, d1, d2, polarization=pol)
+            x = ti.optics.bragg_dispersion(2 * math.pi / omega, t64(c), 1.0, n2, d1, d2, polarization=pol)
             airy_scan = omega[:-1][torch.sign(x[1:]) != torch.sign(x[:-1])].numpy()
             gap = (x.abs() > 1).int()
             edge_scan = omega[:-1][gap[1:] != gap[:-1]].numpy()
@@ -53,7 +54,7 @@ def test_modes_lie_in_band_gaps_and_zero_points_kill_the_envelope():
     assert (torch.minimum(omx, opx) <= 1e-12).all()  # |cos KΛ| ≥ 1 at every mode (appendix A)
     zeros = _finite(L["zeros"])
     assert len(zeros) > 0
-    Re = ti.bragg_envelope(t64(2 * math.pi / zeros), t64(0.7), 1.0, 1.6, 300.0, 200.0, polarization="s")
+    Re = ti.optics.bragg_envelope(t64(2 * math.pi / zeros), t64(0.7), 1.0, 1.6, 300.0, 200.0, polarization="s")
     assert Re.abs().max() <= 1e-20
 
 

@@ -263,7 +263,7 @@ def add_scheduler_options(parser: argparse.ArgumentParser, unit: str) -> None:
 
 
 def progress_callback(bar):
-    """``progress(done, total)`` that moves a :func:`progress_bar` (the :mod:`torchirid.scale` callbacks)."""
+    """``progress(done, total)`` that moves a :func:`progress_bar` (the library's ``progress`` callbacks)."""
 
     def progress(done, total):
         bar.total = total

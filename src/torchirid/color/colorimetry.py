@@ -51,9 +51,6 @@ __all__ = [
     "illuminant_spd",
     "white_point_xyz",
     "white_point_xy",
-    "weighted_cmfs_numpy",
-    "check_observer",
-    "check_illuminant",
 ]
 
 #: Observer short names → colour-science ``MSDS_CMFS`` keys.

@@ -13,43 +13,35 @@ s wave through a polarizer (§5.1): their setup is ``polarization="s"``, to be p
 """
 
 from .cube_io import Cube, read_cube, write_envi, write_npz
-from .dispersion import (INDEX_MODELS, REFERENCE_WAVELENGTH, fit_index_model, index_model, index_model_size,
-                         sellmeier_index, zns_index)
-from .estimate import INDEX_CHOICES, FilmEstimate, estimate_film, film_metrics, model_cube, noise_level
-from .measurement import (
-    PASSBANDS,
-    airy_terms,
-    band_nodes,
-    band_reflectance,
-    band_reflectance_fast,
-    band_terms,
-    band_variance,
-    reflectance_from_terms,
-)
-from .peaks import (
-    PeakResult,
-    detect_extrema,
-    index_from_peak_pair,
-    index_from_tracks,
-    peak_method,
-    select_candidates,
-    thickness_candidates,
-    track_extrema,
-)
-from .refine import RefineResult, d_only_gauss_newton, grid_scan, lm_jacobian, model_terms, refine_film, scan_index
-from .residuals import cube_sse
-from .synthetic import DEFAULT_ANGLES, SAMPLES, FilmSample, SyntheticCube, default_wavelengths, synthetic_cube
+from .dispersion import INDEX_MODELS, fit_index_model, index_model
+from .estimate import FilmEstimate, estimate_film, film_metrics, model_cube, noise_level
+from .peaks import PeakResult, peak_method
+from .refine import RefineResult, refine_film
+from .synthetic import SAMPLES, FilmSample, SyntheticCube, synthetic_cube
 
 __all__ = [
-    "Cube", "read_cube", "write_envi", "write_npz",
-    "INDEX_MODELS", "REFERENCE_WAVELENGTH", "fit_index_model", "index_model", "index_model_size", "sellmeier_index",
-    "zns_index",
-    "INDEX_CHOICES", "FilmEstimate", "estimate_film", "film_metrics", "model_cube", "noise_level",
-    "PASSBANDS", "airy_terms", "band_nodes", "band_reflectance", "band_reflectance_fast", "band_terms",
-    "band_variance", "reflectance_from_terms",
-    "PeakResult", "detect_extrema", "index_from_peak_pair", "index_from_tracks", "peak_method", "select_candidates",
-    "thickness_candidates", "track_extrema",
-    "RefineResult", "d_only_gauss_newton", "grid_scan", "lm_jacobian", "model_terms", "refine_film", "scan_index",
-    "cube_sse",
-    "DEFAULT_ANGLES", "SAMPLES", "FilmSample", "SyntheticCube", "default_wavelengths", "synthetic_cube",
+    # cube files
+    "Cube",
+    "read_cube",
+    "write_envi",
+    "write_npz",
+    # index models
+    "INDEX_MODELS",
+    "fit_index_model",
+    "index_model",
+    # the method: the peak stage (eq. 8-14), the joint refinement, the whole pipeline
+    "PeakResult",
+    "peak_method",
+    "RefineResult",
+    "refine_film",
+    "FilmEstimate",
+    "estimate_film",
+    "film_metrics",
+    "model_cube",
+    "noise_level",
+    # synthetic cubes of the paper's samples
+    "SAMPLES",
+    "FilmSample",
+    "SyntheticCube",
+    "synthetic_cube",
 ]

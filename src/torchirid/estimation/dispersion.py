@@ -28,11 +28,7 @@ from .. import _checks
 
 __all__ = [
     "INDEX_MODELS",
-    "REFERENCE_WAVELENGTH",
     "index_model",
-    "index_model_size",
-    "sellmeier_index",
-    "zns_index",
     "fit_index_model",
 ]
 
@@ -65,7 +61,7 @@ def index_model(wavelength, params, model: str = "constant") -> torch.Tensor:
 
     Args:
         wavelength: vacuum wavelength in nm (> 0), shape ``(*)``.
-        params: ``(*, K)`` parameters, K = :func:`index_model_size` of ``model``
+        params: ``(*, K)`` parameters, K = ``index_model_size()`` of ``model``
             (A, then B and C in µm² and µm⁴).
         model: ``"constant"``, ``"cauchy"`` or ``"cauchy3"``.
 

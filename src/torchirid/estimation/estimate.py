@@ -2,7 +2,7 @@ r"""The whole estimate: peak method → index scan → global order test → joi
 
 :func:`estimate_film` chains, for a cube ``(*, A, B)``:
 
-1. :func:`~torchirid.estimation.peak_method` — Kobayashi et al. eq. 8–14: a robust n and a
+1. ``peak_method()`` — Kobayashi et al. eq. 8–14: a robust n and a
    per-pixel d (eq. 14 over the admissible orders, scored on a decimated cube);
 2. on a seeded pixel sample (``sample``, 512), on a decimated cube (3 angles, every 3rd band):
    :func:`~torchirid.estimation.refine.scan_index`, the best constant n within ±15 % of
@@ -72,9 +72,7 @@ from .peaks import peak_method
 from .refine import POLISH_ITERATIONS, d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
 from .residuals import THICKNESS_GRID_DIVISOR, cube_sse, decimation, order_candidates, thickness_grid
 
-__all__ = ["INDEX_CHOICES", "NOISE_WARNING_RATIO", "DECIMATION_STRIDE", "SCAN_REL_RANGE", "GRID_CHECK_PIXELS",
-           "GRID_CHECK_INDICES", "RESTART_RATIO", "FINE_SCAN_REL_RANGE", "FINE_SCAN_STEPS", "SLOPE_SCAN_REL_RANGE",
-           "SLOPE_SCAN_STEPS", "SLOPE_SCAN_SLOPES", "ORDER_SHIFTS", "EXHAUSTIVE_MISFIT_RATIO", "FilmEstimate",
+__all__ = ["FilmEstimate",
            "estimate_film", "film_metrics", "model_cube", "noise_level"]
 
 INDEX_CHOICES = ("auto",) + tuple(INDEX_MODELS)  # what estimate_film / fit-film accept
@@ -187,7 +185,15 @@ class _Setup:
     thickness_range: tuple
     a_sel: list
     b_sel: list
-    step: object  # progress callable
+    progress: object  # the caller's progress(done, total), or None
+    total: int  # the units of work that progress counts (estimate_film's docstring)
+    done: int = 0
+
+    def step(self, units: int = 1) -> None:
+        """Report ``units`` more units of work done to ``progress``."""
+        self.done += units
+        if self.progress is not None:
+            self.progress(self.done, self.total)
 
     @property
     def s2(self) -> torch.Tensor:
@@ -267,7 +273,11 @@ def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name,
     _checks.check_int(final_iterations, "final_iterations", minimum=0)
     _checks.check_int(seed, "seed", minimum=0)
     if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be a callable or None; got {progress!r}")
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
+    # progress units: peaks, index scan, each order hypothesis of each index model tried, order
+    # check, thickness, and each joint iteration of the final pass
+    models = len(INDEX_MODELS) if index_model_name == "auto" else 1
+    final = 0 if final_iterations == 0 and smoothness == 0 else max(final_iterations, 1)
     y = torch.where(y.isfinite(), y, math.nan)  # ±inf samples are missing data, like NaN (a new tensor)
     pixels = y.reshape(-1, *y.shape[-2:])
     finite = ~pixels.isnan()
@@ -278,7 +288,7 @@ def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name,
     a_sel, b_sel = decimation(*y.shape[-2:], DECIMATION_STRIDE)
     return _Setup(y=y, valid=valid, Y=pixels[valid], count=finite[valid].sum((-1, -2)).to(y.dtype), lam=lam, c=c,
                   ns=ns, band=band, n_range=n_range, thickness_range=thickness_range, a_sel=a_sel, b_sel=b_sel,
-                  step=progress if progress is not None else (lambda name: None))
+                  progress=progress, total=4 + len(ORDER_SHIFTS) * models + final)
 
 
 def _peak_stage(st: _Setup):
@@ -289,7 +299,7 @@ def _peak_stage(st: _Setup):
     if bool(d_peak.isnan().any()):
         fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else st.scalar(st.thickness_range[0])
         d_peak = torch.where(d_peak.isnan(), fill, d_peak)
-    st.step("peaks")
+    st.step()  # peaks
     return pk, d_peak
 
 
@@ -307,7 +317,7 @@ def _index_scan(st: _Setup, d_peak, n_peak: float, sample: int, seed: int) -> _S
     p_scan, d_scan, _, _ = scan_index(yd, ds, n_peak, st.lam[st.b_sel], st.c[st.a_sel], st.ns,
                                       rel_range=SCAN_REL_RANGE, **st.band)
     n_scan, d_scan, restarted = _grid_check(st, yd, float(p_scan[0]), d_scan)
-    st.step("index scan")
+    st.step()  # index scan
     return _Scan(ys=ys, yd=yd, n=n_scan, d=d_scan, restarted=restarted)
 
 
@@ -365,6 +375,7 @@ def _order_hypotheses(st: _Setup, scan: _Scan, model: str, theta0, d_start, n_st
         start = d_start + j * T
         if bool((start <= 0).any()):
             tried[f"{j:+.0f}"] = None
+            st.step()  # (an order hypothesis, skipped)
             continue
         res = refine_film(scan.ys, st.lam, st.c, st.ns, start, theta0, index_model_name=model, iterations=iterations,
                           **st.band)
@@ -372,7 +383,7 @@ def _order_hypotheses(st: _Setup, scan: _Scan, model: str, theta0, d_start, n_st
         tried[f"{j:+.0f}"] = loss
         if best is None or loss < best[0]:
             best = (loss, res, j)
-        st.step("order hypothesis")
+        st.step()  # an order hypothesis
     return (*best, tried)
 
 
@@ -428,11 +439,11 @@ def _order_check(st: _Setup, scan: _Scan, theta, model: str, d0, s0, n_mid: floa
                                      max_step=gstep)
         s_old = cube_sse(yb, terms_b, d0[bad])
         d0[bad] = torch.where(sb < s_old, db, d0[bad])
-    st.step("order check")
+    st.step()  # order check
     return d0, int(bad.sum())
 
 
-def _final_pass(st: _Setup, theta, model: str, d0, final_iterations: int, smoothness: float, progress):
+def _final_pass(st: _Setup, theta, model: str, d0, final_iterations: int, smoothness: float):
     """Stage 4c: d polished on the full cube, then ``final_iterations`` joint iterations on every
     valid pixel (with the smoothness term) → ``(theta, d (V,), sse (V,))``. The smoothness term
     needs the image: it then runs on the whole cube, where :func:`refine_film` leaves the pixels
@@ -440,10 +451,12 @@ def _final_pass(st: _Setup, theta, model: str, d0, final_iterations: int, smooth
     d, S = d_only_gauss_newton(st.Y, d0, st.model_terms(theta, model, full_bands=True, all_angles=True),
                                iterations=POLISH_ITERATIONS)
     d = d[:, 0]
-    st.step("thickness")
+    st.step()  # thickness
     if final_iterations == 0 and smoothness == 0:
         return theta, d, S[:, 0]
     image = smoothness > 0 and len(st.batch) == 2
+    base = st.done
+    progress = None if st.progress is None else (lambda done, total: st.step(base + done - st.done))
     res = refine_film(st.y if image else st.Y, st.lam, st.c, st.ns, st.scatter(d) if image else d, theta,
                       index_model_name=model, iterations=max(final_iterations, 1), smoothness=smoothness,
                       order_check=False, fit_index=final_iterations > 0, progress=progress, **st.band)
@@ -500,7 +513,11 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         iterations: joint iterations per order hypothesis on the sample (stage 3).
         final_iterations: joint iterations on the full image (0: index from the sample only).
         seed: seeds the pixel sample.
-        progress: optional callable ``progress(stage_name)``.
+        progress: ``None`` or a callable ``progress(done, total)``: ``done`` stages out of
+            ``total`` = 4 (peaks, index scan, order check, thickness) + 3 order hypotheses per
+            index model tried + the final pass's joint iterations (``max(final_iterations, 1)``,
+            none when ``final_iterations`` and ``smoothness`` are 0), after each; the last call
+            has ``done == total``.
 
     Returns:
         :class:`FilmEstimate`; dtype and device follow cube, wavelength and cos_theta.
@@ -531,7 +548,7 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     t2 = time.perf_counter()
     d0, s0, n_mid = _image_thickness(st, sample_fit.params, model, d_peak, pk.n)
     d0, exhaustive = _order_check(st, scan, sample_fit.params, model, d0, s0, n_mid, sample_fit)
-    theta, d, sse = _final_pass(st, sample_fit.params, model, d0, final_iterations, smoothness, progress)
+    theta, d, sse = _final_pass(st, sample_fit.params, model, d0, final_iterations, smoothness)
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
     rms = (sse / st.count).sqrt()  # over the pixel's finite samples
@@ -557,7 +574,7 @@ def model_cube(params, index_model_name, thickness, wavelength, cos_theta, n_sub
             (:func:`~torchirid.estimation.index_model`).
         thickness: ``(*)`` film thickness (nm); wavelength ``(B,)`` band centres (nm);
             cos_theta ``(A,)``; n_substrate: real.
-        kw: the band model of :func:`~torchirid.estimation.band_terms` (``bandwidth``,
+        kw: the band model of ``band_terms()`` (``bandwidth``,
             ``passband``, ``polarization``, ``n_incident``).
 
     Example (a 4 × 4 image of a 400 nm MgF₂ film, n = 1.37, on PET at 3 angles, 400–720 nm):

@@ -37,14 +37,6 @@ from .. import _checks
 from ..optics.thin_film import thin_film_reflectance
 
 __all__ = [
-    "PASSBANDS",
-    "band_nodes",
-    "band_reflectance",
-    "airy_terms",
-    "reflectance_from_terms",
-    "band_variance",
-    "band_terms",
-    "band_reflectance_fast",
 ]
 
 PASSBANDS = ("box", "gaussian")

@@ -45,26 +45,7 @@ from ._validation import band_settings, cube_axes, real_index, sorted_angles, te
 from .measurement import airy_terms, band_terms
 from .residuals import THICKNESS_GRID_DIVISOR, cube_sse, decimation, thickness_grid
 
-__all__ = [
-    "WINDOW_PROBE_SPECTRA",
-    "WINDOW_FRACTION",
-    "WINDOW_MIN",
-    "WINDOW_MAX",
-    "PROBE_SIGMA",
-    "PROBE_EDGE",
-    "HALF_WINDOW",
-    "MAX_EXTREMA",
-    "MIN_TRACK_ANGLES",
-    "PARITY_FALLBACK_WAVELENGTH",
-    "PeakResult",
-    "detect_extrema",
-    "track_extrema",
-    "index_from_peak_pair",
-    "index_from_tracks",
-    "thickness_candidates",
-    "select_candidates",
-    "peak_method",
-]
+__all__ = ["PeakResult", "peak_method"]
 
 # the adaptive window W of detect_extrema: a fraction of the spacing of the extrema, probed on a
 # few smoothed spectra
@@ -397,13 +378,14 @@ def select_candidates(cube, candidates, terms):
 
     Args:
         cube: ``(P, A, B)`` band reflectance; candidates: ``(P, C)`` thicknesses (nm, NaN: none);
-        terms: (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.band_terms`
-            or :func:`~torchirid.estimation.model_terms` (the misfit is
-            :func:`~torchirid.estimation.cube_sse`).
+        terms: (a, b, e, k, h), each ``(pol, A, B)``, of ``band_terms()``
+            or :func:`~torchirid.estimation.refine.model_terms` (the misfit is
+            :func:`~torchirid.estimation.residuals.cube_sse`).
 
     Example (two noise-free pixels of MgF₂ on PET, 380 and 420 nm thick, three orders each):
         >>> import torch
-        >>> from torchirid.estimation import model_cube, model_terms
+        >>> from torchirid.estimation import model_cube
+        >>> from torchirid.estimation.refine import model_terms
         >>> w = torch.arange(400.0, 721.0, 8.0, dtype=torch.float64)  # nm
         >>> cos_t = torch.tensor([0.98, 0.77, 0.64], dtype=torch.float64)
         >>> n = torch.tensor([1.37], dtype=torch.float64)  # a constant index
@@ -454,7 +436,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
         wavelength: ``(B,)`` band centres (nm), uniform, B ≥ 7; cos_theta ``(A,)``.
         n_substrate: real substrate index.
         bandwidth, passband, polarization, n_incident: the band model
-            (:func:`~torchirid.estimation.band_terms`; Kobayashi et al.'s camera: ``polarization="s"``).
+            (``band_terms()``; Kobayashi et al.'s camera: ``polarization="s"``).
         n_range, thickness_range: the admissible film index and thickness (nm).
         n_film: if given, skip eq. 12 and use this index.
         window: the extremum fit's half-width (bands), default adaptive (:func:`detect_extrema`).

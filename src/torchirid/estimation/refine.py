@@ -13,7 +13,7 @@ weight μ_s over the 4-neighbours of an image (Kobayashi et al.'s third assumpti
 Each Gauss–Newton step is exact for the arrow-shaped normal matrix — one scalar block per
 pixel plus the K×K index block — by the Schur complement, so a 256 × 256 cube costs one
 Jacobian pass, not a 65 536-dimensional solve. The Jacobian is exact (:func:`lm_jacobian`):
-the terms (a, b, e, k, h) of :func:`~torchirid.estimation.band_terms` are differentiated in θ
+the terms (a, b, e, k, h) of ``band_terms()`` are differentiated in θ
 by forward-mode autograd (``torch.func.jacfwd``) on the small (polarization × angle × band)
 grid, the elementwise partials of the band model in those terms and in d by one batched
 reverse-mode pass over the pixels, and the two chained — the band-width term h d² R''
@@ -50,24 +50,8 @@ from .residuals import (THICKNESS_GRID_DIVISOR, cube_sse, order_candidates, pixe
                         thickness_grid)
 
 __all__ = [
-    "LM_DAMPING_START",
-    "LM_DAMPING_MIN",
-    "LM_DAMPING_MAX",
-    "LM_DAMPING_DECREASE",
-    "LM_DAMPING_INCREASE",
-    "INLIER_MISFIT_RATIO",
-    "MAX_THICKNESS_STEP",
-    "ORDER_CHECK_ITERATIONS",
-    "SCAN_ITERATIONS",
-    "POLISH_ITERATIONS",
-    "FALLBACK_THICKNESS",
     "RefineResult",
-    "model_terms",
-    "lm_jacobian",
-    "d_only_gauss_newton",
     "refine_film",
-    "scan_index",
-    "grid_scan",
 ]
 
 LM_DAMPING_START = 1e-3  # initial Levenberg–Marquardt damping μ: nearly Gauss–Newton, the start is usually close
@@ -85,7 +69,7 @@ FALLBACK_THICKNESS = 100.0  # nm: start where thickness_init is NaN everywhere (
 
 def model_terms(params, index_model_name, wavelength, cos_theta, n_substrate, *, bandwidth=4.0, passband="box",
                 n_incident=1.0, polarization="unpolarized"):
-    """Terms (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.band_reflectance_fast`
+    """Terms (a, b, e, k, h), each ``(pol, A, B)``, of :func:`~torchirid.estimation.measurement.band_reflectance_fast`
     for index parameters ``params`` ``(K,)``; ``wavelength`` ``(B,)`` nm, ``cos_theta`` ``(A,)``.
 
     Example (a Cauchy film n(λ) = 1.45 + 0.004/λ_µm² on PET, 3 angles × 41 bands):
@@ -100,7 +84,7 @@ def model_terms(params, index_model_name, wavelength, cos_theta, n_substrate, *,
 
 
 def _band_model(terms, d):
-    """Elementwise fast band model R + h d² R'' (:func:`~torchirid.estimation.band_reflectance_fast`
+    """Elementwise fast band model R + h d² R'' (:func:`~torchirid.estimation.measurement.band_reflectance_fast`
     before the mean over polarizations), broadcasting terms and d."""
     a, b, e, k, h = terms
     D = k * d
@@ -115,7 +99,7 @@ def lm_jacobian(y, d, terms, dterms=None):
     r"""Residual and its exact Jacobian for one Levenberg–Marquardt step, pixels ``y`` ``(p, A, B)``.
 
     r_pab = R_b(θ_a; n_θ, d_p) − y_pab is the fast band model
-    (:func:`~torchirid.estimation.band_reflectance_fast`, band-width term h d² R'' included), an
+    (:func:`~torchirid.estimation.measurement.band_reflectance_fast`, band-width term h d² R'' included), an
     elementwise function f(a, b, e, k, h, d) of the terms of :func:`model_terms` and the pixel's
     d, averaged over polarizations. One reverse-mode autograd pass through f, with the terms and
     d broadcast to the full ``(p, pol, A, B)`` grid, gives every elementwise partial ∂f/∂t at
@@ -173,7 +157,7 @@ def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step
 
     Args:
         cube: ``(P, A, B)``; thickness ``(P, C)`` starts (C candidates per pixel, NaN ignored).
-        terms: from :func:`model_terms` / :func:`~torchirid.estimation.band_terms`, ``(pol, A, B)``.
+        terms: from :func:`model_terms` / ``band_terms()``, ``(pol, A, B)``.
         iterations: Gauss–Newton steps (≥ 0); max_step: the most one step moves d (nm, > 0).
 
     Returns:
@@ -502,7 +486,8 @@ def _damped_step(fit, theta, d, sse, system, mu, loss0):
 
 def _lm_fit(fit, theta, d, *, iterations, fit_index, tol, progress):
     """Up to ``iterations`` Levenberg–Marquardt iterations; stops when a step is refused or the
-    objective falls by no more than ``tol`` (relative). → ``(theta, d, sse, history, iterations run)``."""
+    objective falls by no more than ``tol`` (relative); ``progress(iterations done)`` after each, if given.
+    → ``(theta, d, sse, history, iterations run)``."""
     history = []
     sse = fit.sse(theta, d)
     mu = LM_DAMPING_START
@@ -514,13 +499,13 @@ def _lm_fit(fit, theta, d, *, iterations, fit_index, tol, progress):
         it_done = it + 1
         history.append(fit.total(sse, d))
         if progress is not None:
-            progress("refine")
+            progress(it_done)
         if not accepted or (loss0 - history[-1]) <= tol * loss0:
             break
     return theta, d, sse, history, it_done
 
 
-def _order_check(fit, theta, d, sse, progress):
+def _order_check(fit, theta, d, sse):
     """Re-test every pixel at d ± one order period T = λ_mid/(2√(n²−sin²θ)) (``ORDER_CHECK_ITERATIONS``
     d-only steps each) and keep the best order → ``(d, sse, pixels reordered)``."""
     terms = fit.terms(theta)
@@ -535,8 +520,6 @@ def _order_check(fit, theta, d, sse, progress):
     if reordered:
         d = torch.where(changed, Dn.gather(-1, best[:, None])[:, 0], d)
         sse = fit.sse(theta, d)
-        if progress is not None:
-            progress("order check")
     return d, sse, reordered
 
 
@@ -550,17 +533,20 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
     Args:
         cube: ``(*, A, B)`` (an image ``(H, W, A, B)`` enables ``smoothness``).
         wavelength: ``(B,)`` nm; cos_theta ``(A,)``; n_substrate: real.
-        thickness_init: ``(*)`` starting d (nm), e.g. from :func:`~torchirid.estimation.peak_method`.
+        thickness_init: ``(*)`` starting d (nm), e.g. from ``peak_method()``.
         index_init: ``(K,)`` starting index parameters (or a number: A, the rest 0).
         index_model_name: ``"constant"``, ``"cauchy"`` or ``"cauchy3"``.
         bandwidth, passband, polarization, n_incident: the band model
-            (:func:`~torchirid.estimation.band_terms`; Kobayashi et al.'s camera: ``polarization="s"``).
+            (``band_terms()``; Kobayashi et al.'s camera: ``polarization="s"``).
         smoothness: μ_s ≥ 0 (reflectance² per nm²), only for an image cube.
         iterations: at most this many joint iterations (≥ 0).
         fit_index: False keeps the index fixed (thickness only).
         order_check: re-test d ± one order period per pixel at the end.
         tol: stop when an iteration lowers the objective by less than this fraction.
-        progress: optional callable ``progress(step_name)`` called once per iteration.
+        progress: ``None`` or a callable ``progress(done, total)``: ``done`` steps out of
+            ``total = iterations`` (+ 1 with ``order_check``), after each joint iteration and
+            after the order check; a fit that stops early (``tol``, a refused step) skips to
+            ``done = iterations``; the last call has ``done == total``.
 
     Returns:
         :class:`RefineResult`; dtype and device follow cube, wavelength and cos_theta.
@@ -575,13 +561,20 @@ def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_
         (1.37, True)
     """
     band = dict(bandwidth=bandwidth, passband=passband, n_incident=n_incident, polarization=polarization)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     fit, theta, d = _refine_inputs(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init,
                                    index_model_name, band, smoothness, iterations, tol)
+    total = iterations + int(bool(order_check))
     theta, d, sse, history, it_done = _lm_fit(fit, theta, d, iterations=iterations, fit_index=fit_index, tol=tol,
-                                              progress=progress)
+                                              progress=None if progress is None else (lambda done: progress(done, total)))
+    if progress is not None and (it_done < iterations or total == 0):
+        progress(iterations, total)  # stopped early (or nothing to do)
     reordered = 0
     if order_check:
-        d, sse, reordered = _order_check(fit, theta, d, sse, progress)
+        d, sse, reordered = _order_check(fit, theta, d, sse)
+        if progress is not None:
+            progress(total, total)
     # a pixel without a single finite sample has no estimate (its residuals were 0 by the NaN fill)
     empty = ~fit.valid.any(-1).any(-1)
     d, sse = torch.where(empty, math.nan, d), torch.where(empty, math.nan, sse)

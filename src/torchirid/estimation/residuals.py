@@ -1,8 +1,8 @@
 r"""Residuals of the fast band model over many pixels, shared by the peak method and the refinement.
 
-The fast band model (:func:`~torchirid.estimation.band_reflectance_fast`) of a lossless film is an
+The fast band model (:func:`~torchirid.estimation.measurement.band_reflectance_fast`) of a lossless film is an
 elementwise function of its terms (a, b, e, k, h) — each ``(pol, A, B)``, from
-:func:`~torchirid.estimation.band_terms` — and the thickness d. These helpers evaluate it for P
+``band_terms()`` — and the thickness d. These helpers evaluate it for P
 pixels × C thickness candidates at once, in chunks of bounded size:
 
 * :func:`pixel_chunks` — the pixel ranges of one pass (bounded work per chunk);
@@ -26,16 +26,6 @@ import math
 import torch
 
 __all__ = [
-    "CHUNK_BUDGET",
-    "ORDER_OFFSETS",
-    "THICKNESS_GRID_DIVISOR",
-    "pixel_chunks",
-    "terms_size",
-    "residual_parts",
-    "cube_sse",
-    "order_candidates",
-    "decimation",
-    "thickness_grid",
 ]
 
 CHUNK_BUDGET = 200_000  # model samples per chunk: small chunks stay in cache (~3x faster than one large pass)
@@ -97,15 +87,16 @@ def residual_parts(y, d, terms, with_jacobian: bool = True):
 def cube_sse(cube, terms, thickness) -> torch.Tensor:
     """Σ over angles and bands of (model − cube)² for thickness candidates ``(P, C)`` → ``(P, C)``.
 
-    ``terms`` = (a, b, e, k, h), each ``(pol, A, B)`` (:func:`~torchirid.estimation.band_terms`);
+    ``terms`` = (a, b, e, k, h), each ``(pol, A, B)`` (``band_terms()``);
     cube ``(P, A, B)``. NaN candidates → +inf. NaN cube samples (missing data) are left out of
     the sum, so a pixel without a single finite sample gives the empty sum 0 for every candidate:
     it adds nothing to a sum over pixels and cannot decide a choice;
-    :func:`~torchirid.estimation.peak_method` and :func:`~torchirid.estimation.estimate_film`
+    ``peak_method()`` and :func:`~torchirid.estimation.estimate_film`
     report NaN thickness and error for such pixels.
 
     Example (one noise-free pixel of a 400 nm MgF₂ film on PET, three candidates, one NaN):
-        >>> from torchirid.estimation import model_cube, model_terms
+        >>> from torchirid.estimation import model_cube
+        >>> from torchirid.estimation.refine import model_terms
         >>> w = torch.arange(400.0, 721.0, 8.0, dtype=torch.float64)  # nm
         >>> cos_t = torch.tensor([0.98, 0.64], dtype=torch.float64)
         >>> n = torch.tensor([1.37], dtype=torch.float64)

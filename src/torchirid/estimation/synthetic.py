@@ -36,15 +36,13 @@ from dataclasses import dataclass, field
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .dispersion import REFERENCE_WAVELENGTH, zns_index
 from .measurement import airy_terms, band_nodes
 
-__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "smooth_field", "synthetic_cube", "DEFAULT_ANGLES",
-           "default_wavelengths", "RENDER_CHUNK"]
+__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "synthetic_cube"]
 
 DEFAULT_ANGLES = (10.0, 20.0, 30.0, 40.0, 50.0)  # degrees, §5.1
-RENDER_CHUNK = 2048  # pixels rendered at once: bounds memory at (chunk, pol, A, B, nodes) samples
 _CPU = torch.device("cpu")
 
 
@@ -91,7 +89,7 @@ class FilmSample:
 
     @property
     def n_reference(self) -> float:
-        """n at :data:`~torchirid.estimation.dispersion.REFERENCE_WAVELENGTH` (589.3 nm)."""
+        """n at ``REFERENCE_WAVELENGTH`` (589.3 nm)."""
         return float(self.n_at(REFERENCE_WAVELENGTH))
 
 
@@ -195,7 +193,7 @@ def synthetic_cube(
         angles_deg: incidence angles in degrees, in [0, 90).
         wavelength: ``(B,)`` band centres in nm; default 400–720 nm every 4 nm. The cube is
             rendered on its device (the CPU by default); the noise is drawn on the CPU.
-        bandwidth, passband, nodes: the band model of :func:`~torchirid.estimation.band_reflectance`.
+        bandwidth, passband, nodes: the band model of ``band_reflectance()``.
         polarization: ``"unpolarized"`` (default, as :func:`~torchirid.estimation.estimate_film`),
             ``"s"`` (Kobayashi et al.'s setup) or ``"p"``.
         gaussian_noise, shot_noise: σ_g, σ_s ≥ 0 as fractions of R_max (module docstring).
@@ -237,12 +235,10 @@ def synthetic_cube(
     n_f = sample.n_at(lam_q).to(dtype) if callable(sample.n_film) else float(sample.n_film)
     a, b, e, k = airy_terms(lam_q, cos_t[:, None, None], n_f, sample.n_substrate, polarization=polarization)
     flat = d.reshape(-1)
-    rows = []
-    for chunk in flat.split(RENDER_CHUNK):
-        cb = b * torch.cos(k * chunk[:, None, None, None, None])
-        R = ((a + cb) / (e + cb)).mean(1)
-        rows.append((R * wts).sum(-1))
-    clean = torch.cat(rows).reshape(height, width, ang.numel(), lam.numel())
+    # block by block over the pixels (torchirid._chunks): (pol, A, B, nodes) samples per pixel
+    per_pixel = math.prod(torch.broadcast_shapes(a.shape, b.shape, e.shape, k.shape))
+    clean = _chunks.evaluate(_render, (flat,), flat.shape, out_core=2, width=per_pixel, a=a, b=b, e=e, k=k, wts=wts)
+    clean = clean.reshape(height, width, ang.numel(), lam.numel())
     r_max = clean.max()
 
     def randn():
@@ -255,3 +251,10 @@ def synthetic_cube(
         sample=sample, bandwidth=float(bandwidth), passband=passband, polarization=polarization,
         gaussian_noise=float(gaussian_noise), shot_noise=float(shot_noise), seed=int(seed),
     )
+
+
+def _render(d, *, a, b, e, k, wts):
+    """Band reflectance ``(P, A, B)`` of the thicknesses ``d`` ``(P,)`` from the Airy terms (one block)."""
+    cb = b * torch.cos(k * d[:, None, None, None, None])
+    R = ((a + cb) / (e + cb)).mean(1)
+    return (R * wts).sum(-1)

@@ -1,10 +1,7 @@
 """Fitting layered Bragg materials to measurements: scatterogram matching by autograd."""
 
-from .measured import ScatterogramImage, load_scatterogram, save_scatterogram_exr, save_scatterogram_png
+from .measured import ScatterogramImage, read_scatterogram, write_scatterogram
 from .scatterogram import (
-    DEFAULT_CELLS,
-    DEFAULT_HARMONICS,
-    DEFAULT_INIT,
     ScatterogramAlternative,
     ScatterogramFit,
     bragg_structure,
@@ -14,17 +11,13 @@ from .scatterogram import (
 )
 
 __all__ = [
-    "DEFAULT_CELLS",
-    "DEFAULT_HARMONICS",
-    "DEFAULT_INIT",
     "ScatterogramAlternative",
     "ScatterogramFit",
     "ScatterogramImage",
     "bragg_structure",
-    "load_scatterogram",
+    "read_scatterogram",
     "match_scatterogram",
     "render_targets",
-    "save_scatterogram_exr",
-    "save_scatterogram_png",
+    "write_scatterogram",
     "scatterogram_loss",
 ]

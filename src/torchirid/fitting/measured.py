@@ -1,12 +1,12 @@
 r"""Measured scatterograms: reading and writing image files on the library's angular grid.
 
-:func:`load_scatterogram` reads a measured scatterogram from a PNG file (8 or 16 bit,
+:func:`read_scatterogram` reads a measured scatterogram from a PNG file (8 or 16 bit,
 sRGB-encoded, the disc's centre, radius and angular mapping given as parameters) and
 resamples it onto the scatterogram grid of :func:`torchirid.layered.scatterogram`;
-:func:`save_scatterogram_png` writes one (16 bit by default), so a rendered target
+:func:`write_scatterogram` writes one (16 bit by default), so a rendered target
 round-trips. OpenEXR (``.exr``) files — scene-linear R, G, B (optionally A) in half or
 float, taken as linear sRGB primaries — go through the optional ``openexr`` package
-(``pip install openexr``, or the ``torchirid[exr]`` extra); :func:`save_scatterogram_exr`
+(``pip install openexr``, or the ``torchirid[exr]`` extra); :func:`write_scatterogram`
 writes linear float32 RGB, so an unclipped, unquantised round trip is possible.
 """
 
@@ -29,7 +29,7 @@ from .._io import atomic_write, check_readable, file_error, import_openexr, read
 from ..color import linear_srgb_to_srgb, linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..layered.scatterograms import PROJECTIONS, projection_radius, scatterogram_directions
 
-__all__ = ["ScatterogramImage", "load_scatterogram", "save_scatterogram_exr", "save_scatterogram_png"]
+__all__ = ["ScatterogramImage", "read_scatterogram", "write_scatterogram"]
 
 
 # ----------------------------------------------------------------------------------------
@@ -151,13 +151,13 @@ class ScatterogramImage:
         projection: the angular mapping of the grid.
         params: the reading parameters (JSON-ready).
 
-    Example (what :func:`load_scatterogram` returns, for a 16-pixel render written as a PNG):
+    Example (what :func:`read_scatterogram` returns, for a 16-pixel render written as a PNG):
         >>> import os, tempfile
         >>> from torchirid.layered import scatterogram
         >>> from torchirid.layered.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)  # a 30° beam
         >>> with tempfile.TemporaryDirectory() as d:
-        ...     img = load_scatterogram(save_scatterogram_png(s, os.path.join(d, "beetle.png")))
+        ...     img = read_scatterogram(write_scatterogram(os.path.join(d, "beetle.png"), s))
         >>> tuple(img.xyz.shape), tuple(img.mask.shape), img.projection, bool((img.mask == s.mask).all())
         ((16, 16, 3), (16, 16), 'equidistant', True)
     """
@@ -169,7 +169,7 @@ class ScatterogramImage:
     params: dict = field(default_factory=dict, repr=False)
 
 
-def load_scatterogram(path, *, projection: str = "equidistant", center=None, radius_px=None, resolution=None,
+def read_scatterogram(path, *, projection: str = "equidistant", center=None, radius_px=None, resolution=None,
                       grid_projection: str | None = None, rotation_deg: float = 0.0,
                       exposure: float = 1.0, saturation: float | None = None) -> ScatterogramImage:
     r"""Read a measured scatterogram from a PNG or OpenEXR file and resample it onto the scatterogram grid.
@@ -184,7 +184,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     pixel of :func:`~torchirid.layered.scatterograms.scatterogram_directions` is sampled
     bilinearly after decoding (sRGB → linear → XYZ, the exact inverse of the library's
     :func:`~torchirid.color.xyz_to_srgb`), so an image written by
-    :func:`save_scatterogram_png` at the same resolution comes back unchanged up to
+    :func:`write_scatterogram` at the same resolution comes back unchanged up to
     quantisation and to the colours outside the sRGB gamut, which the PNG clips.
 
     **OpenEXR** (a path ending in ``.exr``) needs the optional ``openexr`` package
@@ -192,7 +192,7 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     sRGB primaries — no transfer function is decoded — converted to XYZ by the same matrix;
     the first part is read. A pixel is invalid (out of ``mask``) where a colour channel is
     NaN or infinite, where alpha is ≤ 0 or not finite, or, if ``saturation`` is given, where
-    a channel reaches it. A file written by :func:`save_scatterogram_exr` comes back
+    a channel reaches it. A file written by :func:`write_scatterogram` comes back
     unchanged up to float32 rounding (out-of-gamut colours included).
 
     Args:
@@ -225,9 +225,9 @@ def load_scatterogram(path, *, projection: str = "equidistant", center=None, rad
         >>> from torchirid.layered.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
         >>> with tempfile.TemporaryDirectory() as d:
-        ...     path = save_scatterogram_png(s, os.path.join(d, "beetle.png"), exposure=0.5)  # 16-bit sRGB
-        ...     img = load_scatterogram(path, exposure=2.0)  # undo the exposure
-        ...     small = load_scatterogram(path, resolution=8, exposure=2.0)
+        ...     path = write_scatterogram(os.path.join(d, "beetle.png"), s, exposure=0.5)  # 16-bit sRGB
+        ...     img = read_scatterogram(path, exposure=2.0)  # undo the exposure
+        ...     small = read_scatterogram(path, resolution=8, exposure=2.0)
         >>> img.params["bits"], img.params["radius_px"], tuple(small.xyz.shape)  # radius in pixels
         (16, 8.0, (8, 8, 3))
         >>> bool((img.xyz - torch.where(s.mask[..., None], s.xyz, 0.0)).abs().max() < 0.01)  # XYZ
@@ -337,31 +337,60 @@ def _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask) -> torch.Tensor:
     return rgb
 
 
-def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, bits: int = 16, mask=None):
-    """Write a scatterogram as an sRGB PNG (8 or 16 bit, black off the disc): the
-    counterpart of :func:`load_scatterogram` (read it back with ``exposure=1/exposure``).
+def write_scatterogram(path, scatterogram_or_xyz, *, format: str | None = None, exposure: float = 1.0,
+                       bits: int = 16, mask=None):
+    """Write a scatterogram as an image, the counterpart of :func:`read_scatterogram` (read it back
+    with ``exposure=1/exposure``):
+
+    - ``"png"``: sRGB, 8 or 16 bit (``bits``), black off the disc; values outside [0, 1] after
+      encoding are clipped (and read back as saturated);
+    - ``"exr"``: OpenEXR, scene-linear float32 R, G, B (linear sRGB primaries), black off the
+      disc; nothing is clipped (negative components of out-of-gamut colours and values above 1
+      are kept). Needs the optional ``openexr`` package (``pip install openexr``).
 
     Args:
-        scatterogram_or_xyz: a :class:`~torchirid.layered.scatterograms.Scatterogram` (or
+        path: the file; its suffix (``.png``, ``.exr``) gives the format unless ``format`` is set.
+        scatterogram_or_xyz: a :class:`~torchirid.layered.Scatterogram` (or
             :class:`ScatterogramImage`), or an ``(H, W, 3)`` XYZ array.
-        exposure: multiplies the XYZ before encoding; values outside [0, 1] after encoding
-            are clipped (and read back as saturated).
-        bits: 8 or 16.
+        format: ``"png"`` or ``"exr"``; default: from the suffix.
+        exposure: multiplies the XYZ before encoding.
+        bits: 8 or 16 (PNG only).
         mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).
 
-    Returns the path (a ``Path``); written atomically.
+    Returns the path (a ``Path``); written atomically (a temporary file renamed over ``path``).
 
-    Example (an 8-bit PNG of a 16-pixel render):
-        >>> import os, tempfile
+    Raises:
+        ValueError: an unknown format or suffix, ``bits`` not 8 or 16, ``exposure`` not > 0, or
+            an array that is not ``(H, W, 3)``.
+
+    Example (an 8-bit PNG and an OpenEXR file of a 16-pixel render; the EXR round trip is exact
+    to float32 rounding):
+        >>> import os, tempfile, torch
         >>> from torchirid.layered import scatterogram
         >>> from torchirid.layered.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
         >>> with tempfile.TemporaryDirectory() as d:
-        ...     path = save_scatterogram_png(s, os.path.join(d, "beetle.png"), bits=8)
-        ...     img = load_scatterogram(path)
-        >>> path.name, img.params["format"], img.params["bits"], tuple(img.xyz.shape)
-        ('beetle.png', 'png', 8, (16, 16, 3))
+        ...     png = read_scatterogram(write_scatterogram(os.path.join(d, "beetle.png"), s, bits=8))
+        ...     exr = read_scatterogram(write_scatterogram(os.path.join(d, "beetle.exr"), s))
+        >>> png.params["format"], png.params["bits"], tuple(png.xyz.shape)
+        ('png', 8, (16, 16, 3))
+        >>> err = (exr.xyz - torch.where(s.mask[..., None], s.xyz, 0.0)).abs().max()  # XYZ
+        >>> exr.params["format"], bool(err < 1e-6)
+        ('exr', True)
     """
+    if format is None:
+        format = os.path.splitext(os.fspath(path))[1].lower().lstrip(".")
+        if format not in ("png", "exr"):
+            raise ValueError(f"path must end in .png or .exr (or pass format='png' / 'exr'); got {os.fspath(path)!r}")
+    elif format not in ("png", "exr"):
+        raise ValueError(f"format must be one of 'png', 'exr'; got {format!r}")
+    if format == "png":
+        return _write_scatterogram_png(path, scatterogram_or_xyz, exposure, bits, mask)
+    return _write_scatterogram_exr(path, scatterogram_or_xyz, exposure, mask)
+
+
+def _write_scatterogram_png(path, scatterogram_or_xyz, exposure, bits, mask):
+    """The PNG writer of :func:`write_scatterogram`."""
     if bits not in (8, 16):
         raise ValueError(f"bits must be 8 or 16; got {bits!r}")
     rgb = linear_srgb_to_srgb(_linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)).clamp(0.0, 1.0)
@@ -370,33 +399,8 @@ def save_scatterogram_png(scatterogram_or_xyz, path, *, exposure: float = 1.0, b
     return _write_png(path, pixels)
 
 
-def save_scatterogram_exr(scatterogram_or_xyz, path, *, exposure: float = 1.0, mask=None):
-    """Write a scatterogram as an OpenEXR file of scene-linear float32 R, G, B (linear sRGB
-    primaries, black off the disc): the counterpart of :func:`load_scatterogram` for
-    ``.exr`` (read it back with ``exposure=1/exposure``). Nothing is clipped: colours outside
-    the sRGB gamut keep their negative components, and values above 1 are kept.
-
-    Needs the optional ``openexr`` package (``pip install openexr``).
-
-    Args:
-        scatterogram_or_xyz: a :class:`~torchirid.layered.scatterograms.Scatterogram` (or
-            :class:`ScatterogramImage`), or an ``(H, W, 3)`` XYZ array.
-        exposure: multiplies the XYZ before conversion.
-        mask: ``(H, W)`` bool, pixels written (default the object's mask, or all).
-
-    Returns the path (a ``Path``); written atomically (a temporary file renamed over ``path``).
-
-    Example (a 16-pixel render: the OpenEXR round trip is exact to float32 rounding):
-        >>> import os, tempfile, torch
-        >>> from torchirid.layered import scatterogram
-        >>> from torchirid.layered.presets import jewel_beetle
-        >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
-        >>> with tempfile.TemporaryDirectory() as d:
-        ...     img = load_scatterogram(save_scatterogram_exr(s, os.path.join(d, "beetle.exr")))
-        >>> err = (img.xyz - torch.where(s.mask[..., None], s.xyz, 0.0)).abs().max()  # XYZ
-        >>> img.params["format"], bool(err < 1e-6)
-        ('exr', True)
-    """
+def _write_scatterogram_exr(path, scatterogram_or_xyz, exposure, mask):
+    """The OpenEXR writer of :func:`write_scatterogram`."""
     rgb = _linear_rgb_to_write(scatterogram_or_xyz, exposure, mask)
     pixels = rgb.numpy().astype(np.float32)
     OpenEXR = import_openexr()

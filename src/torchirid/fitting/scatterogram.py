@@ -95,9 +95,6 @@ from ..layered.scatterograms import (
 )
 
 __all__ = [
-    "DEFAULT_CELLS",
-    "DEFAULT_HARMONICS",
-    "DEFAULT_INIT",
     "ScatterogramAlternative",
     "ScatterogramFit",
     "bragg_structure",
@@ -303,8 +300,11 @@ class ScatterogramFit:
         ambiguous: True when an alternative is near-degenerate (its render within
             ``ambiguity_de2000`` mean CIEDE2000 of the fit's): the target does not decide
             between them (see "What a visible-only scatterogram identifies" in the module docstring).
-        stages: a JSON-ready log of the stages (grid minima, starts, N enumeration, polish,
-            harmonics, ranges).
+        stages: a JSON-ready log of the stages: ``ranges``; ``grid`` (the Λ grid and its minima,
+            ``[Λ, loss]``); ``starts`` (``[Λ, loss]`` per refined start, best first); ``cells``
+            (``{N: loss}`` of the N enumeration; ``cells_after_swap_<i>`` after a harmonic
+            replaced the fit); ``polish`` (``{"cells", "loss"}`` per polish, in order);
+            ``harmonics`` (the swaps and the alternatives).
 
     Example (a quick fit to an 8-pixel render of a 160 nm layer, from 164 nm, N known, no harmonics):
         >>> from torchirid.layered.presets import jewel_beetle
@@ -566,12 +566,12 @@ def match_scatterogram(
     n_incident: float = 1.0,
     base_albedo: float = 0.0,
     loss: str = "lab",
-    log=None,
+    progress=None,
 ) -> ScatterogramFit:
     r"""Recover (Λ, δ, n2 − n1, N, α) of one rough Bragg layer from a target scatterogram.
 
     The target is what :func:`~torchirid.layered.scatterograms.scatterogram` renders (or
-    :func:`load_scatterogram` reads) for each illumination of ``incident_deg``, at any unknown
+    :func:`read_scatterogram` reads) for each illumination of ``incident_deg``, at any unknown
     exposure; the strategy (Λ grid → multi-start L-BFGS → N enumeration → polish → harmonic
     refits) and the loss are described in the module docstring. Every parameter stays inside
     the range it is given (a bounded parametrisation), and the result lists the period
@@ -590,7 +590,7 @@ def match_scatterogram(
         fit_n1: also fit n1 (weakly identifiable: the period absorbs most of it).
         cells: the candidate numbers of cells N (integers ≥ 1), enumerated.
         init: start values ``{"delta", "dn", "alpha"}`` (and ``"period"``, used only when
-            ``period_range`` is None: no grid search); defaults :data:`DEFAULT_INIT` (a default
+            ``period_range`` is None: no grid search); defaults ``DEFAULT_INIT`` (a default
             outside a range given below is replaced by the range's middle; a given value
             outside its range is an error).
         period_range: ``(low, high)`` nm: the Λ grid and the bounds of Λ in every stage; ``None``
@@ -605,7 +605,7 @@ def match_scatterogram(
         short_iter: L-BFGS iterations per start, per N candidate and per harmonic refit.
         max_iter: L-BFGS iterations of the final polish.
         harmonics: the period factors k whose refits are listed as alternatives (default
-            :data:`DEFAULT_HARMONICS`: Λ/2, 2Λ, 2Λ/3, 3Λ/2, Λ/3, 3Λ); ``()`` lists none. Each
+            ``DEFAULT_HARMONICS``: Λ/2, 2Λ, 2Λ/3, 3Λ/2, Λ/3, 3Λ); ``()`` lists none. Each
             ``k·Λ`` inside ``period_range`` is refitted (Λ within ``k·Λ`` ÷× 1.08; N among up to
             three candidates near N/k, N/√k and N, each from its best start δ among the maxima of
             the harmonic's order and refined ``short_iter // 3`` iterations, the best one
@@ -624,7 +624,13 @@ def match_scatterogram(
         n_incident, base_albedo: the medium above the layer and the base (the jewel-beetle
             presets: air, black).
         loss: ``"lab"`` (mean ΔE*ab², default) or ``"de2000"`` (mean ΔE00).
-        log: optional callable receiving one progress string per stage.
+        progress: ``None`` or a callable ``progress(done, total)``: ``done`` stages out of
+            ``total`` = the grid (1, with ``period_range``) + the starts (``starts``; 1 without
+            ``period_range``) + one per N candidate refit (``len(cells) − 1``) + the polish (1)
+            + one per harmonic; a harmonic that replaces the fit adds its round (N candidates,
+            polish, harmonics) to ``total``. Called after each stage; the last call has
+            ``done == total``. What each stage found (losses, periods, N) is in
+            :attr:`ScatterogramFit.stages`.
 
     Returns:
         a :class:`ScatterogramFit`.
@@ -721,7 +727,16 @@ def match_scatterogram(
         lam = torch.linspace(*DEFAULT_FIT_WAVELENGTHS[:2], DEFAULT_FIT_WAVELENGTHS[2], dtype=dtype)
     else:
         lam = _checks.as_real(wavelength, "wavelength", dtype, torch.device("cpu"))
-    say = log if callable(log) else (lambda s: None)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
+    start_units = starts if period_range is not None else 1
+    count = {"done": 0, "total": (period_range is not None) + start_units + len(cells) + len(harmonics)}
+
+    def tick(units: int = 1):
+        """``units`` more stages done → ``progress(done, total)``."""
+        count["done"] += units
+        if progress is not None and units > 0:
+            progress(count["done"], count["total"])
 
     norm = float(peak)
     target_n = target.detach() / norm
@@ -755,14 +770,15 @@ def match_scatterogram(
                 break
         stages["grid"] = {"periods_nm": [float(grid[0]), float(grid[-1]), len(grid)], "cells": n_mid,
                           "minima": [[s, float(values[np.argmin(np.abs(grid - s))])] for s in seeds]}
-        say(f"grid: {len(grid)} periods, minima at {', '.join(f'{s:.0f}' for s in seeds)} nm")
+        tick()
 
     # 2. refine each start at the middle N
     results = []
     for p in seeds:
         x, value = prob.refine(prob.start(space, {**base, "period": p}, n_mid)[0], n_mid, space, short_iter)
         results.append((value, x, n_mid))
-        say(f"start {p:.1f} nm → Λ {prob.values(x, space)['period']:.2f} nm, loss {value:.4g}")
+        tick()
+    tick(start_units - len(seeds))  # (the grid had fewer minima than starts)
     results.sort(key=lambda r: r[0])
     stages["starts"] = [[prob.values(x, space)["period"], v] for v, x, _ in results]
 
@@ -776,7 +792,7 @@ def match_scatterogram(
             v = prob.values(x, space)
             xc, vc = prob.refine(prob.encode(space, {**v, "dn": v["dn"] * n / c}), c, space, short_iter)
             tried[c] = (vc, xc)
-            say(f"N = {c}: loss {vc:.4g}")
+            tick()
         stages[log_key] = {str(c): v for c, (v, _) in sorted(tried.items())}
         n = min(tried, key=lambda c: tried[c][0])
         value, x = tried[n]
@@ -784,7 +800,8 @@ def match_scatterogram(
             xp, vp = prob.refine(x, n, space, max_iter)
             if vp <= value:
                 value, x = vp, xp
-        say(f"polish N = {n}: loss {value:.4g}")
+        stages.setdefault("polish", []).append({"cells": n, "loss": value})
+        tick()
         return value, x, n
 
     best_value, best_x, best_n = cells_and_polish(*results[0], "cells")
@@ -801,6 +818,7 @@ def match_scatterogram(
         pr = ranges["period"]
         if pr is not None and not pr[0] <= p_k <= pr[1]:
             note = f"outside period_range ({pr[0]:g}, {pr[1]:g}) nm"
+            tick()
             return ScatterogramAlternative(label, k, p_k, False, note), None
         window = (p_k / _WINDOW, p_k * _WINDOW)
         if pr is not None:
@@ -844,8 +862,7 @@ def match_scatterogram(
             cells=int(n_k), alpha=v["alpha"], exposure=v["scale"] * norm, loss=float(value),
             delta_e2000=float(de_t.mean()), delta_e2000_lit=float(de_t[lit].mean()) if bool(lit.any()) else math.nan,
             delta_e2000_vs_fit=de_f, near_degenerate=de_f < ambiguity_de2000)
-        say(f"harmonic {label}: Λ {v['period']:.2f} nm, δ {v['delta']:.3f}, N = {n_k}, loss {value:.4g}, "
-            f"ΔE00 vs fit {de_f:.3g}")
+        tick()
         return alt, (value, prob.encode(space, v), n_k)
 
     swaps = []
@@ -857,8 +874,8 @@ def match_scatterogram(
         if not better or len(swaps) == _MAX_SWAPS:
             break
         a, (value, x, n) = min(better, key=lambda ar: ar[1][0])
-        say(f"harmonic {a.label} fits better (loss {value:.4g} < {best_value:.4g}): it replaces the fit")
         swaps.append({"from_period": fit_v["period"], "label": a.label, "loss": value})
+        count["total"] += sum(c != n and abs(c - n) <= 2 for c in cells) + 1 + len(harmonics)  # another round
         best_value, best_x, best_n = cells_and_polish(value, x, n, f"cells_after_swap_{len(swaps)}", spread=2)
     alternatives = tuple(a for a, _ in alts)
     stages["harmonics"] = {"ambiguity_de2000": float(ambiguity_de2000), "swaps": swaps,

@@ -1,84 +1,42 @@
-"""Image-based lighting of thin films: Belcour–Barla Fourier colour (Kneiphof et al. 2019)."""
+"""The colour of thin films, smooth and rough, also under image-based lighting: Belcour–Barla's
+Fourier colour, Kneiphof et al. 2019's prefiltering, and the fitted light-mixture table.
+
+:func:`thin_film_xyz` is the family's one entry point (``method=`` a key of
+:data:`THIN_FILM_XYZ_METHODS`, each the suffix of a ``thin_film_xyz_<method>`` function)."""
 
 from .fourier import (
-    FOURIER_SENSITIVITY_BUILDER,
-    SENSITIVITY_MODES,
     fourier_sensitivity_lut,
     prefiltered_sensitivity_lut,
     fourier_sensitivity,
-    fourier_sensitivity_exact,
     shipped_fourier_sensitivity_lut,
-    fourier_sensitivity_path,
-    prefiltered_fourier_sensitivity,
     lookup_prefiltered_sensitivity,
     shipped_prefiltered_sensitivity_lut,
-    PREFILTERED_SENSITIVITY_BUILDER,
-    thin_film_fourier_terms,
     thin_film_xyz_fourier,
 )
-from .dfg import DFG_BUILDER, DFG_SHIPPED, dfg_lut, shipped_dfg_lut
-from .filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
-from .fitted import (
-    DEFAULT_QUANTILES,
-    LIGHT_MIXTURE_BUILDER,
-    light_mixture_lut,
-    fitted_thin_film_xyz,
-    light_mixture,
-    light_mixture_path,
-    shipped_light_mixture_lut,
-)
-from .uniform import (
-    MASKING_MODES,
-    cos_theta1_distribution,
-    path_difference_moments,
-    uniform_light_moments,
-    uniform_lobe_quadrature,
-    uniform_thin_film_xyz,
-)
-from .prefilter import (
-    MOMENT_CHANNELS,
-    PREFILTERED_ENVIRONMENT_BUILDER,
-    PrefilteredEnvironment,
-    equirect_directions,
-    light_moments_to_mean_cov,
-    load_environment,
-    prefilter_environment,
-    synthetic_environment,
-)
-from .shading import SHADING_METHODS, SHADING_OUTPUTS, shade_thin_film_environment
+from .dfg import dfg_lut, shipped_dfg_lut
+from .filtered import thin_film_xyz_filtered, thin_film_xyz_gaussian_path
+from .fitted import light_mixture_lut, thin_film_xyz_fitted, light_mixture, shipped_light_mixture_lut
+from .uniform import path_difference_moments, uniform_light_moments, thin_film_xyz_uniform
+from .prefilter import PrefilteredEnvironment, read_environment, prefilter_environment, synthetic_environment
+from .methods import THIN_FILM_XYZ_METHODS, thin_film_xyz
+from .shading import SHADING_METHODS, shade_thin_film_environment
 
 __all__ = [
-    "DEFAULT_QUANTILES",
-    "DFG_BUILDER",
-    "DFG_SHIPPED",
-    "FOURIER_SENSITIVITY_BUILDER",
-    "LIGHT_MIXTURE_BUILDER",
-    "MASKING_MODES",
-    "MOMENT_CHANNELS",
-    "PREFILTERED_ENVIRONMENT_BUILDER",
-    "PREFILTERED_SENSITIVITY_BUILDER",
-    "SENSITIVITY_MODES",
     "SHADING_METHODS",
-    "SHADING_OUTPUTS",
-    "cos_theta1_distribution",
+    "THIN_FILM_XYZ_METHODS",
+    "thin_film_xyz",
     "dfg_lut",
-    "equirect_directions",
-    "filtered_thin_film_xyz",
-    "fitted_thin_film_xyz",
+    "thin_film_xyz_filtered",
+    "thin_film_xyz_fitted",
     "fourier_sensitivity",
-    "fourier_sensitivity_exact",
     "fourier_sensitivity_lut",
-    "fourier_sensitivity_path",
-    "gaussian_path_thin_film_xyz",
+    "thin_film_xyz_gaussian_path",
     "light_mixture",
     "light_mixture_lut",
-    "light_mixture_path",
-    "light_moments_to_mean_cov",
-    "load_environment",
+    "read_environment",
     "lookup_prefiltered_sensitivity",
     "path_difference_moments",
     "prefilter_environment",
-    "prefiltered_fourier_sensitivity",
     "prefiltered_sensitivity_lut",
     "PrefilteredEnvironment",
     "shade_thin_film_environment",
@@ -87,9 +45,7 @@ __all__ = [
     "shipped_light_mixture_lut",
     "shipped_prefiltered_sensitivity_lut",
     "synthetic_environment",
-    "thin_film_fourier_terms",
     "thin_film_xyz_fourier",
     "uniform_light_moments",
-    "uniform_lobe_quadrature",
-    "uniform_thin_film_xyz",
+    "thin_film_xyz_uniform",
 ]

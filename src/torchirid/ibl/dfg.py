@@ -27,7 +27,7 @@ from ..lut import LUT
 from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
 from .._cache import cached
 
-__all__ = ["dfg_lut", "shipped_dfg_lut", "DFG_BUILDER", "DFG_SHIPPED"]
+__all__ = ["dfg_lut", "shipped_dfg_lut"]
 
 DFG_BUILDER = "torchirid.ibl.dfg:dfg_lut"
 _COS_MIN = 1e-4  # the cos θo = 0 node is evaluated here (VNDF sampling needs a view above the horizon)

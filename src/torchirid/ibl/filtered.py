@@ -31,7 +31,7 @@ every Fourier thin-film colour of :mod:`torchirid.ibl` — pass ``terms=2`` for 
           + e^{-imφ_2^*}\hat S(mμ_D, m^2σ_D^2)\right],
 
 with :math:`\hat S(μ, σ^2)` the Gaussian-prefiltered sensitivity of eq. 18, evaluated exactly by
-:func:`~torchirid.ibl.prefiltered_fourier_sensitivity` (no 2-D table, so no interpolation error).
+:func:`~torchirid.ibl.fourier.prefiltered_fourier_sensitivity` (no 2-D table, so no interpolation error).
 Choice: eq. 22 at the mean uses μ_⟨ωi,ωo⟩ of eq. 20 (the mean of the cosine, the same quantity
 eq. 25 expands about), not the cosine of the normalised mean direction; the two agree to
 second order in the spread and exactly for a delta light. Variances are carried as σ² (never
@@ -58,7 +58,7 @@ def _check_sensitivity(sensitivity):
         raise ValueError(f"sensitivity must be one of {_checks.names(FILTERED_SENSITIVITY_MODES)}; "
                          f"got {sensitivity!r}")
 
-__all__ = ["filtered_thin_film_xyz", "gaussian_path_thin_film_xyz"]
+__all__ = ["thin_film_xyz_filtered", "thin_film_xyz_gaussian_path"]
 
 
 def _vectors(x, name, dtype, device):
@@ -68,7 +68,7 @@ def _vectors(x, name, dtype, device):
     return t
 
 
-def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
+def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
                            sensitivity: str = "exact") -> torch.Tensor:
@@ -99,7 +99,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
         >>> import torch
         >>> wo = torch.tensor([0.6, 0.0, 0.8], dtype=torch.float64)
         >>> mu = torch.tensor([-0.6, 0.0, 0.8], dtype=torch.float64)  # mirror of wo about +z
-        >>> xyz = filtered_thin_film_xyz(wo, 0.98 * mu, 1e-3 * torch.eye(3, dtype=torch.float64),
+        >>> xyz = thin_film_xyz_filtered(wo, 0.98 * mu, 1e-3 * torch.eye(3, dtype=torch.float64),
         ...                              1.3, 600.0, complex(2.0, 0.5))
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0562, 0.0533, 0.1243]
@@ -140,7 +140,7 @@ def filtered_thin_film_xyz(wo, light_mean, light_cov, n_film, thickness, n_subst
 
 
 def _filtered_xyz(w, mu, cov, nf, d, n_substrate, n0, *, terms, observer, illuminant, polarization, sensitivity):
-    """Eq. 20–29 of :func:`filtered_thin_film_xyz` on one block of validated colours."""
+    """Eq. 20–29 of :func:`thin_film_xyz_filtered` on one block of validated colours."""
     dtype = w.dtype
     w = w / torch.linalg.vector_norm(w, dim=-1, keepdim=True)
 
@@ -183,22 +183,22 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivit
     return xyz
 
 
-def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
+def thin_film_xyz_gaussian_path(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
                                 n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                                 illuminant: str = "D65", polarization: str = "unpolarized",
                                 sensitivity: str = "exact") -> torch.Tensor:
     r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.
 
-    The last step of :func:`filtered_thin_film_xyz`, for callers that know μ_D and σ²_D by other
+    The last step of :func:`thin_film_xyz_filtered`, for callers that know μ_D and σ²_D by other
     means: Kneiphof et al. 2019 Fig. 7 (c, g) use the ground-truth moments
-    (:func:`~torchirid.ibl.path_difference_moments`); :func:`~torchirid.ibl.fitted_thin_film_xyz`
+    (:func:`~torchirid.ibl.path_difference_moments`); :func:`~torchirid.ibl.thin_film_xyz_fitted`
     reads fitted ones from a table. ``path_var = 0`` gives Belcour–Barla's eq. 4 with
     D = ``path_mean``.
 
     Args:
         cos_theta: cos θ₁* (incidence on the facet) at which C*_m and φ₂* are evaluated, in [0, 1].
         n_film, thickness, n_substrate, n_incident, terms, observer, illuminant, polarization: as
-            :func:`filtered_thin_film_xyz` (C*_m and φ₂* do not depend on the thickness; it is
+            :func:`thin_film_xyz_filtered` (C*_m and φ₂* do not depend on the thickness; it is
             validated and broadcast like the rest, and a NaN thickness gives NaN); sensitivity:
             ``"exact"`` or ``"lut"``.
         path_mean: μ_D in nm; path_var: σ²_D in nm² (≥ 0). Broadcast with the rest.
@@ -209,7 +209,7 @@ def gaussian_path_thin_film_xyz(cos_theta, n_film, thickness, n_substrate, path_
     Example:
         >>> import torch
         >>> c = torch.tensor(0.9, dtype=torch.float64)
-        >>> xyz = gaussian_path_thin_film_xyz(c, 1.3, 600.0, complex(2.0, 0.5), 1500.0, 40.0**2)
+        >>> xyz = thin_film_xyz_gaussian_path(c, 1.3, 600.0, complex(2.0, 0.5), 1500.0, 40.0**2)
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0483, 0.0839, 0.0644]
     """

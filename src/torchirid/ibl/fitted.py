@@ -7,7 +7,7 @@ tail towards smaller cos θ1, and C_m, φ₂ vary across it (most at grazing): o
 a mean ΔE2000 of ≈ 4 against the ground truth (docs/performance.md, "Thin-film IBL").
 
 This module fits, per (cos θo, √α), a **K-component Gaussian mixture to the distribution of
-cos θ1** under :math:`p_R ∝ \tilde ρ⟨n,ω_i⟩` (:func:`~torchirid.ibl.cos_theta1_distribution`):
+cos θ1** under :math:`p_R ∝ \tilde ρ⟨n,ω_i⟩` (``cos_theta1_distribution()``):
 the distribution is cut at fixed quantiles (default 5 %, 30 %, 70 %, 95 %) and each piece is
 replaced by a Gaussian with its mass :math:`w_k`, mean :math:`\bar c_k` and variance
 :math:`s_k^2` (a method-of-moments fit per piece; the pieces' masses, means and second
@@ -48,13 +48,10 @@ from .uniform import _check_masking, cos_theta1_distribution
 from .._cache import cached
 
 __all__ = [
-    "LIGHT_MIXTURE_BUILDER",
-    "DEFAULT_QUANTILES",
     "light_mixture_lut",
     "shipped_light_mixture_lut",
     "light_mixture",
-    "light_mixture_path",
-    "fitted_thin_film_xyz",
+    "thin_film_xyz_fitted",
 ]
 
 LIGHT_MIXTURE_BUILDER = "torchirid.ibl.fitted:light_mixture_lut"
@@ -92,9 +89,9 @@ def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int 
     Args:
         cos_theta_o: cos θo in (0, 1]; alpha: GGX roughness > 0 (broadcast).
         quantiles: increasing cut points in (0, 1); K = len(quantiles) + 1 components.
-        bins, nodes: resolution of :func:`~torchirid.ibl.cos_theta1_distribution`.
+        bins, nodes: resolution of ``cos_theta1_distribution()``.
         masking: the lobe's G: ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
-            Smith-joint G; :func:`~torchirid.ibl.uniform_lobe_quadrature`).
+            Smith-joint G; ``uniform_lobe_quadrature()``).
 
     Returns:
         ``(*, K, 3)``: per component (mass w_k, mean c̄_k, variance s_k²); Σ w_k = 1.
@@ -137,7 +134,7 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
         ...                  sqrt_alpha=torch.tensor(0.5, dtype=torch.float64))  # α = 0.25
         >>> round(float(mix[:, 0].sum()), 6)  # the masses sum to 1
         1.0
-        >>> fitted_thin_film_xyz(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, 1.5, table=lut).shape
+        >>> thin_film_xyz_fitted(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, 1.5, table=lut).shape
         torch.Size([3])
     """
     for name, v in (("theta_nodes", theta_nodes), ("alpha_nodes", alpha_nodes)):
@@ -213,7 +210,7 @@ def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype 
     return _shipped(masking, dtype, torch.device("cpu") if device is None else torch.device(device))
 
 
-def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
+def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
                          terms: int = 4, observer: str = "CIE 1931 2", illuminant: str = "D65",
                          polarization: str = "unpolarized", sensitivity: str = "exact",
                          masking: str = "separable") -> torch.Tensor:
@@ -221,20 +218,20 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
 
     Args:
         cos_theta_o: cos θo in [0, 1]; alpha: GGX roughness in [0, 1] (the table's range; α > 1
-            raises, where :func:`~torchirid.ibl.uniform_thin_film_xyz` computes any α).
+            raises, where :func:`~torchirid.ibl.thin_film_xyz_uniform` computes any α).
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; n_substrate: η₃ + iκ₃.
         n_incident: real outer index η₁ (default 1).
         table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut` built with the same
             ``masking``; default the shipped one for ``masking``.
         terms: M ≥ 0 Fourier terms per component (default 4). Measured against
-            :func:`~torchirid.ibl.uniform_thin_film_xyz` on 10,368 films × geometries
+            :func:`~torchirid.ibl.thin_film_xyz_uniform` on 10,368 films × geometries
             (``benchmarks/fitted_terms_error.py``): ΔE2000 max / p95 / median 15.4 / 2.08 / 0.17 at
             M = 2, 11.3 / 0.71 / 0.089 at M = 4, 6.4 / 0.61 / 0.075 at M = 6 (the maxima: near-mirrors at
             θo = 85°, where the series converges slowly); a base 1.5 + 2i, d = 171 nm, θo = 70°,
             α = 0.056 errs by up to 3.7 at M = 2 and 0.45 at M = 4 (η₂ ∈ [1.2, 2.5]). Each term costs
             one Ŝ evaluation per component: ≈ 1.2 ms per colour with the exact Ŝ, ≈ 2 µs with the table.
         observer, illuminant, polarization, sensitivity: as
-            :func:`~torchirid.ibl.filtered_thin_film_xyz` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
+            :func:`~torchirid.ibl.thin_film_xyz_filtered` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
             what a shader reads).
         masking: the lobe's G, ``"separable"`` (default; the library's microfacet BRDF and DFG
             table) or ``"height-correlated"`` (Kneiphof's Smith-joint G) — module docstring.
@@ -245,8 +242,8 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
 
     Example:
         >>> import torch
-        >>> xyz = fitted_thin_film_xyz(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, complex(2.0, 0.5))
-        >>> [round(v, 4) for v in xyz.tolist()]  # reference (uniform_thin_film_xyz): [0.0647, 0.067, 0.1077]
+        >>> xyz = thin_film_xyz_fitted(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, complex(2.0, 0.5))
+        >>> [round(v, 4) for v in xyz.tolist()]  # reference (thin_film_xyz_uniform): [0.0647, 0.067, 0.1077]
         [0.0645, 0.0668, 0.1076]
     """
     _checks.check_int(terms, "terms", 0)
@@ -259,10 +256,10 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
     a = _checks.as_real(alpha, "alpha", dtype, device)
     _checks.check_cosine(c, "cos_theta_o")
     _checks.check_nonnegative(a, "alpha", "(GGX roughness)")
-    with torch.no_grad():  # the table covers α ≤ 1: refuse rather than clamp (uniform_thin_film_xyz takes any α)
+    with torch.no_grad():  # the table covers α ≤ 1: refuse rather than clamp (thin_film_xyz_uniform takes any α)
         if _checks.value_checks_enabled() and bool((a > 1).any()):
             raise ValueError(f"alpha must be <= 1 (GGX roughness covered by the fitted table); got max "
-                             f"{a.max().item():g} — use uniform_thin_film_xyz for rougher surfaces")
+                             f"{a.max().item():g} — use thin_film_xyz_uniform for rougher surfaces")
     nf = _checks.as_real(n_film, "n_film", dtype, device)
     d = _checks.as_real(thickness, "thickness", dtype, device)
     n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
@@ -293,7 +290,7 @@ def fitted_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
 
 
 def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, polarization, sensitivity):
-    """The body of :func:`fitted_thin_film_xyz` on one block of colours."""
+    """The body of :func:`thin_film_xyz_fitted` on one block of colours."""
     dtype = c.dtype
     full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
     c, a = c.expand(full), a.expand(full)

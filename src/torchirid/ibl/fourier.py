@@ -14,7 +14,7 @@ this; ``illuminant="E"`` gives the plain CMFs that Belcour & Barla use):
 
 so :math:`\hat S(0)` is the white's XYZ (Y = 1) and :math:`\hat S(-D) = \overline{\hat S(D)}`.
 ``S x̄_j`` is linear between the observer's tabulated wavelengths (what ``spectrum_to_xyz``
-integrates); :func:`fourier_sensitivity_exact` integrates it with 8-point Gauss–Legendre on
+integrates); ``fourier_sensitivity_exact()`` integrates it with 8-point Gauss–Legendre on
 every ≤ 1 nm sub-cell (3,760 nodes for CIE 1931 2°; changing to 10 nodes on 0.5 nm cells moves
 Ŝ by < 1e-14 for D ≤ 40 µm).
 
@@ -38,7 +38,7 @@ Prefiltering (eq. 18). For D ~ N(μ, σ²), :math:`E[e^{-2\pi iνD}] = e^{-2\pi 
 
 i.e. in angular wavenumber k = 2πν each spectral component is damped by exp(−σ²k²/2); the
 damping is not a single factor per channel (k spans a band), so
-:func:`prefiltered_fourier_sensitivity` integrates it exactly.
+``prefiltered_fourier_sensitivity()`` integrates it exactly.
 
 Colour (eq. 4–5). Summing the Airy series, with :math:`a = r_{21} r_{23} = \sqrt{R_{21}R_{23}}\,e^{iφ_2}`
 and Φ = 2πD/λ, D = 2 η₂ d cos θ₂, the reflectance is the Fourier series in Φ
@@ -76,18 +76,12 @@ from .._cache import cached
 
 __all__ = [
     "fourier_sensitivity",
-    "fourier_sensitivity_exact",
     "shipped_fourier_sensitivity_lut",
-    "fourier_sensitivity_path",
     "fourier_sensitivity_lut",
-    "prefiltered_fourier_sensitivity",
     "prefiltered_sensitivity_lut",
     "shipped_prefiltered_sensitivity_lut",
     "lookup_prefiltered_sensitivity",
-    "thin_film_fourier_terms",
     "thin_film_xyz_fourier",
-    "FOURIER_SENSITIVITY_BUILDER",
-    "SENSITIVITY_MODES",
 ]
 
 #: ``builder`` string stored in the Ŝ tables (checked when a shipped file is loaded).
@@ -187,7 +181,7 @@ def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
     r"""Kneiphof's eq. 18: :math:`\hat S(μ, σ^2) = E_{D\sim N(μ,σ^2)}[\hat S(D)]`, exactly.
 
     :math:`= \int S(ν) e^{-2\pi^2σ^2ν^2} e^{-2\pi iνμ} dν` (see the module docstring),
-    by the quadrature of :func:`fourier_sensitivity_exact`.
+    by the quadrature of ``fourier_sensitivity_exact()``.
 
     Args:
         mu: mean optical path difference μ_D in nm. Shape ``(*)``.
@@ -334,7 +328,7 @@ def shipped_fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: st
 def fourier_sensitivity(D, *, observer: str = "CIE 1931 2", illuminant: str = "D65") -> torch.Tensor:
     r"""Ŝ(D) from the table (linear in magnitude and unwrapped phase), complex ``(*, 3)``.
 
-    Within 1e-5 of :func:`fourier_sensitivity_exact` for |D| ≤ 20,000 nm (float64); 0 beyond.
+    Within 1e-5 of ``fourier_sensitivity_exact()`` for |D| ≤ 20,000 nm (float64); 0 beyond.
     ``D < 0`` gives the conjugate. dtype/device follow ``D``; differentiable w.r.t. ``D``.
 
     Example:
@@ -480,7 +474,7 @@ def lookup_prefiltered_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
     r"""Ŝ(μ, σ²) read from Kneiphof's 2-D table (:func:`shipped_prefiltered_sensitivity_lut`, or ``lut`` from
     :func:`prefiltered_sensitivity_lut`): bilinear in (|μ|, w(σ²)) on the demodulated real and
     imaginary parts, then remodulated; conjugate for μ < 0, 0 beyond μ = 20 µm, σ clamped at
-    1000 nm (where |Ŝ| < 1e-20). Within 5e-4 of :func:`prefiltered_fourier_sensitivity` (exact)
+    1000 nm (where |Ŝ| < 1e-20). Within 5e-4 of ``prefiltered_fourier_sensitivity()`` (exact)
     on the default grid (measured, see :func:`prefiltered_sensitivity_lut`). What a shader does
     with Kneiphof's texture.
 

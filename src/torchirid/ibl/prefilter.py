@@ -16,11 +16,11 @@ lobe weight of a light direction l is the GGX half-vector density turned into a 
 - Kneiphof's nine moment channels, the moments of l under :math:`w(l)\,Y(L(l))` (Y = Rec. 709
   luminance of the radiance), :math:`E[x], E[y], E[z], E[x^2], E[y^2], E[z^2], E[xy], E[yz], E[zx]`
   — :func:`light_moments_to_mean_cov` turns them into the light mean μ_ωi and covariance Σ_ωi
-  consumed by :func:`~torchirid.ibl.filtered_thin_film_xyz`. Where the lobe sees no light
+  consumed by :func:`~torchirid.ibl.thin_film_xyz_filtered`. Where the lobe sees no light
   (∫ w Y dω = 0) the moments fall back to those of the lobe alone.
 
 Integration is deterministic: a sum over every texel with its solid angle (outputs × texels,
-in chunks), so the result is reproducible and differentiable w.r.t. the map. It resolves lobes
+in blocks of output directions, :mod:`torchirid._chunks`), so the result is reproducible and differentiable w.r.t. the map. It resolves lobes
 wider than about a texel; for α below roughly the texel size (≈ π/H rad) the result tends to
 the nearest texels rather than a mirror lookup.
 """
@@ -34,26 +34,21 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .._io import check_readable, file_error, read_exr, reading
 from ..lut import LUT
 from ..microfacet.ggx import ggx_d_kernel
 
 __all__ = [
     "PrefilteredEnvironment",
-    "equirect_directions",
-    "light_moments_to_mean_cov",
-    "load_environment",
+    "read_environment",
     "prefilter_environment",
     "synthetic_environment",
-    "MOMENT_CHANNELS",
-    "PREFILTERED_ENVIRONMENT_BUILDER",
 ]
 
 PREFILTERED_ENVIRONMENT_BUILDER = "torchirid.ibl.prefilter:PrefilteredEnvironment.to_lut"
 MOMENT_CHANNELS = ("x", "y", "z", "xx", "yy", "zz", "xy", "yz", "zx")
 _LUMA = (0.2126, 0.7152, 0.0722)  # Rec. 709 / sRGB primaries, linear luminance Y
-_CHUNK_ELEMENTS = 1 << 22  # outputs × texels per batch: bounds memory at ~32 MiB per float64 temporary
 _ENV_SUFFIXES = (".exr", ".hdr")
 
 
@@ -151,7 +146,7 @@ class PrefilteredEnvironment:
         alphas: ``(A,)`` GGX roughness of each level.
         directions: ``(Ho, Wo, 3)`` output directions R (= n = v), module convention.
         radiance: ``(A, Ho, Wo, 3)`` prefiltered RGB radiance.
-        moments: ``(A, Ho, Wo, 9)`` light-direction moments, channel order :data:`MOMENT_CHANNELS`.
+        moments: ``(A, Ho, Wo, 9)`` light-direction moments, channel order ``MOMENT_CHANNELS``.
 
     Example (obtained from :func:`prefilter_environment`; two roughness levels, a 4 × 8 grid):
         >>> import torch
@@ -179,7 +174,7 @@ class PrefilteredEnvironment:
     def to_lut(self, *, parameters=None) -> "LUT":
         """The maps as one :class:`~torchirid.lut.LUT`: axes ``alpha`` (A ≥ 2 levels), ``theta``
         and ``phi`` (radians, texel centres of the module convention), channels ``(12,)`` =
-        R, G, B radiance then the nine moments (:data:`MOMENT_CHANNELS`). Save it with
+        R, G, B radiance then the nine moments (``MOMENT_CHANNELS``). Save it with
         ``.save(path)``, export it for shaders with :func:`torchirid.export.export_lut`
         (OpenEXR or raw float32 + JSON), read it back with :meth:`from_lut`.
         ``parameters``: extra JSON metadata (e.g. the environment's file name).
@@ -223,7 +218,7 @@ def light_moments_to_mean_cov(m) -> tuple[torch.Tensor, torch.Tensor]:
 
     Returns:
         ``(mean (*, 3), cov (*, 3, 3))``, cov = E[l lᵀ] − μ μᵀ (symmetric; PSD up to rounding
-        and interpolation, which :func:`~torchirid.ibl.filtered_thin_film_xyz` tolerates).
+        and interpolation, which :func:`~torchirid.ibl.thin_film_xyz_filtered` tolerates).
 
     Example:
         >>> mu, cov = light_moments_to_mean_cov(torch.tensor([0., 0., 1., 0., 0., 1., 0., 0., 0.]))
@@ -295,29 +290,32 @@ def prefilter_environment(env, alphas, *, resolution=(32, 64)) -> PrefilteredEnv
     luma = L @ torch.as_tensor(_LUMA, dtype=dtype, device=device)
     x, y, z = l.unbind(-1)
     basis = torch.stack([x, y, z, x * x, y * y, z * z, x * y, y * z, z * x], -1)  # (T, 9)
-    chunk = max(1, _CHUNK_ELEMENTS // l.shape[0])
     rad_out, mom_out = [], []
     for k in range(a.numel()):
-        ak = a[k]
-        rads, moms = [], []
-        for s in range(0, R.shape[0], chunk):
-            c = (R[s:s + chunk] @ l.T).clamp(-1.0, 1.0)  # ⟨R, l⟩, (C, T)
-            front = c > 0
-            cos_h = torch.sqrt((1.0 + c.clamp_min(0.0)) * 0.5)  # ⟨R, h⟩ (the back half is weighted 0)
-            wgt = torch.where(front, ggx_d_kernel(cos_h, ak) * c * 0.25, torch.zeros_like(c)) * omega
-            total = wgt.sum(-1, keepdim=True)  # > 0: every R has texels in its front hemisphere
-            rads.append((wgt @ L) / total)
-            wy = wgt * luma
-            ty = wy.sum(-1, keepdim=True)
-            lit = ty > 0
-            # a lobe that sees no light falls back to the lobe's own moments (no 0/0)
-            m_lit = (wy @ basis) / torch.where(lit, ty, torch.ones_like(ty))
-            m_lobe = (wgt @ basis) / total
-            moms.append(torch.where(lit, m_lit, m_lobe))
-        rad_out.append(torch.cat(rads).reshape(ho, wo, 3))
-        mom_out.append(torch.cat(moms).reshape(ho, wo, 9))
+        # block by block over the output directions (torchirid._chunks): every texel per direction
+        rad, mom = _chunks.evaluate(_prefilter_block, (R,), (R.shape[0],), core=(1,), out_core=1, width=l.shape[0],
+                                    grad_inputs=(e, a), alpha=a[k], l=l, omega=omega, L=L, luma=luma, basis=basis)
+        rad_out.append(rad.reshape(ho, wo, 3))
+        mom_out.append(mom.reshape(ho, wo, 9))
     return PrefilteredEnvironment(alphas=a, directions=R.reshape(ho, wo, 3),
                                   radiance=torch.stack(rad_out), moments=torch.stack(mom_out))
+
+
+def _prefilter_block(R, *, alpha, l, omega, L, luma, basis):
+    """Radiance ``(C, 3)`` and light moments ``(C, 9)`` of the output directions ``R`` ``(C, 3)``."""
+    c = (R @ l.T).clamp(-1.0, 1.0)  # ⟨R, l⟩, (C, T)
+    front = c > 0
+    cos_h = torch.sqrt((1.0 + c.clamp_min(0.0)) * 0.5)  # ⟨R, h⟩ (the back half is weighted 0)
+    wgt = torch.where(front, ggx_d_kernel(cos_h, alpha) * c * 0.25, torch.zeros_like(c)) * omega
+    total = wgt.sum(-1, keepdim=True)  # > 0: every R has texels in its front hemisphere
+    rad = (wgt @ L) / total
+    wy = wgt * luma
+    ty = wy.sum(-1, keepdim=True)
+    lit = ty > 0
+    # a lobe that sees no light falls back to the lobe's own moments (no 0/0)
+    m_lit = (wy @ basis) / torch.where(lit, ty, torch.ones_like(ty))
+    m_lobe = (wgt @ basis) / total
+    return rad, torch.where(lit, m_lit, m_lobe)
 
 
 _ENV_WHAT = "environment map"
@@ -409,7 +407,7 @@ def _decode_rgbe(data: bytes, p) -> np.ndarray:
     return (out[..., :3].astype(np.float64) + 0.5) * scale[..., None]
 
 
-def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tensor:
+def read_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tensor:
     """Read a user's equirectangular environment map as linear RGB radiance ``(H, W, 3)`` (CPU).
 
     ``.exr`` (OpenEXR, channels R, G, B or Y; needs the optional ``openexr`` package; non-finite
@@ -431,7 +429,7 @@ def load_environment(path, *, dtype: torch.dtype = torch.float64) -> torch.Tenso
         ...     path = os.path.join(folder, "sky.hdr")
         ...     with open(path, "wb") as f:
         ...         _ = f.write(header + texels)
-        ...     env = load_environment(path)
+        ...     env = read_environment(path)
         >>> env.shape, env.dtype
         (torch.Size([2, 4, 3]), torch.float64)
         >>> round(float(env.mean()), 4)

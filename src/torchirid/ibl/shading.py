@@ -13,7 +13,7 @@ film into three integrals,
 - :math:`\bar L` — the prefiltered environment map of :func:`~torchirid.ibl.prefilter_environment`
   read at the ideal reflection direction :math:`ω_r = 2⟨ω_o, n⟩n - ω_o` (split sum: the lobe is
   taken with :math:`ω_o = n = ω_r`);
-- the reflectance term — eq. 20–29 (:func:`~torchirid.ibl.filtered_thin_film_xyz`) with
+- the reflectance term — eq. 20–29 (:func:`~torchirid.ibl.thin_film_xyz_filtered`) with
   :math:`ω_o` = the view direction and the light mean μ_ωi and covariance Σ_ωi read from the
   nine prefiltered moment channels at :math:`ω_r` (§4.2, "computed from the prefiltered moments at
   runtime"), or, for ``method="belcour_barla"`` (the paper's "original"), eq. 4 at the ideal
@@ -31,7 +31,7 @@ covariance is formed (a mixture's moments are the mixture of its moments), so |�
 
 Accuracy (tests/ibl/test_shading.py). Under a constant environment :math:`L_i ≡ c` the
 prefiltered radiance is c exactly, and the result differs from the converged ground truth
-:math:`c\,A\,\mathrm{XYZ}_{\text{uniform}}` (:func:`~torchirid.ibl.uniform_thin_film_xyz` times
+:math:`c\,A\,\mathrm{XYZ}_{\text{uniform}}` (:func:`~torchirid.ibl.thin_film_xyz_uniform` times
 its albedo) by the split-sum moments (an isotropic lobe about ω_r instead of the true p_R) plus
 eq. 20–29's own approximation. Measured at d = 600 nm, η₂ = 1.3, base 2 + 0.5i, θo ∈ {0°, 30°,
 60°, 75°} × α ∈ {0.1, 0.3, 0.5} (α = 0.3 interpolated between levels 0.25 and 0.5; a 32 × 64
@@ -51,12 +51,12 @@ import torch
 from .. import _checks
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from .dfg import shipped_dfg_lut
-from .filtered import _check_sensitivity, _vectors, filtered_thin_film_xyz
-from .fitted import fitted_thin_film_xyz
+from .filtered import _check_sensitivity, _vectors, thin_film_xyz_filtered
+from .fitted import thin_film_xyz_fitted
 from .fourier import _check_names, thin_film_xyz_fourier
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
 
-__all__ = ["shade_thin_film_environment", "SHADING_METHODS", "SHADING_OUTPUTS"]
+__all__ = ["shade_thin_film_environment", "SHADING_METHODS"]
 
 #: Reflectance term of :func:`shade_thin_film_environment`: Kneiphof's eq. 20–29 with the
 #: prefiltered moments, or Belcour–Barla's eq. 4 at the ideal reflection direction.
@@ -132,7 +132,7 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         n_incident: real outer index η₁ (default 1).
         method: ``"kneiphof"`` (default: eq. 20–29 with the prefiltered moments),
             ``"belcour_barla"`` (eq. 4 at the ideal reflection, cos θ₁ = ⟨n, ω_o⟩) or
-            ``"fitted"`` (:func:`~torchirid.ibl.fitted_thin_film_xyz`: the light-mixture table
+            ``"fitted"`` (:func:`~torchirid.ibl.thin_film_xyz_fitted`: the light-mixture table
             fitted to *uniform* light — best under uniform or slowly varying light; under a sky
             with a sun Kneiphof's moments carry the light's direction and do better: mean
             ΔE2000 3.5 against 4.4 in the gallery's environment example) —
@@ -212,9 +212,9 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
               sensitivity=sensitivity)
     if method == "kneiphof":
         mean, cov = light_moments_to_mean_cov(moments)
-        xyz = filtered_thin_film_xyz(v, mean, cov, n_film, thickness, n_substrate, **kw)
+        xyz = thin_film_xyz_filtered(v, mean, cov, n_film, thickness, n_substrate, **kw)
     elif method == "fitted":
-        xyz = fitted_thin_film_xyz(cos_o, a_, n_film, thickness, n_substrate, **kw)
+        xyz = thin_film_xyz_fitted(cos_o, a_, n_film, thickness, n_substrate, **kw)
     else:
         xyz = thin_film_xyz_fourier(cos_o, n_film, thickness, n_substrate, **kw)
     rgb = xyz_to_linear_srgb(xyz) * radiance * albedo[..., None]

@@ -68,17 +68,13 @@ from ..microfacet.ggx import smith_g1_kernel, reflect
 from ..optics.thin_film import thin_film_reflectance
 
 __all__ = [
-    "MASKING_MODES",
-    "uniform_lobe_quadrature",
     "uniform_light_moments",
-    "cos_theta1_distribution",
     "path_difference_moments",
-    "uniform_thin_film_xyz",
+    "thin_film_xyz_uniform",
 ]
 
 #: ``masking=`` values of the uniform-light functions and the fitted table (module docstring).
 MASKING_MODES = ("separable", "height-correlated")
-_CHUNK_POINTS = 1 << 21  # geometry nodes × quadrature points per batch (~50 MiB per float64 (…, 3))
 
 
 def _check_masking(masking) -> str:
@@ -186,12 +182,6 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str
     return wi, h, torch.where(torch.isnan(z + vh), torch.nan, wgt) * wq  # (NaN geometry: NaN weights)
 
 
-def _chunks(shape, nodes):
-    n = math.prod(shape)
-    per = max(1, _CHUNK_POINTS // (2 * nodes * nodes))
-    return n, per
-
-
 def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str = "separable"):
     r"""Albedo, mean and covariance of the light directions p_R ∝ ρ̃⟨n,ω_i⟩ under uniform light.
 
@@ -199,7 +189,7 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str =
     moments, where a renderer reads approximations from the nine prefiltered moment channels.
 
     Args:
-        cos_theta_o, alpha, nodes, masking: as :func:`uniform_lobe_quadrature`.
+        cos_theta_o, alpha, nodes, masking: as ``uniform_lobe_quadrature()``.
 
     Returns:
         ``(albedo (*), mean (*, 3), cov (*, 3, 3))`` in the frame n = +z, ω_o = (sin θo, 0, cos θo).
@@ -214,20 +204,22 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str =
     _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
-    n, per = _chunks(shape, nodes)
-    cf, af = c.reshape(-1), a.reshape(-1)
-    alb, means, covs = [], [], []
-    for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
-        wi, _, w = uniform_lobe_quadrature(cf[s:s + per], af[s:s + per], nodes=nodes, masking=masking)
-        A = w.sum(-1)
-        p = w / A[..., None]
-        mu = (p[..., None] * wi).sum(-2)
-        second = torch.einsum("nq,nqi,nqj->nij", p, wi, wi)
-        alb.append(A)
-        means.append(mu)
-        covs.append(second - mu[..., :, None] * mu[..., None, :])
-    return (torch.cat(alb).reshape(shape), torch.cat(means).reshape(*shape, 3),
-            torch.cat(covs).reshape(*shape, 3, 3))
+    # block by block over large batches (torchirid._chunks): 2 · nodes² quadrature points per geometry
+    out = _chunk_evaluate(_light_moments, (c, a), shape, out_core=1, width=2 * nodes * nodes, nodes=nodes,
+                          masking=masking)
+    return out[..., 0].contiguous(), out[..., 1:4].contiguous(), out[..., 4:].reshape(*shape, 3, 3).contiguous()
+
+
+def _light_moments(c, a, *, nodes, masking):
+    """Albedo, mean and covariance of one block, packed as ``(*, 1 + 3 + 9)``."""
+    shape = c.shape
+    wi, _, w = uniform_lobe_quadrature(c.reshape(-1), a.reshape(-1), nodes=nodes, masking=masking)
+    A = w.sum(-1)
+    p = w / A[..., None]
+    mu = (p[..., None] * wi).sum(-2)
+    second = torch.einsum("nq,nqi,nqj->nij", p, wi, wi)
+    cov = second - mu[..., :, None] * mu[..., None, :]
+    return torch.cat([A[..., None], mu, cov.reshape(-1, 9)], -1).reshape(*shape, 13)
 
 
 def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int = 64,
@@ -235,7 +227,7 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     r"""The distribution of :math:`\cos θ_1 = ⟨h, ω_i⟩` under p_R, as linear-splat weights on a grid.
 
     Args:
-        cos_theta_o, alpha, nodes, masking: as :func:`uniform_lobe_quadrature`.
+        cos_theta_o, alpha, nodes, masking: as ``uniform_lobe_quadrature()``.
         bins: cells of the uniform grid on cos θ1 ∈ [0, 1] (≥ 1; bins + 1 nodes).
 
     Returns:
@@ -254,28 +246,31 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
     _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
-    n, per = _chunks(shape, nodes)
-    cf, af = c.reshape(-1), a.reshape(-1)
     grid = torch.linspace(0.0, 1.0, bins + 1, dtype=dtype, device=device)
-    out, alb = [], []
-    for s in range(0, max(n, 1), per):  # (once for an empty batch: torch.cat needs a piece)
-        cc, aa = cf[s:s + per], af[s:s + per]
-        _, h, w = uniform_lobe_quadrature(cc, aa, nodes=nodes, masking=masking)
-        c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
-        x = c1 * bins
-        i0 = x.nan_to_num(0.0).floor().clamp(max=bins - 1)  # (NaN: any bin; its NaN weight t marks it)
-        t = x - i0
-        i0 = i0.long()
-        A = w.sum(-1)
-        p = w / A[..., None]
-        hist = torch.zeros(cc.shape[0], bins + 1, dtype=dtype, device=device)
-        hist.scatter_add_(-1, i0, p * (1.0 - t))
-        hist.scatter_add_(-1, i0 + 1, p * t)
-        # a NaN sample marked only its two bins: the whole distribution of that sample is NaN
-        hist = torch.where(hist.isnan().any(-1, keepdim=True), torch.full_like(hist, math.nan), hist)
-        out.append(hist)
-        alb.append(A)
-    return grid, torch.cat(out).reshape(*shape, bins + 1), torch.cat(alb).reshape(shape)
+    # block by block over large batches (torchirid._chunks): 2 · nodes² quadrature points per geometry
+    out = _chunk_evaluate(_cos_theta1_histogram, (c, a), shape, out_core=1, width=2 * nodes * nodes, bins=bins,
+                          nodes=nodes, masking=masking)
+    return grid, out[..., 1:].contiguous(), out[..., 0].contiguous()
+
+
+def _cos_theta1_histogram(c, a, *, bins, nodes, masking):
+    """Albedo and the splat weights of cos θ1 of one block, packed as ``(*, 1 + bins + 1)``."""
+    shape = c.shape
+    cc = c.reshape(-1)
+    _, h, w = uniform_lobe_quadrature(cc, a.reshape(-1), nodes=nodes, masking=masking)
+    c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
+    x = c1 * bins
+    i0 = x.nan_to_num(0.0).floor().clamp(max=bins - 1)  # (NaN: any bin; its NaN weight t marks it)
+    t = x - i0
+    i0 = i0.long()
+    A = w.sum(-1)
+    p = w / A[..., None]
+    hist = torch.zeros(cc.shape[0], bins + 1, dtype=c.dtype, device=c.device)
+    hist.scatter_add_(-1, i0, p * (1.0 - t))
+    hist.scatter_add_(-1, i0 + 1, p * t)
+    # a NaN sample marked only its two bins: the whole distribution of that sample is NaN
+    hist = torch.where(hist.isnan().any(-1, keepdim=True), torch.full_like(hist, math.nan), hist)
+    return torch.cat([A[..., None], hist], -1).reshape(*shape, bins + 2)
 
 
 def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident=1.0, bins: int = 2048,
@@ -284,14 +279,14 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
 
     The "ground-truth μ_D and σ²_D" of Kneiphof et al. 2019, Fig. 7 (c, g): the moments of
     :math:`\cos θ_2 = \sqrt{1 - (η_1/η_2)^2(1 - \cos^2θ_1)}` over the distribution of
-    :func:`cos_theta1_distribution`, scaled by 2η₂d (eq. 27–28 without the linearisation).
+    ``cos_theta1_distribution()``, scaled by 2η₂d (eq. 27–28 without the linearisation).
 
     Args:
         cos_theta_o, alpha: geometry, shape ``(*G)``.
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; both broadcast with ``(*G)``.
         n_incident: real outer index η₁.
-        bins, nodes: resolution (see :func:`cos_theta1_distribution`).
-        masking: ``"separable"`` (default) or ``"height-correlated"`` (see :func:`uniform_lobe_quadrature`).
+        bins, nodes: resolution (see ``cos_theta1_distribution()``).
+        masking: ``"separable"`` (default) or ``"height-correlated"`` (see ``uniform_lobe_quadrature()``).
 
     Returns:
         ``(mean_D, var_D, mean_cos2, var_cos2)``, broadcast shape, nm / nm² / 1 / 1.
@@ -327,15 +322,15 @@ def _cos2_moments(w, nf, n0, *, grid):
     return m1, (m2 - m1 * m1).clamp_min(0.0)
 
 
-def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
+def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", bins: int = 2048, nodes: int = 64,
                           wavelength=None, masking: str = "separable"):
     r"""Reference XYZ of the reflectance term of a rough thin-film surface under uniform light.
 
     :math:`∫ p_R(ω_i)\,\mathrm{XYZ}[R(⟨h, ω_i⟩)]\,dω_i` (module docstring): what Kneiphof's eq. 29,
-    Belcour–Barla at the mirror direction and :func:`~torchirid.ibl.fitted_thin_film_xyz`
-    approximate. Multiply by the albedo (third output of :func:`cos_theta1_distribution`, or
+    Belcour–Barla at the mirror direction and :func:`~torchirid.ibl.thin_film_xyz_fitted`
+    approximate. Multiply by the albedo (third output of ``cos_theta1_distribution()``, or
     ``uniform_light_moments(...)[0]``) for the reflected radiance :math:`L_o`.
 
     Args:
@@ -348,14 +343,14 @@ def uniform_thin_film_xyz(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         bins, nodes: cos θ1 grid cells and lobe quadrature nodes per axis.
         wavelength: ``(W,)`` nm for the spectral integration; default 360–830 nm at 1 nm.
         masking: the lobe's G, ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
-            Smith-joint G; see :func:`uniform_lobe_quadrature`).
+            Smith-joint G; see ``uniform_lobe_quadrature()``).
 
     Returns:
         ``(*, 3)`` XYZ (white Y = 1).
 
     Example:
         >>> import torch
-        >>> xyz = uniform_thin_film_xyz(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, complex(2.0, 0.5))
+        >>> xyz = thin_film_xyz_uniform(torch.tensor(0.8, dtype=torch.float64), 0.25, 1.3, 600.0, complex(2.0, 0.5))
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0647, 0.067, 0.1077]
     """

@@ -2,12 +2,10 @@
 filter F_α, integrated transmissivity, the single-reflection BRDF, a Monte Carlo reference
 and the scatterogram forward model (§5, Fig. 9)."""
 
-from .filter import filter_quadrature, transmission_filter
+from .filter import transmission_filter
 from .filter_lut import FilterLUT, transmission_filter_lut
-from .montecarlo import TRANSMISSION_MODES, montecarlo_brdf
+from .montecarlo import montecarlo_brdf
 from .single_reflection import (
-    coating_reflectance,
-    layer_reflection_probabilities,
     reflectance_lut,
     sample_single_reflection,
     single_reflection_brdf,
@@ -17,35 +15,25 @@ from .scatterograms import (
     PROJECTIONS,
     Scatterogram,
     projection_radius,
-    projection_theta,
     scatterogram,
     scatterogram_directions,
     scatterogram_srgb,
 )
 from .structure import LayeredBragg, RoughBraggLayer
-from .transmission import (
-    absorption,
-    integrated_transmissivity,
-    transmission_probability,
-    transmission_weight,
-    transmissivity_lut,
-)
+from .transmission import integrated_transmissivity, transmissivity_lut
+from .presets import JEWEL_BEETLE_NAMES, jewel_beetle
 
 __all__ = [
     "FilterLUT",
+    "JEWEL_BEETLE_NAMES",
     "LayeredBragg",
     "PROJECTIONS",
     "RoughBraggLayer",
     "Scatterogram",
-    "TRANSMISSION_MODES",
-    "absorption",
-    "coating_reflectance",
-    "filter_quadrature",
     "integrated_transmissivity",
-    "layer_reflection_probabilities",
+    "jewel_beetle",
     "montecarlo_brdf",
     "projection_radius",
-    "projection_theta",
     "reflectance_lut",
     "sample_single_reflection",
     "scatterogram",
@@ -55,7 +43,5 @@ __all__ = [
     "single_reflection_pdf",
     "transmission_filter",
     "transmission_filter_lut",
-    "transmission_probability",
-    "transmission_weight",
     "transmissivity_lut",
 ]

@@ -88,7 +88,7 @@ Tables and quadrature
 Both follow the peak, centred at :math:`c = \sqrt{\theta_i^2 + \alpha^2/3}` (α/√3 at normal
 incidence, ≈ θi beyond a few α; even in θi so everything stays smooth in cos θi):
 
-* :func:`filter_quadrature` — Gauss–Legendre in two pieces split at the kink
+* ``filter_quadrature()`` — Gauss–Legendre in two pieces split at the kink
   ``θd = π/2 − θi``, each through a sinh warp ``θd − c = 0.7α sinh ξ`` (w-spaced nodes in the
   core, log-uniform in the ``t⁻³`` tails, so the mirror poles at ``θd = −θi ± iα`` and
   ``π − θi ± iα`` stay at O(1) distance in ξ), the second piece also squared (``s = v²``) so
@@ -114,7 +114,7 @@ import torch
 from .. import _checks
 from .._quadrature import gauss_legendre01
 
-__all__ = ["transmission_filter", "filter_quadrature"]  # the 2-D table: layered.filter_lut
+__all__ = ["transmission_filter"]  # the 2-D table: layered.filter_lut
 
 _HALF_PI = math.pi / 2
 

@@ -97,7 +97,7 @@ from .transmission import (
     transmissivity_lut,
 )
 
-__all__ = ["montecarlo_brdf", "TRANSMISSION_MODES"]
+__all__ = ["montecarlo_brdf"]
 
 #: registry of the transmission sampling strategies of :func:`montecarlo_brdf`
 TRANSMISSION_MODES = ("filter", "microfacet")
@@ -380,7 +380,7 @@ def montecarlo_brdf(
     batch_size: int = 32768,
     transmissivity_angles: int = DEFAULT_ANGLES,
     theta_d_cells: int = DEFAULT_THETA_D_CELLS,
-    progress: Callable[[int], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> tuple[torch.Tensor, torch.Tensor]:
     r"""Monte Carlo estimate of the BRDF of a layered rough Bragg structure (Fourneau et al. 2024 §4.2).
 
@@ -417,11 +417,10 @@ def montecarlo_brdf(
             ``"filter"`` mode (:func:`~torchirid.layered.transmission.transmissivity_lut`:
             incidence angles uniform in θ, and θd cells of its product integration; raise
             ``theta_d_cells`` for very long stacks, its error grows as cells²).
-        progress: optional callback ``progress(done)``, called after each batch with the number
-            of paths finished so far (cumulative; it reaches ``samples ×`` the number of
-            direction pairs after the last batch). The library draws nothing itself: the
-            caller wraps its own progress bar around it, e.g.
-            ``progress=lambda done: bar.update(done - bar.n)``.
+        progress: ``None`` or a callable ``progress(done, total)``, called after each batch:
+            ``done`` paths traced so far out of ``total = samples ×`` the number of direction
+            pairs (the last call has ``done == total``). The library draws nothing itself: the
+            caller wraps its own progress bar around it.
 
     Returns:
         ``(mean, stderr)``, each of shape ``(*, W)`` (sr⁻¹), dtype of the inputs: the BRDF
@@ -457,7 +456,7 @@ def montecarlo_brdf(
     transmissivity_angles = _checks.check_int(transmissivity_angles, "transmissivity_angles", 2)
     theta_d_cells = _checks.check_int(theta_d_cells, "theta_d_cells", 2)
     if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be None or a callable progress(done_paths); got {progress!r}")
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     if not isinstance(single_reflection, bool):
         raise ValueError(f"single_reflection must be a bool; got {single_reflection!r}")
     if not isinstance(multiple_reflection, bool):
@@ -500,7 +499,7 @@ def montecarlo_brdf(
             m2 = m2 + m2_c + delta * delta * count * frac
             count = n_ab
             if progress is not None:
-                progress(start + k.numel())
+                progress(start + k.numel(), total)
         err = torch.sqrt(m2 / ((samples - 1) * samples))
         bad = _geometry.nan_rows(i, o).unsqueeze(-1)  # NaN directions: NaN estimates, not 0 (docs/conventions.md)
         mean, err = torch.where(bad, torch.nan, mean), torch.where(bad, torch.nan, err)

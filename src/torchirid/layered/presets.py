@@ -24,7 +24,7 @@ from types import MappingProxyType
 from .. import _checks
 from .structure import LayeredBragg, RoughBraggLayer
 
-__all__ = ["JEWEL_BEETLE", "JEWEL_BEETLE_NAMES", "JEWEL_BEETLE_ALPHA", "jewel_beetle"]
+__all__ = ["JEWEL_BEETLE_NAMES", "jewel_beetle"]
 
 #: roughness of the rough Bragg layer of every cuticle area (Fourneau et al. 2024 §5)
 JEWEL_BEETLE_ALPHA = 0.05

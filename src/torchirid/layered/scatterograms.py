@@ -60,13 +60,9 @@ from .single_reflection import coating_reflectance, refract_into_host, single_re
 from .structure import LayeredBragg, RoughBraggLayer
 
 __all__ = [
-    "COSINE_NODES",
-    "DEFAULT_WAVELENGTHS",
-    "LOBE_NODES",
     "PROJECTIONS",
     "Scatterogram",
     "projection_radius",
-    "projection_theta",
     "scatterogram",
     "scatterogram_directions",
     "scatterogram_srgb",

@@ -16,7 +16,7 @@ with :math:`f_{r,l}` the microfacet BRDF of eq. 17 with the layer's Yeh reflecta
 ``i'``, ``o'`` the directions refracted into the host ``n1`` and :math:`T_c = 1 - F` the
 coating's Fresnel transmittance (unpolarized). Without a coating (``n1 = 1``) ``T_c = 1``
 and nothing is refracted. The coating's own reflection :math:`f_{r,0}` is a Dirac delta in
-the mirror direction; it is returned separately by :func:`coating_reflectance` and is not
+the mirror direction; it is returned separately by ``coating_reflectance()`` and is not
 part of the tabulated BRDF (it has no value at a pair of directions).
 
 ``f_t,0(i) f_t,0(o) / n1²`` of eq. 34 is :math:`T_c(\mathbf i)T_c(\mathbf o)/n_1^2`: radiance
@@ -45,11 +45,7 @@ from .structure import LayeredBragg, RoughBraggLayer
 from .transmission import transmission_probability, transmissivity_lut
 
 __all__ = [
-    "base_return_fraction",
-    "coating_reflectance",
-    "layer_reflection_probabilities",
     "reflectance_lut",
-    "refract_into_host",
     "sample_single_reflection",
     "single_reflection_brdf",
     "single_reflection_pdf",
@@ -228,7 +224,7 @@ def single_reflection_brdf(
 
     Returns:
         ``(*, W)`` BRDF values (the coating's specular delta excluded, see
-        :func:`coating_reflectance`). Differentiable with respect to ``wi``, ``wo``.
+        ``coating_reflectance()``). Differentiable with respect to ``wi``, ``wo``.
 
     Example:
         >>> import torch

@@ -33,10 +33,7 @@ from .structure import RoughBraggLayer
 from .._cache import cached
 
 __all__ = [
-    "absorption",
     "integrated_transmissivity",
-    "transmission_probability",
-    "transmission_weight",
     "transmissivity_lut",
 ]
 
@@ -102,7 +99,7 @@ def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFA
         cos_theta: cosine of the incidence angle in the host medium, in [0, 1].
         wavelength: wavelengths in nm (> 0), broadcasting with ``cos_theta`` — e.g.
             ``cos_theta`` ``(*, 1)`` with ``wavelength`` ``(W,)`` gives ``(*, W)``.
-        nodes: Gauss–Legendre nodes per incidence angle (:func:`filter_quadrature`). The
+        nodes: Gauss–Legendre nodes per incidence angle (``filter_quadrature()``). The
             weights are positive and sum to G1 exactly, so ``0 ≤ τ ≤ G1`` and ``τ = G1`` when
             ``R = 0``. The error is that of resolving the fringes and band edges of
             ``R(θd)`` under the filter. Measured max |Δτ| (n = 1 | 1.5, d = 110 | 75 nm,

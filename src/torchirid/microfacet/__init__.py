@@ -2,12 +2,10 @@
 a microfacet BRDF that takes any reflectance function (Fourneau et al. 2024 §4.1, eq. 17–19)."""
 
 from .brdf import MicrofacetBRDF, microfacet_brdf
-from .ggx import (ggx_d, ggx_d_kernel, ggx_vndf_pdf, reflect, sample_ggx_vndf, smith_g, smith_g1, smith_g1_kernel,
-                  smith_lambda)
+from .ggx import ggx_d, ggx_vndf_pdf, reflect, sample_ggx_vndf, smith_g, smith_g1, smith_lambda
 
 __all__ = [
     "MicrofacetBRDF",
-    "ggx_d", "ggx_d_kernel", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1", "smith_g1_kernel",
-    "smith_lambda",
+    "ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1", "smith_lambda",
     "microfacet_brdf",
 ]

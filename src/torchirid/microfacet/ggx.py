@@ -31,8 +31,8 @@ import torch
 
 from .. import _checks
 
-__all__ = ["ggx_d", "ggx_d_kernel", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1",
-           "smith_g1_kernel", "smith_lambda"]
+__all__ = ["ggx_d", "ggx_vndf_pdf", "reflect", "sample_ggx_vndf", "smith_g", "smith_g1",
+           "smith_lambda"]
 
 
 def _prepare(cos, alpha, cos_name):

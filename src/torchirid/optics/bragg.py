@@ -47,7 +47,7 @@ import torch
 from .. import _checks, _chunks, _compile
 from .fresnel import interface, normal_wavenumber, same_medium
 
-__all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope", "yeh_reflectance_kernel"]
+__all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
 
 # N²|ε| below which U_{N-1}, T_N are taken from their Taylor series at the band edge:
 # the neglected term is ~(2N²ε)³/5040 < 1e-17 relative.
@@ -153,6 +153,14 @@ def _sin_over_q(phase, q, k0d, zero_possible):
     return s, torch.where(zero, k0d.expand_as(phase) if k0d.shape != phase.shape else k0d, s * k0d / safe)
 
 
+def _any_below(q1, q2, tiny) -> bool:
+    """Whether some q of ``q1``, ``q2`` (≥ 0, real) lies below ``tiny`` (NaN does not, nor hides one)."""
+    v1, v2 = _checks.small_values(q1), _checks.small_values(q2)
+    if v1 is not None and v2 is not None:  # a few values: read them
+        return any(v < tiny for v in v1 + v2)
+    return bool((q1 < tiny).any()) or bool((q2 < tiny).any())
+
+
 class _RealCell:
     """Polarization-independent per-point quantities of the real closed form.
 
@@ -167,24 +175,24 @@ class _RealCell:
     def __init__(self, lam, q1, q2, d1, d2, need_cos, static=False):
         k0 = (2 * math.pi) / lam
         # small (angle-only) tensors first, then one product on the grid
-        self.a = k0 * (q1 * d1)
-        self.b = k0 * (q2 * d2)
+        qd1, qd2 = q1 * d1, q2 * d2
+        self.a = k0 * qd1
+        self.b = k0 * qd2
         # static (compiled) kernels take the guarded branch unconditionally: no data-dependent control flow
-        # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal))
-        tiny = torch.finfo(lam.dtype).tiny ** 0.5
-        guarded = static or (q1.numel() > 0 and q2.numel() > 0  # (an empty batch has no min)
-                             and bool(torch.minimum(q1.min(), q2.min()) < tiny))  # q1, q2 ≥ 0 here
-        self.sin_a, sa_q1 = _sin_over_q(self.a, q1, k0 * d1, guarded)
-        self.sin_b, sb_q2 = _sin_over_q(self.b, q2, k0 * d2, guarded)
+        # (tiny q too: 1/q overflows or k0 q d underflows below √(smallest normal)); a NaN elsewhere in
+        # the batch does not hide a grazing point (a minimum over the batch would be NaN)
+        guarded = static or _any_below(q1, q2, torch.finfo(lam.dtype).tiny ** 0.5)
         if guarded:
-            self.sa_q1, self.sb_q2 = sa_q1, sb_q2
-            self.G_raw, self.g_scale = sa_q1 * sb_q2, 1.0
-            self.sb_raw, self.b_scale = sb_q2, 1.0
+            self.sin_a, self.sa_q1 = _sin_over_q(self.a, q1, k0 * d1, True)
+            self.sin_b, self.sb_q2 = _sin_over_q(self.b, q2, k0 * d2, True)
+            self.G_raw, self.g_scale = self.sa_q1 * self.sb_q2, 1.0
+            self.sb_raw, self.b_scale = self.sb_q2, 1.0
         else:
+            self.sin_a, self.sin_b = torch.sin(self.a), torch.sin(self.b)
             self._q1, self._q2 = q1, q2
             self.G_raw, self.g_scale = self.sin_a * self.sin_b, 1 / (q1 * q2)
             self.sb_raw, self.b_scale = self.sin_b, 1 / q2
-        half = k0 * (0.5 * (q1 * d1 + q2 * d2))
+        half = k0 * (0.5 * (qd1 + qd2))
         self.sh = torch.sin(half)
         self.ch = torch.cos(half)
         if need_cos:
@@ -201,12 +209,29 @@ class _RealCell:
         raise AttributeError(name)
 
 
-def _admittance_factors(pol, q1, q2, n1, n2):
-    """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p)."""
+def _admittance_factors(pol, q1, q2, n1, n2, nd=None):
+    """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p).
+
+    ``pol = ("s", "p")``: both on a new leading polarization axis (m = [1, n²], aligned to a batch
+    of ``nd`` dims), so that every later op runs once for both; the s entries are the s values
+    (q / 1 and x · 1 are exact)."""
     if pol == "s":
         return q1, q2, 1.0, 1.0  # Python constants: no tensor ops spent on multiplying by one
     m1, m2 = n1 * n1, n2 * n2
+    if not isinstance(pol, str):
+        m1, m2 = _with_s(m1, nd), _with_s(m2, nd)
     return q1 / m1, q2 / m2, m1, m2
+
+
+def _with_s(m, nd):
+    """``[1, m]`` on a new leading axis, its other axes aligned to a batch of ``nd`` dims."""
+    m = torch.stack((torch.ones_like(m), m))
+    return m if m.ndim == nd + 1 else m.reshape(2, *([1] * (nd + 1 - m.ndim)), *m.shape[1:])
+
+
+#: polarization groups of the real closed form (no host layer): both in one pass on a leading axis
+#: for batches up to this many points (dispatch-bound), one after the other on larger ones
+_STACKED_POINTS = 4096
 
 
 def _one_minus_x(cell, eta1, eta2, m1, m2, inplace=False):
@@ -244,7 +269,7 @@ def yeh_reflectance_kernel(P2, Q2, eps, N, safe, static=False):
     gap = eps < 0
     abs_eps = eps.abs()
     near = abs_eps < _EDGE_SERIES / (N * N)
-    has_near = static or bool(near.any())
+    has_near = static or _checks.any_true(near)
     # no autograd (and cells not broadcasting beyond the grid): temporaries may be overwritten
     inplace = not (safe or static) and _checks.broadcast_shapes(eps.shape, N.shape) == eps.shape
     absW = abs_eps.mul_(2 - eps) if inplace else abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
@@ -271,7 +296,7 @@ def yeh_reflectance_kernel(P2, Q2, eps, N, safe, static=False):
         num_n = P2 * Us * Us
         num = torch.where(near, num_n, num)
         den = torch.where(near, num_n + Q2, den)
-    if static or bool((Q2 == 0).any()):
+    if static or not _checks.nonzero(Q2):
         # guard: den = 0 only at grazing (Q = 0) with a vanishing numerator: R = 1 (grazing)
         # unless the cell is invisible (P = 0: no index contrast, or a zero/half-wave n2 layer)
         limit = (P2 > 0).to(den.dtype).expand_as(den)
@@ -284,28 +309,44 @@ def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
+def _layer_q(n, host, qh, s2, safe):
+    """q = n cos θ = √max(n² − s², 0) of a layer on the real path, exactly ``qh`` where ``n`` is the
+    host index (exact even where cos² θ underflows); ``safe``: a gradient may flow (√ guarded at 0)."""
+    x = n * n - s2
+    # (n² − s² is never −0, so √max(x, 0) is safe_sqrt's value: 0 where x ≤ 0, NaN kept)
+    q = _checks.safe_sqrt(x) if safe else torch.sqrt(x.clamp(min=0))
+    same = n == host
+    return q if _checks.known_false(same) else same_medium(same, qh, q)
+
+
 def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
     """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
     host = n1 if nh is None else nh
     s2 = host * host * (1 - c * c)
     qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
     # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
-    q1 = qh if nh is None else same_medium(n1 == nh, qh, _checks.safe_sqrt(n1 * n1 - s2))
-    q2 = same_medium(n2 == host, qh, _checks.safe_sqrt(n2 * n2 - s2))
+    safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
+    q1 = qh if nh is None else _layer_q(n1, nh, qh, s2, safe)
+    q2 = _layer_q(n2, host, qh, s2, safe)
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = N.to(lam.dtype)
-    safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
     if nh is None:
+        pols = _checks.polarization_terms(polarization)
+        nd = max(t.ndim for t in (lam, c, n1, n2, d1, d2, N))
+        points = math.prod(_checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape))
+        groups = [pols] if len(pols) == 2 and not static and points <= _STACKED_POINTS else pols
         out = []
-        for pol in _checks.polarization_terms(polarization):
-            eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
+        for pol in groups:
+            eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2, nd)
             inplace = not (safe or static)
             omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2, inplace)
             eps = torch.minimum(omx, opx, out=omx) if inplace else torch.minimum(omx, opx)  # 1 - |cos KΛ|
             # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
             P = ((eta1 * eta1 - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
             out.append(yeh_reflectance_kernel(P.square_() if inplace else P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
-        return out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
+        if len(out) == 2:
+            return 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
+        return out[0] if len(pols) == 1 else out[0].sum(0) * 0.5  # (s, p stacked: their mean)
     out = []
     for pol in _checks.polarization_terms(polarization):
         eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
@@ -490,20 +531,38 @@ def _bragg_core(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max):
     c = _checks.flush_grazing(c)
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
                                      () if nh is None else nh.shape)
-    general = _needs_general(c, n1, n2, nh)
-    if general is None:
-        R = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max if _checks.traceable() else None)
-    elif _checks.traceable():  # vmap / torch.compile: the static kernel, both paths where needed
+    if n1.is_complex() or n2.is_complex():  # everything complex: the general path throughout
+        return _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization,
+                                    n_max if _checks.traceable() else None)
+    if _checks.traceable():  # vmap / torch.compile: the static kernel, both paths where needed
         R = _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=True)
         # (no data-dependent test of the mask: the general path is evaluated for every point)
-        R = torch.where(general, _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max), R)
-    else:
-        real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
-        R = real(lam, c, n1, n2, d1, d2, nh, N, polarization)
-        if bool(general.any()):
+        general = _needs_general(c, n1, n2, nh)
+        return torch.where(general, _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max), R)
+    real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
+    R = real(lam, c, n1, n2, d1, d2, nh, N, polarization)
+    if not _propagating(n1, n2, nh):
+        general = _needs_general(c, n1, n2, nh)
+        if _checks.any_true(general):
             Rg = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
             R = torch.where(general, Rg, R)
     return R
+
+
+def _propagating(n1, n2, nh) -> bool:
+    """True when light is known to propagate in n1 and n2 at every angle, read from a few values on
+    the CPU: real layers no lower than the incident index (then n² ≥ s² for every cos θ in [0, 1],
+    also in floating point, where s² = n_h² (1 − cos² θ) rounds to at most n_h²); False when that
+    cannot be told so cheaply (the caller then forms the mask)."""
+    host = n1 if nh is None else nh
+    if not _checks.reads_cheaply(host):
+        return False
+    layers = (n2,) if nh is None else (n1, n2)
+    values = [_checks.small_values(t) for t in (host, *layers)]
+    if any(v is None or any(x != x for x in v) for v in values):  # (too many to read, or NaN)
+        return False
+    top = max(values[0])
+    return all(min(v) >= top for v in values[1:])
 
 
 def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, polarization: str = "s") -> torch.Tensor:
@@ -520,7 +579,7 @@ def bragg_dispersion(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, 
 
     Example (quarter-wave stack at its design wavelength: cos KΛ = −Ω/2):
         >>> import torch, torchirid
-        >>> x = torchirid.bragg_dispersion(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
+        >>> x = torchirid.optics.bragg_dispersion(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
         >>> round(float(x), 6)
         -1.083333
     """
@@ -566,7 +625,7 @@ def bragg_envelope(wavelength, cos_theta, n1, n2, d1, d2, *, n_incident=None, po
 
     Example (inside the band gap of a quarter-wave stack at its design wavelength, R^e = 1):
         >>> import torch, torchirid
-        >>> R = torchirid.bragg_envelope(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
+        >>> R = torchirid.optics.bragg_envelope(torch.tensor(600.0, dtype=torch.float64), 1.0, 1.0, 1.5, 150.0, 100.0)
         >>> float(R)
         1.0
     """

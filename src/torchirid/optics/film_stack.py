@@ -44,9 +44,6 @@ __all__ = [
     "FilmStack",
     "film_reflectance",
     "hirayama_stacks",
-    "smooth_directions",
-    "smooth_radiance",
-    "stack_indices",
 ]
 
 

@@ -30,13 +30,8 @@ from ..materials import DATABASE_VERSION
 from .film_stack import FilmStack, film_reflectance
 
 __all__ = [
-    "BUILDER",
-    "ANGLE_AXES",
-    "STACK_NAMES",
     "film_reflectance_lut",
     "lookup_film_reflectance",
-    "interpolation_error",
-    "stack_parameters",
 ]
 
 #: ``builder`` string stored in every table built here (the loader checks it).

@@ -24,7 +24,7 @@ import torch
 
 from .. import _checks
 
-__all__ = ["fresnel_reflectance", "normal_wavenumber", "nudge_critical", "admittance", "interface"]
+__all__ = ["fresnel_reflectance"]
 
 
 def _sqrt_upper(z: torch.Tensor) -> torch.Tensor:
@@ -33,11 +33,24 @@ def _sqrt_upper(z: torch.Tensor) -> torch.Tensor:
     Gradient-safe at z = 0 (critical angle, grazing in the same medium): the derivative
     there is reported as 0 instead of inf·0 = NaN.
     """
+    if not (z.requires_grad and torch.is_grad_enabled()):  # no backward: √0 = 0 needs no guard
+        root = torch.sqrt(z)
+        return torch.where(root.imag < 0, -root, root)  # deterministic branch: Im q >= 0
     zero = z == 0
     # guard: sqrt'(0) is infinite; feed the unused branch a safe value so backward stays finite
     root = torch.sqrt(torch.where(zero, torch.ones_like(z), z))
     root = torch.where(root.imag < 0, -root, root)  # deterministic branch: Im q >= 0
     return torch.where(zero, torch.zeros_like(root), root)
+
+
+def _sqrt_upper_real(z: torch.Tensor, cdt) -> torch.Tensor:
+    """:func:`_sqrt_upper` of a real ``z`` (a real index's n² − s²), as ``cdt``: its imaginary part
+    is +0, so the principal root already lies on the branch Im ≥ 0 (+i√|z| for z < 0) and needs
+    no flip; the guard of √0 is needed only for a backward pass through a zero."""
+    zc = z.to(cdt)
+    if z.requires_grad and torch.is_grad_enabled() and not _checks.known_nonzero(z):
+        return _sqrt_upper(zc)
+    return torch.sqrt(zc)
 
 
 def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor, n0=None, q0=None) -> torch.Tensor:
@@ -48,10 +61,22 @@ def normal_wavenumber(n: torch.Tensor, s2: torch.Tensor, n0=None, q0=None) -> to
     repeated media never show a spurious interface.
     """
     cdt = _checks.complex_dtype(s2.dtype)
-    n = n.to(cdt)
-    q = _sqrt_upper(n * n - s2.to(cdt))
+    n = n.to(cdt) if n.is_complex() else n.to(s2.dtype)
+    return _normal_wavenumber(n, n * n, s2, n0, q0)
+
+
+def _normal_wavenumber(n, n2, s2, n0=None, q0=None):
+    """:func:`normal_wavenumber` given ``n2 = n * n`` too (``n`` complex of ``s2``'s precision, or real
+    of its dtype), for a caller that needs n² again (the p admittance q / n²)."""
+    cdt = _checks.complex_dtype(s2.dtype)
+    if n.is_complex():
+        q = _sqrt_upper(n2 - s2.to(cdt))
+    else:  # a real index: n² − s² in real arithmetic (the same values as in complex, without the flip)
+        q = _sqrt_upper_real(n2 - s2, cdt)
     if n0 is not None:
-        q = same_medium(n == n0, q0.to(cdt), q)
+        same = n == n0
+        if not _checks.known_false(same):  # (else no medium of the incident index: q as is)
+            q = same_medium(same, q0.to(cdt), q)
     return q
 
 
@@ -76,6 +101,8 @@ def nudge_critical(q: torch.Tensor, n: torch.Tensor, where: torch.Tensor) -> tor
     Only applied where ``where`` is True (not at grazing incidence, where ``q = 0`` means
     "the same medium as the incident one" and the interface must vanish).
     """
+    if _checks.known_nonzero(q):  # no zero q (the common case): nothing to nudge
+        return q
     zero = (q == 0) & where
     tiny = math.sqrt(torch.finfo(q.real.dtype).eps) * n.abs()
     return torch.where(zero, tiny.to(q.dtype).expand_as(q) if tiny.shape != q.shape else tiny.to(q.dtype), q)
@@ -95,6 +122,10 @@ def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     η_i = η_j = 0) give exactly r = 0: no 0/0, and no complex division of subnormals.
     """
     den = eta_i + eta_j
+    if _checks.known_nonzero(den):
+        # no 0/0 anywhere: the plain quotient (equal admittances give 0 / 2η = 0, the guarded value up
+        # to the sign of zero; with a gradient, the guarded branch divides there too)
+        return (eta_i - eta_j) / den
     if torch.is_grad_enabled() and (eta_i.requires_grad or eta_j.requires_grad):
         # r = 0/den = 0 at equal admittances anyway; dividing keeps its derivative
         # (dη_i − dη_j)/(η_i + η_j), which is not 0 (e.g. an incident index equal to the next one)
@@ -119,7 +150,7 @@ def fresnel_reflectance(cos_theta, n_incident, n_substrate, *, polarization: str
 
     Example:
         >>> import torch, torchirid
-        >>> round(float(torchirid.fresnel_reflectance(torch.tensor(1.0, dtype=torch.float64), 1.0, 1.5)), 6)
+        >>> round(float(torchirid.optics.fresnel_reflectance(torch.tensor(1.0, dtype=torch.float64), 1.0, 1.5)), 6)
         0.04
     """
     _checks.check_polarization(polarization)

@@ -19,7 +19,7 @@ import torch
 from .. import _checks
 from .fresnel import fresnel_reflectance
 
-__all__ = ["roughness_factor", "coherent_attenuation", "he_shadowing", "effective_roughness", "he_directional_diffuse"]
+__all__ = ["he_directional_diffuse"]
 
 _NEWTON_STEPS = 10  # He eq. 80: converges to machine precision in < 6 steps (monotone, convex)
 _S_BIG = 30.0  # erfc(30) ≈ 1e-393 underflows: S = 1 to every digit beyond this argument
@@ -91,7 +91,7 @@ def roughness_factor(wavelength, cos_theta_i, cos_theta_o, sigma, *, n_incident=
 def coherent_attenuation(wavelength, cos_theta, sigma, *, n_incident=1.0) -> torch.Tensor:
     r"""Power factor :math:`e^{-g}` of the coherent (specular) reflection (He eq. 31, Hirayama eq. 9).
 
-    ``g`` is :func:`roughness_factor` at ``θ_i = θ_r = θ``: :math:`e^{-g} = e^{-(4π σ n \cos θ/λ)^2}`,
+    ``g`` is ``roughness_factor()`` at ``θ_i = θ_r = θ``: :math:`e^{-g} = e^{-(4π σ n \cos θ/λ)^2}`,
     the Debye–Waller-like factor of a Gaussian height distribution (the amplitude factor is
     :math:`e^{-g/2}`).
 
@@ -293,8 +293,8 @@ def he_directional_diffuse(
 
     with ``λ_n = λ/n`` the wavelength in the medium, :math:`\vec v = k_n(\hat k_r − \hat k_i)`,
     ``G = (v·v / v_z)²`` (unit-free v; the polarization bracket of eq. 76 is identically 1),
-    ``S = S(θ_i) S(θ_r)`` (:func:`he_shadowing`), ``g`` (:func:`roughness_factor`) from the
-    effective roughness (:func:`effective_roughness`), and F the unpolarized Fresnel
+    ``S = S(θ_i) S(θ_r)`` (``he_shadowing()``), ``g`` (``roughness_factor()``) from the
+    effective roughness (``effective_roughness()``), and F the unpolarized Fresnel
     reflectance at the bisector angle ``cos θ_b = √((1 + ω_i·ω_r)/2)``.  The exponent uses the
     dimensional :math:`v_{xy} = k_n |\hat k_r − \hat k_i|_{xy}` (Beckmann's form; some
     implementations drop the k²).  Symmetric in (light, view).  ``shadowing=False`` uses S = 1

@@ -84,7 +84,6 @@ from .he_torrance import (coherent_attenuation, effective_roughness, he_directio
 __all__ = [
     "rough_multilayer_reflectance",
     "rough_multilayer_diffuse",
-    "stack_transmittance_to_last_film",
 ]
 
 # ---------------------------------------------------------------------------------------
@@ -309,7 +308,7 @@ def rough_multilayer_diffuse(
 
     — one He–Torrance scattering (:func:`he_directional_diffuse`, in the last film, between the
     refracted directions ``cos θ_L = Re(q_L)/n_L``, same azimuth) between two passes through
-    the stack with all the coherent specular bounces (:func:`stack_transmittance_to_last_film`).
+    the stack with all the coherent specular bounces (``stack_transmittance_to_last_film()``).
     This is |γ_{d,L}|² of eq. 15–17 with the multiple-reflection denominator of the *outgoing*
     direction restored (derivation in the module docstring); it is reciprocal in (l, i).
     Used in eq. 8 as ``Σ_m k_d cos θ_l L_m``.

@@ -21,8 +21,7 @@ import math
 import torch
 
 from .. import _checks, _chunks
-from .fresnel import normal_wavenumber, nudge_critical
-from .transfer import recursion, stack_admittances
+from .fresnel import _normal_wavenumber, interface, nudge_critical
 
 __all__ = ["thin_film_reflectance"]
 
@@ -77,19 +76,50 @@ def thin_film_reflectance(
 
 
 def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
-    """:func:`thin_film_reflectance` on validated tensors (one block of the batch)."""
+    """:func:`thin_film_reflectance` on validated tensors (one block of the batch): the Airy sum
+    written out for one film, s and p on a trailing axis (the division form of Hirayama's recursion,
+    :func:`~torchirid.optics.transfer.recursion`, for L = 1, op for op)."""
     c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(lam.dtype)
     n0 = n0.real if n0.is_complex() else n0
-    s2 = n0 * n0 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
-    nf, ns = nf.to(cdt), ns.to(cdt)
+    n02 = n0 * n0
+    s2 = n02 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
     q0 = (n0 * c).to(cdt)  # exact in the incident medium (no sqrt at grazing)
-    qf = nudge_critical(normal_wavenumber(nf, s2, n0, q0), nf, c > 0)  # film exactly at its critical angle
-    qs = normal_wavenumber(ns, s2, n0, q0)
-    q = torch.stack(torch.broadcast_tensors(q0, qf, qs), dim=-1)
-    n = torch.stack(torch.broadcast_tensors(n0.to(cdt), nf, ns), dim=-1).expand(q.shape)
+    nf2, ns2 = nf * nf, ns * ns
+    qf = _normal_wavenumber(nf, nf2, s2, n0, q0)
+    if not _checks.known_nonzero(qf):
+        qf = nudge_critical(qf, nf, c > 0)  # film exactly at its critical angle
+    qs = _normal_wavenumber(ns, ns2, s2, n0, q0)
+    # e^{2iφ}, φ = 2π q_f d / λ: only the decaying exponential (Im φ ≥ 0) is formed
+    e2 = torch.exp((4j * math.pi) * qf * d / lam)
+    pols = _checks.polarization_terms(polarization)
+    eta0 = _admittances(q0, n02, pols)
+    etaf = _admittances(qf, nf2, pols)
+    etas = _admittances(qs, ns2, pols)
+    r01 = interface(eta0, etaf)
+    ge2 = interface(etaf, etas) * (e2[..., None] if len(pols) > 1 else e2)
+    den = 1 + r01 * ge2
+    if not _checks.known_nonzero(den):
+        # guard: with a critical film nudged, 0/0 remains only at grazing incidence, where a zero- or
+        # half-wave film sits between media that both look like the incident one (η = 0): the film
+        # is invisible and nothing is reflected
+        degenerate = den == 0
+        gamma = torch.where(degenerate, torch.zeros_like(den),
+                            (r01 + ge2) / torch.where(degenerate, torch.ones_like(den), den))
+    else:
+        gamma = (r01 + ge2) / den
+    R = torch.view_as_real(gamma).square().sum(-1)  # |r|² per polarization
+    if len(pols) > 1:
+        R = R.sum(-1) * 0.5  # (the mean of the two, without mean's cost on a few elements)
+    return R.clamp(0, 1)  # |r|² ≤ 1 up to an ulp
 
-    phi = (2 * math.pi) * qf * d / lam  # film phase; only exp(2iφ) with |·| ≤ 1 is formed
-    e2 = torch.exp(2j * phi)[..., None]
-    gamma, _ = recursion(stack_admittances(q, n, polarization), e2, e2, with_transmission=False)
-    return (gamma.real ** 2 + gamma.imag ** 2).mean(0).clamp(0, 1)  # |r|² ≤ 1 up to an ulp
+
+def _admittances(q, n2, pols):
+    """η = q (s) or q / n² (p) of one medium (``n2`` its squared index); both stacked on a new last
+    axis for ``pols = ("s", "p")``."""
+    if pols == ("s",):
+        return q
+    p = q / n2
+    if len(pols) == 1:
+        return p
+    return torch.stack((q.expand(p.shape) if q.shape != p.shape else q, p), dim=-1)

@@ -6,8 +6,20 @@ node values minimise the CIEDE2000 error of the hardware-interpolated texture ag
 spectral colour (:mod:`torchirid.realtime.textures`).
 """
 
-from .textures import (AXIS_WARPS, FAMILIES, SHIPPED_TEXTURES, TextureFit, TextureSamples, bragg_wavelength, exact_colour, fit_texture,
-                       glsl_source, lookup, path_difference, shipped_texture, texture_axes, texture_coordinate, texture_lut, texture_samples, to_texture)
+from .textures import (
+    AXIS_WARPS,
+    FAMILIES,
+    SHIPPED_TEXTURES,
+    TextureFit,
+    bragg_wavelength,
+    exact_colour,
+    fit_texture,
+    glsl_source,
+    lookup,
+    path_difference,
+    shipped_texture,
+    texture_lut,
+)
 
-__all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
-           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples", "to_texture"]
+__all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "bragg_wavelength", "exact_colour", "fit_texture",
+           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_lut"]

@@ -6,7 +6,7 @@ the texture coordinate ``u = (i + ½) / n``. A texture over ``[lo, hi]`` per axi
 coordinate, :data:`AXIS_WARPS`: ``sqrt(cos θ)`` for the cosines) therefore
 reproduces :meth:`torchirid.lut.LUT.interp` of a :class:`~torchirid.lut.LUT` whose axis grids
 are ``n`` uniform nodes from ``lo`` to ``hi``, when the shader maps a coordinate ``x`` to
-``u = ((x − lo) / (hi − lo) · (n − 1) + ½) / n`` (:func:`texture_coordinate`; clamped at the
+``u = ((x − lo) / (hi − lo) · (n − 1) + ½) / n`` (``texture_coordinate()``; clamped at the
 edges like ``CLAMP_TO_EDGE``).
 
 *Sampled* textures store the exact colour at the nodes. Between nodes their error is that of
@@ -48,9 +48,8 @@ from ..color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..lut import LUT
 
-__all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "TextureSamples", "bragg_wavelength", "exact_colour", "fit_texture",
-           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_axes", "texture_coordinate", "texture_lut", "texture_samples",
-           "to_texture"]
+__all__ = ["AXIS_WARPS", "FAMILIES", "SHIPPED_TEXTURES", "TextureFit", "bragg_wavelength", "exact_colour", "fit_texture",
+           "glsl_source", "lookup", "path_difference", "shipped_texture", "texture_lut"]
 
 F64 = torch.float64
 
@@ -172,9 +171,9 @@ def _bragg(x, *, cells: int, n1: float, n2: float, n_incident: float | None = No
 
 
 def _rough_thin_film(x, *, n_film: float, n_substrate, n_incident: float = 1.0, bins: int = 2048, nodes: int = 64):
-    from ..ibl import uniform_thin_film_xyz
+    from ..ibl import thin_film_xyz_uniform
 
-    return uniform_thin_film_xyz(x[..., 0], x[..., 1], n_film, x[..., 2], _index(n_substrate), n_incident=n_incident,
+    return thin_film_xyz_uniform(x[..., 0], x[..., 1], n_film, x[..., 2], _index(n_substrate), n_incident=n_incident,
                                  bins=bins, nodes=nodes)
 
 
@@ -222,7 +221,7 @@ def to_texture(family: str, points: torch.Tensor) -> torch.Tensor:
 
 def lookup(lut: LUT, family: str, points: torch.Tensor) -> torch.Tensor:
     """The texture's colour at ``points`` (family coordinates): warp, then multilinear (clamped)
-    interpolation — what the shaders do with hardware filtering (:func:`texture_coordinate`).
+    interpolation — what the shaders do with hardware filtering (``texture_coordinate()``).
 
     Returns linear sRGB ``(*, 3)`` in the texture's dtype.
 
@@ -304,14 +303,14 @@ class TextureFit:
 
     Attributes:
         lut: the fitted texture: a :class:`~torchirid.lut.LUT` of linear sRGB (``(*sizes, 3)``)
-            on grids uniform in the warped coordinates (:func:`texture_axes`; query it with
+            on grids uniform in the warped coordinates (``texture_axes()``; query it with
             :func:`lookup`); export it with :func:`torchirid.export.export_lut`.
         sampled: the same grid holding the exact colour at the nodes (the baseline).
         errors: ΔE2000 on the validation samples: ``{"fitted": {"mean", "p95", "max"},
             "sampled": {…}}``.
         texels: the number of texels (RGB each).
         seconds: wall time of the fit.
-        history: the training loss (mean ΔE00²) per L-BFGS step.
+        history: the training loss (mean ΔE00²) per L-BFGS loss evaluation.
 
     Example (what :func:`fit_texture` returns, for a tiny 4 × 8 texture and a short fit):
         >>> fit = fit_texture("thin_film", (4, 8), ((0.5, 1.0), (100.0, 300.0)), {"n_film": 1.33, "n_substrate": 1.5},
@@ -351,7 +350,7 @@ class TextureSamples:
     across texture sizes: the exact colour is the expensive part). Attributes: ``train_x``
     ``(M, k)``, ``train_rgb`` ``(M, 3)``, ``valid_x``, ``valid_rgb``, ``ranges``.
 
-    Example (samples drawn once by :func:`texture_samples`, then two texture sizes fitted to them):
+    Example (samples drawn once by ``texture_samples()``, then two texture sizes fitted to them):
         >>> params = {"n_film": 1.33, "n_substrate": 1.5}
         >>> s = texture_samples("thin_film", ((0.5, 1.0), (100.0, 300.0)), params, samples=200, validation=100)
         >>> tuple(s.train_x.shape), tuple(s.valid_rgb.shape), s.ranges
@@ -409,7 +408,7 @@ def _check_ranges(family, ranges):
 def texture_lut(family: str, values: torch.Tensor, ranges, parameters: Mapping, *, builder: str) -> LUT:
     """A LUT of ``values`` (``(*sizes, 3)`` linear sRGB) on the family's axes, uniform over ``ranges``.
 
-    The grids are uniform in the warped coordinates (:func:`texture_axes`); ``parameters`` and
+    The grids are uniform in the warped coordinates (``texture_axes()``); ``parameters`` and
     ``ranges`` are stored in the LUT's ``parameters``, ``builder`` names what made it.
 
     Example (a 4 × 8 thin-film texture over cos θ ∈ [0.25, 1], d ∈ [100, 400] nm):
@@ -444,16 +443,20 @@ def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int
         ranges: ``(lo, hi)`` per axis, in the axis' units (cos θ in [0, 1], nm, …).
         parameters: the family's fixed parameters: ``thin_film`` and ``rough_thin_film``:
             ``n_film``, ``n_substrate`` (complex for a metal, or ``[re, im]``), ``n_incident``
-            (``rough_thin_film`` also ``bins``, ``nodes`` of :func:`~torchirid.ibl.uniform_thin_film_xyz`);
+            (``rough_thin_film`` also ``bins``, ``nodes`` of :func:`~torchirid.ibl.thin_film_xyz_uniform`);
             ``thin_film_path``: ``n_substrate``, ``n_incident``; ``bragg``:
             ``cells``, ``n1``, ``n2``, ``n_incident`` (the axes: cos θ, λ_B in nm, δ).
         samples: training samples (uniform in the domain, seed ``seed``), or the samples of
-            :func:`texture_samples` (then ``validation`` and ``seed`` are theirs).
+            ``texture_samples()`` (then ``validation`` and ``seed`` are theirs).
         validation: independent validation samples (seed ``seed + 1``) for :attr:`TextureFit.errors`.
         iterations: L-BFGS iterations (strong-Wolfe line search).
         seed: the sample seed.
         exact: the reference ``points (*, k) → linear sRGB`` (default :func:`exact_colour`).
-        progress: ``progress(step, loss)`` after each L-BFGS step.
+        progress: ``None`` or a callable ``progress(done, total)``: ``done`` loss evaluations
+            (one loss and gradient over the training samples each; L-BFGS evaluates more than
+            once per iteration in its line search) out of its budget ``total =
+            iterations * 5 // 4 + 1``, after each evaluation; a fit that converges early ends
+            with ``(total, total)``. The losses are :attr:`TextureFit.history`.
 
     Returns:
         :class:`TextureFit`: the fitted and the sampled textures and their ΔE2000 statistics.
@@ -476,6 +479,8 @@ def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int
         raise ValueError(f"sizes must give {len(names)} ints >= 2 (texels along {', '.join(names)}); got {sizes!r}")
     if isinstance(iterations, bool) or not isinstance(iterations, int) or iterations < 1:
         raise ValueError(f"iterations must be an int >= 1; got {iterations!r}")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     exact = exact or (lambda p: exact_colour(family, p, parameters))
     start = time.perf_counter()
     if not isinstance(samples, TextureSamples):
@@ -503,6 +508,7 @@ def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int
     opt = torch.optim.LBFGS([values], lr=1.0, max_iter=iterations, history_size=20, line_search_fn="strong_wolfe",
                             tolerance_grad=1e-10, tolerance_change=1e-12)
     history = []
+    budget = opt.param_groups[0]["max_eval"] + 1  # evaluations: max_eval, + 1 from the last line search
 
     def closure():
         opt.zero_grad()
@@ -510,10 +516,12 @@ def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int
         loss.backward()
         history.append(float(loss.detach()))
         if progress is not None:
-            progress(len(history), history[-1])
+            progress(min(len(history), budget), budget)
         return loss
 
     opt.step(closure)
+    if progress is not None and len(history) < budget:
+        progress(budget, budget)  # converged before the budget
     fitted = texture_lut(family, values.detach().clone(), ranges, parameters, builder=builder)
     vc = to_texture(family, valid_x).unbind(-1)
     with torch.no_grad():

@@ -27,7 +27,7 @@ from typing import Callable, Sequence
 from .. import _checks
 from .._io import json_ready, write_json
 
-__all__ = ["FIELDS", "KINDS", "check_batch", "fit_batch", "fit_item", "write_results"]
+__all__ = ["fit_batch", "write_results"]
 
 #: the kinds of fit, and the columns each adds to the common ones (item, status, error, seconds)
 FIELDS = {
@@ -60,9 +60,9 @@ def _film(path: str, read: dict, fit: dict) -> dict:
 
 
 def _scatterogram(path: str, read: dict, fit: dict) -> dict:
-    from ..fitting import load_scatterogram, match_scatterogram
+    from ..fitting import read_scatterogram, match_scatterogram
 
-    image = load_scatterogram(path, **read)
+    image = read_scatterogram(path, **read)
     fit.setdefault("projection", image.projection)
     r = match_scatterogram(image.xyz, image.mask, **fit)
     return {"period_nm": r.period, "delta": r.delta, "n1": r.n1, "n2": r.n2, "cells": r.cells, "alpha": r.alpha,
@@ -115,7 +115,7 @@ def fit_item(kind: str, item, read: dict | None = None, fit: dict | None = None)
 #: the reader and the fit of each kind, and the arguments a file supplies (not settable)
 _CALLS = {"film": ("torchirid.estimation.cube_io:read_cube", "torchirid.estimation:estimate_film",
                    {"path", "cube", "wavelength", "cos_theta"}),
-          "scatterogram": ("torchirid.fitting:load_scatterogram", "torchirid.fitting:match_scatterogram",
+          "scatterogram": ("torchirid.fitting:read_scatterogram", "torchirid.fitting:match_scatterogram",
                            {"path", "target_xyz", "mask"})}
 #: settings in nm given as (min, max) pairs: checked before any file is read
 NM_RANGES = ("thickness_range", "period_range")
@@ -174,13 +174,14 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
             scatterogram per file, matched with :func:`~torchirid.fitting.match_scatterogram`).
         items: the file paths.
         read: keyword arguments of the reader (``read_cube``: ``angles_deg``;
-            ``load_scatterogram``: ``projection``, ``resolution``, ``exposure``, …).
+            ``read_scatterogram``: ``projection``, ``resolution``, ``exposure``, …).
         fit: keyword arguments of the fit (``estimate_film``: ``n_substrate`` (default 1.64),
             ``index_model_name``, ``thickness_range``, …; ``match_scatterogram``:
             ``incident_deg``, ``cells``, ``period_range``, …).
         client, scheduler, workers, timeout: where the fits run, as
             :func:`torchirid.scale.build_table` (default: this process, one after the other).
-        progress: ``progress(done, total)`` as items finish.
+        progress: ``None`` or a callable ``progress(done, total)``: items finished out of
+            ``len(items)``, as they finish.
 
     Returns:
         A list of dicts (``torchirid.scale.fits.FIELDS``): ``status`` is ``"ok"`` or ``"error"`` (with ``error``
@@ -205,6 +206,8 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
         "ValueError: cube file '...missing.npz' does not exist"
     """
     paths = check_batch(kind, items, read, fit)
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     total = len(paths)
     if client is None and scheduler is None:
         out = []
@@ -232,7 +235,7 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
         return records
 
 
-def write_results(records: Sequence[dict], path) -> Path:
+def write_results(path, records: Sequence[dict]) -> Path:
     """Write the records as one table: ``.json`` (a list of objects, strict JSON: non-finite
     numbers as null), ``.csv`` (one row per item; list values joined with ``;``) or ``.parquet``
     (needs ``pyarrow``). Returns the path.
@@ -243,7 +246,7 @@ def write_results(records: Sequence[dict], path) -> Path:
         ...         {"item": "b.npz", "status": "error", "error": "ValueError: bad file", "seconds": 0.0, "n": None,
         ...          "index_params": None}]
         >>> with tempfile.TemporaryDirectory() as d:
-        ...     lines = write_results(recs, os.path.join(d, "fits.csv")).read_text().splitlines()
+        ...     lines = write_results(os.path.join(d, "fits.csv"), recs).read_text().splitlines()
         >>> for line in lines:
         ...     print(line)
         item,status,error,seconds,n,index_params

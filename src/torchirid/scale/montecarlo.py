@@ -18,7 +18,7 @@ import torch
 
 from ..layered import montecarlo_brdf
 
-__all__ = ["block_seeds", "merge_moments", "montecarlo_brdf_blocks"]
+__all__ = ["montecarlo_brdf_blocks"]
 
 
 def block_seeds(seed: int, blocks: int) -> list[int]:
@@ -82,10 +82,11 @@ def montecarlo_brdf_blocks(wavelength, wi, wo, structure, *, samples: int = 1024
         samples: paths per direction pair in all (≥ 2 per block; split as evenly as possible,
             the first blocks taking one more).
         blocks: independent blocks (the unit of work; fixes the result with ``seed``).
-        seed: the seed of the whole estimate (:func:`block_seeds`).
+        seed: the seed of the whole estimate (``block_seeds()``).
         client, scheduler, workers, timeout: where the blocks run, as
             :func:`torchirid.scale.build_table` (default: this process).
-        progress: ``progress(done_blocks, blocks)`` as blocks finish.
+        progress: ``None`` or a callable ``progress(done, total)``: blocks finished out of
+            ``blocks``, as they finish.
 
     Returns:
         ``(mean, stderr)`` of shape ``(*, W)``, float64: bit-identical for the same ``seed`` and
@@ -101,6 +102,8 @@ def montecarlo_brdf_blocks(wavelength, wi, wo, structure, *, samples: int = 1024
         >>> f.shape, bool(err.item() > 0)
         (torch.Size([1]), True)
     """
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     seeds = block_seeds(seed, blocks)
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 2 * blocks:
         raise ValueError(f"samples must be an int >= 2 * blocks ({2 * blocks}: two paths per block); got {samples!r}")

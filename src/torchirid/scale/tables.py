@@ -18,7 +18,7 @@ processes); any other ``scheduler`` string is the address of a running Dask sche
 reschedules the chunks of a worker that dies; no scheduler, pool or retry loop lives here. A
 chunk's values do not depend on where it runs, so every way of building gives the same bits.
 
-The result: :func:`load_table` → the library's :class:`~torchirid.lut.LUT` (axes, units, builder,
+The result: :func:`read_table` → the library's :class:`~torchirid.lut.LUT` (axes, units, builder,
 parameters), or :func:`open_table` → a lazy Dask array.
 """
 
@@ -39,8 +39,7 @@ import torch
 
 from ..lut import LUT
 
-__all__ = ["WORKER_ENVIRON", "build_table", "load_table", "local_cluster", "open_table", "table_chunks",
-           "TableBuild"]
+__all__ = ["build_table", "read_table", "local_cluster", "open_table", "TableBuild"]
 
 #: format of the store's attributes (bump when their meaning changes)
 FORMAT = "torchirid-table/1"
@@ -187,8 +186,9 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
         client, scheduler, workers: where the chunks run (module docstring): a
             ``distributed.Client``; or ``scheduler="local"`` (an embedded ``LocalCluster`` of
             ``workers`` processes) or a scheduler address; default: this process.
-        progress: a callable ``progress(done, total)`` called as chunks finish (the CLI draws
-            a bar with it).
+        progress: ``None`` or a callable ``progress(done, total)``: chunks finished (found done
+            in the store included) out of all chunks, first at the start, then as chunks finish
+            (the CLI draws a bar with it).
         timeout: seconds to wait for a scheduler address before a clear error.
 
     Returns:
@@ -201,13 +201,13 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
 
     Example:
         >>> import os, tempfile, torchirid
-        >>> from torchirid.scale import build_table, load_table
+        >>> from torchirid.scale import build_table, read_table
         >>> with tempfile.TemporaryDirectory() as d:
         ...     path = os.path.join(d, "r.zarr")
         ...     b = build_table(torchirid.thin_film_reflectance, {"wavelength": [450.0, 550.0, 650.0],
         ...                     "thickness": [100.0, 300.0]}, path, chunks=2,
         ...                     kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5})
-        ...     shape = tuple(load_table(path).values.shape)
+        ...     shape = tuple(read_table(path).values.shape)
         >>> b.computed, shape
         (2, (3, 2))
     """
@@ -227,6 +227,8 @@ def build_table(fn: Callable, axes: Mapping, store, *, chunks: int | Mapping[str
         raise ValueError(f"channels must be a tuple of ints >= 1 (fn's trailing output shape); got {channels!r}")
     if dtype not in (torch.float32, torch.float64):
         raise ValueError(f"dtype must be torch.float32 or torch.float64; got {dtype!r}")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     dtype_name = str(dtype).removeprefix("torch.")
     _probe(fn, qualified, grids, kwargs, channels, dtype)
     digest = _content_hash(qualified, kwargs, grids, sizes, dtype_name)
@@ -294,7 +296,7 @@ WORKER_ENVIRON = {"MALLOC_TRIM_THRESHOLD_": 1 << 30, "MALLOC_MMAP_THRESHOLD_": 1
 
 def local_cluster(workers: int = 2):
     """A ``distributed.LocalCluster`` of ``workers`` single-threaded processes with
-    :data:`WORKER_ENVIRON` (what ``scheduler="local"`` starts).
+    ``WORKER_ENVIRON`` (what ``scheduler="local"`` starts).
 
     Example (not run here: it starts worker processes; one cluster serving several builds):
         >>> import torchirid  # doctest: +SKIP
@@ -380,7 +382,7 @@ def _open(store):
     return group, attrs
 
 
-def load_table(store) -> LUT:
+def read_table(store) -> LUT:
     """The finished table as a :class:`~torchirid.lut.LUT` (axes, units, builder, parameters);
     ValueError naming the store if chunks are missing (resume the build first).
 
@@ -392,7 +394,7 @@ def load_table(store) -> LUT:
         ...                     "thickness": [100.0, 300.0]}, store, chunks=2,
         ...                     kwargs={"cos_theta": 1.0, "n_film": 1.33, "n_substrate": 1.5},
         ...                     units={"wavelength": "nm", "thickness": "nm"})
-        ...     lut = load_table(store)
+        ...     lut = read_table(store)
         >>> list(lut.axes), tuple(lut.values.shape), lut.units["thickness"]
         (['wavelength', 'thickness'], (3, 2), 'nm')
         >>> round(float(lut.values[1, 0]), 4)  # R at 550 nm, 100 nm

@@ -12,7 +12,7 @@ and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
 2. **piecewise** and **envelope** (only for mirrors in n1, real indices, no total internal
    reflection, and every colour inside their measured domain: at least
    ``MIN_FRINGES`` fringes in the range,
-   :func:`~torchirid.spectral.fringe_count`; below it they are off by ΔE2000 7–30): a
+   :func:`~torchirid.spectral.sampling.fringe_count`; below it they are off by ΔE2000 7–30): a
    configuration qualifies when its p95 on *both* measured grids is ≤ τ.
 3. **spectral** always qualifies for τ ≥ its measured p95 (~0.01); below that nothing is
    guaranteed and spectral is used anyway. Its cost scales with its sample count.
@@ -40,7 +40,7 @@ from .sampling import fringe_count, max_fringes, spectral_samples
 from .._cache import cached
 from .piecewise import MIN_FRINGES
 
-__all__ = ["choose_bragg_method"]
+__all__ = []
 
 _TABLE = Path(__file__).resolve().parent.parent / "data" / "bragg_color_errors.json"
 

@@ -42,7 +42,7 @@ Domains of validity (measured; docs/performance.md, ``benchmarks/bragg_color_dom
   fringe for p95 ≤ 1), so large-N mirrors alias.
 * ``"piecewise"``, ``"envelope"``: lossless mirrors embedded in n1 without total internal
   reflection, with at least ``MIN_FRINGES`` = 8 fringes in the
-  range (:func:`~torchirid.spectral.fringe_count`): there p95 ΔE2000 ≤ 2.2 (envelope K = 64:
+  range (:func:`~torchirid.spectral.sampling.fringe_count`): there p95 ΔE2000 ≤ 2.2 (envelope K = 64:
   ≤ 2.4); below it (Λ ≲ 80 nm, or N ≈ 5) they are off by 7–30 and emit a RuntimeWarning.
   ``"envelope"`` is the library's fast default: on the speed-vs-error Pareto front at every Λ of
   Fourneau's Fig. 4 grid, while the paper's landmark method ties sampled integration (K = 128)
@@ -56,7 +56,7 @@ import warnings
 
 import torch
 
-from .. import _checks, _threads
+from .. import _checks, _chunks, _threads
 from ..color.convert import xyz_weights
 from ..optics.bragg import bragg_reflectance
 from .envelope import bragg_xyz_envelope
@@ -67,9 +67,6 @@ __all__ = ["BRAGG_XYZ_METHODS", "bragg_xyz"]
 
 #: method names accepted by :func:`bragg_xyz`
 BRAGG_XYZ_METHODS = ("spectral", "sampled", "piecewise", "envelope", "auto")
-
-# points of the (batch × wavelength) reflectance evaluated at once: bounds memory (~64 MB)
-_CHUNK = 1 << 22
 
 
 def _wavelengths(method, K, wavelength_range, dtype, device):
@@ -203,7 +200,9 @@ def bragg_xyz(
     Nw = N.unsqueeze(-1) if N.ndim else N
     batch = _checks.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
                                      *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
-    step = max(1, _CHUNK // max(1, math.prod(batch)))
+    # wavelengths per block: batch × wavelengths ≤ the block size (torchirid._chunks; None: all at once)
+    chunk = _chunks.get_chunk_size(device)
+    step = samples if chunk is None else max(1, chunk // max(1, math.prod(batch)))
     xyz = None
     for k in range(0, samples, step):  # chunks over wavelength bound the memory, not a loop over samples
         R = bragg_reflectance(lam[k:k + step], *args, Nw, n_incident=host, polarization=polarization)

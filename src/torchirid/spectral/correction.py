@@ -48,7 +48,7 @@ The library's approximation is Schlick's form
 with R₁₂(0) = |n₁ − n₂|²/|n₁ + n₂|² the reflectance at normal incidence. The coefficients
 (a, b) are fitted by autograd to the reference on a grid of angles and index pairs
 (``training/fit_angular_correction.py``) and shipped in
-``torchirid/data/angular_correction.json``; :data:`PAPER_COEFFICIENTS` are the paper's.
+``torchirid/data/angular_correction.json``; ``PAPER_COEFFICIENTS`` are the paper's.
 """
 
 from __future__ import annotations
@@ -60,16 +60,12 @@ import os
 
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from ..optics.fresnel import fresnel_reflectance
 from .._cache import cached
 
 __all__ = [
-    "ANGULAR_CORRECTION_COEFFICIENTS",
-    "PAPER_COEFFICIENTS",
     "angular_correction",
-    "angular_correction_limit",
-    "angular_correction_reference",
     "fitted_coefficients",
 ]
 
@@ -84,10 +80,6 @@ DATA_FILE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file_
                          "angular_correction.json")
 FILE_FORMAT = "torchirid.angular_correction"
 FILE_FORMAT_VERSION = 1
-
-# nodes × batch entries evaluated at once by the reference quadrature (bounds memory, ~16 MB a temporary)
-_CHUNK = 1 << 21
-
 
 # ---------------------------------------------------------------------------------------------
 # coefficients
@@ -192,7 +184,7 @@ def angular_correction(cos_theta, n1, n2, *, coefficients=None) -> torch.Tensor:
         n1: real refractive index (> 0) of the incident medium (the mirror's first layer).
         n2: refractive index ``n + iκ`` (κ ≥ 0) of the second layer.
         coefficients: ``None`` or ``"fitted"`` — the library's fit (see
-            :func:`fitted_coefficients`); ``"paper"`` — :data:`PAPER_COEFFICIENTS`
+            :func:`fitted_coefficients`); ``"paper"`` — ``PAPER_COEFFICIENTS``
             (0.735, 0.532); or a pair ``(a, b)`` of numbers or real tensors (which broadcast
             with the other arguments, and may require grad).
 
@@ -367,7 +359,9 @@ def _bloch_average(r12: torch.Tensor, cells: int, samples: int) -> torch.Tensor:
     a = (2 * r12).reshape(-1, 1)
     b = (1 - r12).reshape(-1, 1)
     deficit = torch.zeros(a.shape[0], dtype=dtype, device=device)
-    cells_per_chunk = max(1, _CHUNK // max(1, a.shape[0] * m))
+    # blocks of whole dip intervals: batch × nodes × intervals ≤ the block size (torchirid._chunks; None: one)
+    chunk = _chunks.get_chunk_size(device)
+    cells_per_chunk = cells if chunk is None else max(1, chunk // max(1, a.shape[0] * m))
     for j0 in range(0, cells, cells_per_chunk):
         j = torch.arange(j0, min(cells, j0 + cells_per_chunk), device=device)
         L = (j[:, None] + shift[None, :]).reshape(-1)  # x = (Lπ + φ)/N, L ∈ [0, N]

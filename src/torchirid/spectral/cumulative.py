@@ -69,8 +69,7 @@ from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_obs
 from ..lut import LUT
 from .._cache import cached
 
-__all__ = ["cumulative_cmf_lut", "shipped_cumulative_cmf_lut", "box_integrals", "cumulative_cmf_path",
-           "CUMULATIVE_CMF_BUILDER", "CUMULATIVE_CMF_TOLERANCE"]
+__all__ = ["cumulative_cmf_lut", "shipped_cumulative_cmf_lut"]
 
 #: ``builder`` string stored in the tables (checked when a shipped file is loaded).
 CUMULATIVE_CMF_BUILDER = "torchirid.spectral.cumulative:cumulative_cmf_lut"

@@ -42,7 +42,7 @@ from .cumulative import shipped_cumulative_cmf_lut
 from .piecewise import _check_domain, _embedded_mirror, _envelope, _fringe_mean, _parts
 from .._cache import cached
 
-__all__ = ["bragg_xyz_envelope", "envelope_weights", "fringe_averaged_reflectance"]
+__all__ = ["bragg_xyz_envelope"]
 
 
 @cached(maxsize=64)

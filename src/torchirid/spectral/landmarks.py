@@ -37,7 +37,7 @@ import torch
 
 from .. import _checks
 
-__all__ = ["bragg_landmarks", "dispersion_parts"]
+__all__ = ["bragg_landmarks"]
 
 
 def dispersion_parts(omega, A, B, delta):

@@ -29,7 +29,7 @@ riding along, and the sub-boxes are laid out compactly (only the non-empty ones,
 largest count in the batch with zero-width ones; each finds its box by a running count of the
 box starts) and integrated against the cumulative table in one gather and one batched matrix
 product: ~370 ops per call in all, run in inference mode when no gradient is wanted.
-With :func:`torchirid.set_compile` the two stages around the one host sync (the compact
+With ``torchirid.options(compile=True)`` the two stages around the one host sync (the compact
 length) are two compiled kernels (landmarks + box layout; sub-boxes + table lookup, its final
 sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8), at
 a one-off compile time of ~20 s.
@@ -126,7 +126,7 @@ def bragg_xyz_piecewise(cos_theta, n1, n2, d1, d2, cells, *, polarization="unpol
     return torch.where(grazing.unsqueeze(-1), white.expand_as(out), out)
 
 
-#: Fewest fringes in the integration range (:func:`torchirid.spectral.fringe_count`) for which the
+#: Fewest fringes in the integration range (:func:`torchirid.spectral.sampling.fringe_count`) for which the
 #: fringe-averaging methods (``piecewise``, ``envelope``) are inside their measured domain:
 #: p95 ΔE2000 ≤ 2.2 from 8 fringes up, 7–27 below (``benchmarks/bragg_color_domain.py``, 14 625
 #: colours: n2 1.5–2.4, N 5–100, Λ 10–988 nm, θ 0–84°). Short periods (Λ ≲ 80 nm: the first
@@ -152,7 +152,7 @@ def _check_domain(mirror, method: str) -> None:
         f"bragg_xyz(method={method!r}): {count} of {total} colours have fewer than {MIN_FRINGES:g} fringes in "
         f"{lo:g}–{hi:g} nm (fewest {fmin:.3g}: short periods or few cells), outside the method's measured "
         "domain (ΔE2000 up to ~30 there); use method='auto' or 'spectral' for them "
-        "(torchirid.spectral.fringe_count tells which)")
+        "(torchirid.spectral.sampling.fringe_count tells which)")
 
 
 def _non_finite_mirrors(mirror):
@@ -314,7 +314,7 @@ def _piecewise_xyz(A, B, delta, C_coef, w_corr, omega_min, omega_max, s, table, 
         return _fill(A, B, delta, C_coef, w_corr, *boxes, _compact_length(boxes[0]), *tab, averaged)
     with torch.no_grad():
         # two stages around one host sync (the compact sub-box count T); each ~100–200 small
-        # elementwise ops: one fused kernel each when compiled (opt-in, torchirid.set_compile)
+        # elementwise ops: one fused kernel each when compiled (opt-in, torchirid.options(compile=True))
         front = _compile.kernel("piecewise_landmarks", _front, _front_static, m.numel())
         boxes = front(A, B, delta, C_coef, N, w_corr, m, z, omega_min, omega_max, s, averaged, HALVINGS, NEWTON_STEPS)
         T = _compact_length(boxes[0])

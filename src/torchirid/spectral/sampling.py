@@ -9,7 +9,7 @@ import math
 
 import torch
 
-__all__ = ["fringe_count", "max_fringes", "spectral_samples"]
+__all__ = ["spectral_samples"]
 
 
 def fringe_count(cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, wavelength_range=(380.0, 780.0)):

@@ -14,10 +14,10 @@ __all__ = ["NAME", "add_parser", "run"]
 
 #: the public functions a table can be built of (broadcasting, per-point)
 FUNCTIONS = ("bragg_reflectance", "bragg_xyz", "thin_film_reflectance", "thin_film_xyz_fourier",
-             "fitted_thin_film_xyz", "uniform_thin_film_xyz")
+             "thin_film_xyz_fitted", "thin_film_xyz_uniform")
 #: their trailing output shape
-CHANNELS = {"bragg_xyz": (3,), "thin_film_xyz_fourier": (3,), "fitted_thin_film_xyz": (3,),
-            "uniform_thin_film_xyz": (3,)}
+CHANNELS = {"bragg_xyz": (3,), "thin_film_xyz_fourier": (3,), "thin_film_xyz_fitted": (3,),
+            "thin_film_xyz_uniform": (3,)}
 
 
 def _axis(text: str):

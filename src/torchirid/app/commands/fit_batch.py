@@ -35,7 +35,7 @@ def add_parser(subparsers):
     p.add_argument("--set", type=_args.setting, action="append", default=[], metavar="NAME=VALUE",
                    help="an argument of the fit (estimate_film / match_scatterogram; repeat)")
     p.add_argument("--read", type=_args.setting, action="append", default=[], metavar="NAME=VALUE",
-                   help="an argument of the reader (read_cube: angles_deg; load_scatterogram: projection, "
+                   help="an argument of the reader (read_cube: angles_deg; read_scatterogram: projection, "
                         "resolution, exposure, ...; repeat)")
     _args.add_scheduler_options(p, "fit")
     p.add_argument("--out", required=True, metavar="TABLE", help="the result table: .json, .csv or .parquet")
@@ -68,7 +68,7 @@ def run(args) -> int:
     finally:
         bar.close()
     try:
-        write_results(records, out)
+        write_results(out, records)
     except OSError as e:
         return _args.cannot_write(NAME, out.parent, e)
     failed = [r for r in records if r["status"] != "ok"]

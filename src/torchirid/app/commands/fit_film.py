@@ -22,7 +22,7 @@ import numpy as np
 import torch
 
 from ..._io import write_json
-from ...estimation import INDEX_MODELS, estimate_film
+from ...estimation import estimate_film
 from ...estimation.cube_io import read_cube
 from .. import _args
 from ..figures.film_maps import save_film_map_png
@@ -104,10 +104,7 @@ def run(args) -> int:
                          "as a fraction of 1; data in percent? divide by 100, or give the ENVI header a "
                          "'reflectance scale factor = 100'")
     bw = args.bandwidth if args.bandwidth is not None else (cube.bandwidth if cube.bandwidth is not None else 4.0)
-    # the stages estimate_film reports: peaks, index scan, 3 order hypotheses per index model tried,
-    # order check, thickness, 2 final passes
-    models = len(INDEX_MODELS) if args.index_model == "auto" else 1
-    bar = _args.progress_bar(f"torchirid {NAME}", total=4 + 3 * models + 2, unit="stage", quiet=args.quiet)
+    bar = _args.progress_bar(f"torchirid {NAME}", unit="stage", quiet=args.quiet)  # (estimate_film gives the total)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", RuntimeWarning)
@@ -115,8 +112,7 @@ def run(args) -> int:
                                 index_model_name=args.index_model, bandwidth=bw, passband=args.passband,
                                 polarization=args.polarization, thickness_range=tuple(args.thickness_range),
                                 smoothness=args.smoothness, seed=args.seed,
-                                progress=lambda name: (bar.set_postfix_str(name), bar.update(1)))
-        bar.total = max(bar.total or 0, bar.n)
+                                progress=_args.progress_callback(bar))
     finally:
         bar.close()
     notes = [str(w.message) for w in caught]

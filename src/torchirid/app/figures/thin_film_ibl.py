@@ -13,12 +13,12 @@ every method shares exactly; the images show A · term):
 ``original``   Belcour–Barla eq. 4 (M = 2) at the ideal reflection direction, cos θ1 = cos θo
                (:func:`~torchirid.ibl.thin_film_xyz_fourier`); independent of α
 ``kneiphof``   eq. 20–29 with the ground-truth light mean and covariance (Fig. 7 b, f;
-               :func:`~torchirid.ibl.filtered_thin_film_xyz`, :func:`~torchirid.ibl.uniform_light_moments`)
+               :func:`~torchirid.ibl.thin_film_xyz_filtered`, :func:`~torchirid.ibl.uniform_light_moments`)
 ``kneiphof_D`` eq. 29 with the ground-truth μ_D, σ²_D (Fig. 7 c, g;
                :func:`~torchirid.ibl.path_difference_moments`)
-``fitted``     the fitted light-mixture table (:func:`~torchirid.ibl.fitted_thin_film_xyz`)
+``fitted``     the fitted light-mixture table (:func:`~torchirid.ibl.thin_film_xyz_fitted`)
 ``reference``  converged integration of the spectral Airy microfacet BRDF
-               (:func:`~torchirid.ibl.uniform_thin_film_xyz`)
+               (:func:`~torchirid.ibl.thin_film_xyz_uniform`)
 ============== ==================================================================================
 """
 
@@ -38,10 +38,10 @@ from ..._io import atomic_write, json_ready
 from ._format import figure_format
 from ...color.convert import xyz_to_lab, xyz_to_linear_srgb, linear_srgb_to_srgb
 from ...color.difference import delta_e_2000
-from ...ibl.filtered import filtered_thin_film_xyz, gaussian_path_thin_film_xyz
-from ...ibl.fitted import fitted_thin_film_xyz
+from ...ibl.filtered import thin_film_xyz_filtered, thin_film_xyz_gaussian_path
+from ...ibl.fitted import thin_film_xyz_fitted
 from ...ibl.fourier import thin_film_xyz_fourier
-from ...ibl.uniform import path_difference_moments, uniform_light_moments, uniform_thin_film_xyz
+from ...ibl.uniform import path_difference_moments, uniform_light_moments, thin_film_xyz_uniform
 from ..._version import __version__
 
 __all__ = [
@@ -162,21 +162,21 @@ def thin_film_ibl_comparison(panel: str = "roughness", *, resolution: int = 32, 
     kw = dict(observer=observer, illuminant=illuminant)
     ns = n_substrate
     xyz, secs = {}, {}
-    xyz["reference"], secs["reference"] = _timed(lambda: uniform_thin_film_xyz(c, a, n_film, d, ns, **kw))
+    xyz["reference"], secs["reference"] = _timed(lambda: thin_film_xyz_uniform(c, a, n_film, d, ns, **kw))
     xyz["original"], secs["original"] = _timed(
         lambda: thin_film_xyz_fourier(c, n_film, d, ns, terms=2, sensitivity="exact", **kw))
     (albedo, mu, cov), t_mom = _timed(lambda: uniform_light_moments(c, a))
     wo = torch.stack([torch.sqrt(1.0 - c * c), torch.zeros_like(c), c], -1).expand(*full, 3)
     # Fig. 7 is the paper's setting: M = 2 Fourier terms in every method (the library's default is 4)
-    xyz["kneiphof"], secs["kneiphof"] = _timed(lambda: filtered_thin_film_xyz(wo, mu, cov, n_film, d, ns, terms=2, **kw))
+    xyz["kneiphof"], secs["kneiphof"] = _timed(lambda: thin_film_xyz_filtered(wo, mu, cov, n_film, d, ns, terms=2, **kw))
 
     def via_D():
         mD, vD, _, _ = path_difference_moments(c, a, n_film, d)
         c1 = torch.sqrt(0.5 * (1.0 + (wo * mu).sum(-1)))  # eq. 22 at the mean, as the chain uses
-        return gaussian_path_thin_film_xyz(c1, n_film, d, ns, mD, vD, terms=2, **kw)
+        return thin_film_xyz_gaussian_path(c1, n_film, d, ns, mD, vD, terms=2, **kw)
 
     xyz["kneiphof_D"], secs["kneiphof_D"] = _timed(via_D)
-    xyz["fitted"], secs["fitted"] = _timed(lambda: fitted_thin_film_xyz(c, a, n_film, d, ns, terms=2, **kw))
+    xyz["fitted"], secs["fitted"] = _timed(lambda: thin_film_xyz_fitted(c, a, n_film, d, ns, terms=2, **kw))
     xyz = {k: v.expand(*full, 3) for k, v in xyz.items()}
     lab_ref = xyz_to_lab(xyz["reference"], illuminant=illuminant, observer=observer)
     de = {k: delta_e_2000(xyz_to_lab(xyz[k], illuminant=illuminant, observer=observer), lab_ref).numpy()

@@ -9,7 +9,7 @@
 //
 // Each axis is passed as vec3(lo, hi, n): the LUT's first and last node and its size.
 //
-// The BRDF is Fourneau et al. 2024 eq. 17-19 (torchirid.microfacet_brdf): GGX D, separable
+// The BRDF is Fourneau et al. 2024 eq. 17-19 (torchirid.microfacet.microfacet_brdf): GGX D, separable
 // Smith G, the reflectance R looked up at cos θ_d = i·h, in the local frame or with any normal.
 
 #ifndef TORCHIRID_GLSL

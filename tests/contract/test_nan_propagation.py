@@ -44,25 +44,25 @@ def test_uniform_light_paths():
 
     c, a = t64([NAN, 0.8]), t64([0.3, 0.3])
     kw = dict(bins=64, nodes=8)
-    assert_nan_first_entry(ibl.uniform_thin_film_xyz(c, a, 1.33, 450.0, 1.5, **kw),
-           ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
-    assert_nan_first_entry(ibl.uniform_thin_film_xyz(t64([0.8, 0.8]), t64([NAN, 0.3]), 1.33, 450.0, 1.5, **kw),
-           ibl.uniform_thin_film_xyz(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
+    assert_nan_first_entry(ibl.thin_film_xyz_uniform(c, a, 1.33, 450.0, 1.5, **kw),
+           ibl.thin_film_xyz_uniform(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
+    assert_nan_first_entry(ibl.thin_film_xyz_uniform(t64([0.8, 0.8]), t64([NAN, 0.3]), 1.33, 450.0, 1.5, **kw),
+           ibl.thin_film_xyz_uniform(c[1:], a[1:], 1.33, 450.0, 1.5, **kw)[0])
     albedo = ibl.uniform_light_moments(c, a, nodes=8)[0]
     assert_nan_first_entry(albedo, ibl.uniform_light_moments(c[1:], a[1:], nodes=8)[0][0])
 
 
 def test_prefiltered_sensitivity_table_paths():
-    from torchirid.ibl import filtered_thin_film_xyz, fitted_thin_film_xyz, thin_film_xyz_fourier
+    from torchirid.ibl import thin_film_xyz_filtered, thin_film_xyz_fitted, thin_film_xyz_fourier
 
     d = t64([NAN, 300.0])
     cov = 0.01 * torch.eye(3, dtype=F64).expand(2, 3, 3)
     wo, mu = t64([[0.0, 0.0, 1.0]] * 2), t64([[0.1, 0.0, 0.9]] * 2)
-    assert_nan_first_entry(filtered_thin_film_xyz(wo, mu, cov, 1.4, d, 1.5, sensitivity="lut"),
-           filtered_thin_film_xyz(wo[1], mu[1], cov[1], 1.4, d[1], 1.5, sensitivity="lut"))
+    assert_nan_first_entry(thin_film_xyz_filtered(wo, mu, cov, 1.4, d, 1.5, sensitivity="lut"),
+           thin_film_xyz_filtered(wo[1], mu[1], cov[1], 1.4, d[1], 1.5, sensitivity="lut"))
     c = t64([0.8, 0.8])
-    assert_nan_first_entry(fitted_thin_film_xyz(c, 0.3, 1.33, d, 1.5, sensitivity="lut"),
-           fitted_thin_film_xyz(c[1], 0.3, 1.33, d[1], 1.5, sensitivity="lut"))
+    assert_nan_first_entry(thin_film_xyz_fitted(c, 0.3, 1.33, d, 1.5, sensitivity="lut"),
+           thin_film_xyz_fitted(c[1], 0.3, 1.33, d[1], 1.5, sensitivity="lut"))
     assert_nan_first_entry(thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="lut"),
            thin_film_xyz_fourier(c[1], 1.33, d[1], 1.5, sensitivity="lut"))
 
@@ -115,8 +115,8 @@ def test_layered_single_reflection_paths():
         # the wavelength grid is shared by all samples: a NaN there is refused, not spread
         with pytest.raises(ValueError, match="wavelength"):
             L.single_reflection_brdf(t64([NAN, 500.0]), good, z, s)
-    w = L.transmission_weight(t64([[NAN, 0.6], [0.4, 0.6]]), 0.7, 0.1)
-    assert torch.isnan(w[0]).all() and torch.allclose(w[1], L.transmission_weight(t64([[0.4, 0.6]]), 0.7, 0.1)[0])
+    w = L.transmission.transmission_weight(t64([[NAN, 0.6], [0.4, 0.6]]), 0.7, 0.1)
+    assert torch.isnan(w[0]).all() and torch.allclose(w[1], L.transmission.transmission_weight(t64([[0.4, 0.6]]), 0.7, 0.1)[0])
 
 
 def test_estimation_pixels_without_data_and_index_fit():
@@ -137,6 +137,6 @@ def test_estimation_pixels_without_data_and_index_fit():
     cube4[0, 0] = NAN
     assert est.estimate_film(cube4, sc4.wavelength, sc4.cos_theta, 1.64).settings["index_start"] == "peaks"
     w = torch.linspace(400.0, 720.0, 9, dtype=F64)
-    n = est.zns_index(w)
+    n = est.dispersion.zns_index(w)
     n[3] = NAN
     assert torch.isnan(est.fit_index_model(w, n, "cauchy3")).all()

@@ -63,7 +63,7 @@ WITH_WAVELENGTH = tuple(f for f in GOOD if f != "fresnel_reflectance")
 def call(fname, **override):
     kw = dict(GOOD[fname])
     kw.update(override)
-    return getattr(torchirid, fname)(**kw)
+    return getattr(torchirid.optics, fname)(**kw)
 
 
 # (function, {argument: bad value}, regex that the message must contain)
@@ -136,9 +136,14 @@ BAD.append(("bragg_envelope", {"n1": 1.5, "n2": 1.2, "n_incident": 2.0, "cos_the
 _DERIVED_CHECK = {"mul", "__mul__", "__rmul__", "pow", "__pow__", "minimum", "clamp", "where"}
 
 
+def _qualified(fname):
+    """``<subpackage>.<function>`` (ids start with the subpackage: ``pytest -k optics`` selects them)."""
+    return getattr(torchirid.optics, fname).__module__.split(".")[1] + "." + fname
+
+
 def _id(case):
     f, kw, _ = case
-    return f + ":" + ",".join(f"{k}={v!r}" for k, v in kw.items()).replace("\n", "")[:60]
+    return _qualified(f) + ":" + ",".join(f"{k}={v!r}" for k, v in kw.items()).replace("\n", "")[:60]
 
 
 @pytest.mark.parametrize("case", BAD, ids=[_id(c) for c in BAD])
@@ -155,7 +160,7 @@ def test_bad_input_raises_valueerror_naming_parameter_before_work(case):
     assert not work, f"{fname} did physics ({work}) before rejecting {override}"
 
 
-@pytest.mark.parametrize("fname", list(GOOD))
+@pytest.mark.parametrize("fname", list(GOOD), ids=[_qualified(f) for f in GOOD])
 def test_recorder_sees_work_in_valid_calls(fname):
     """Positive control for the 'before any work' check above."""
     rec = _Recorder()
@@ -242,7 +247,7 @@ def _with_nan(fname, arg):
     return base
 
 
-@pytest.mark.parametrize("fname,arg", NAN_CASES)
+@pytest.mark.parametrize("fname,arg", NAN_CASES, ids=[f"{_qualified(f)}-{a}" for f, a in NAN_CASES])
 def test_nan_propagates(fname, arg):
     out = call(fname, **{arg: _with_nan(fname, arg)})
     R = out[0] if isinstance(out, tuple) else out

@@ -20,8 +20,11 @@ input (a string, a cosine out of range) → ValueError naming the argument.
 Arguments that are not per-sample data (wavelength grids shared by the batch, structures,
 counts, option strings) are out of scope here: a NaN wavelength grid or a NaN setting is a
 parameter error. Functions with a whole-scene output (``scatterogram``, ``montecarlo_brdf``,
-``match_scatterogram``) have their own NaN tests. tests/test_validation.py and
-tests/test_nan_propagation.py keep the targeted cases this table grew from.
+``match_scatterogram``) have their own NaN tests. test_validation.py and test_nan_propagation.py
+(next to this file) keep the targeted cases this table grew from.
+
+Test ids start with the subpackage of the function under test (``optics.bragg_reflectance-n1``,
+``api_cases.case_id``): ``pytest tests/contract -k spectral`` runs the cases of torchirid.spectral.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ import pytest
 import torch
 
 import torchirid as ti
-from api_cases import CASES, NAN, pick  # the shared table of calls
+from api_cases import CASES, NAN, case_id, pick  # the shared table of calls (tests/api_cases.py)
 
 PARAMS = [(name, arg) for name, (_, _, args, _) in CASES.items() for arg in args]
 
@@ -42,13 +45,13 @@ def test_the_table_covers_the_per_sample_api():
 
     covered = {fn.__name__ for fn, *_ in CASES.values()}  # (the flat ones; subpackage ones are extra)
     elsewhere = {  # not per-sample data, or scene-level (own tests), or set-up
-        "cmfs", "illuminant_spd", "white_point_xy", "white_point_xyz", "xyz_weights", "compile_enabled",
-        "set_compile", "transmission_filter_lut", "transmissivity_lut", "load_scatterogram", "match_scatterogram",
+        "cmfs", "illuminant_spd", "white_point_xy", "white_point_xyz", "xyz_weights",
+        "transmission_filter_lut", "transmissivity_lut", "read_scatterogram", "match_scatterogram",
         "scatterogram", "montecarlo_brdf", "sample_single_reflection", "shade_thin_film_environment",
         "hirayama_stacks", "film_reflectance_lut", "available_materials", "material_range", "delta_e",
-        "clear_caches", "chunk_size", "get_chunk_size", "set_chunk_size", "get_small_work_threads",
-        "set_small_work_threads", "set_value_checks", "value_checks", "value_checks_enabled", "export_lut",
-        "read_cube", "load_environment",  # files and set-up
+        "clear_caches", "options",
+        "export_lut",
+        "read_cube", "read_environment",  # files and set-up
         "prefilter_environment", "estimate_film"}  # whole images: tests/ibl, tests/estimation
     public = {n for n in ti.__all__ if inspect.isfunction(getattr(ti, n))}
     assert public - covered - elsewhere == set()
@@ -63,7 +66,7 @@ def _poisoned(value):
 _pick = pick
 
 
-@pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{n}-{a}" for n, a in PARAMS])
+@pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in PARAMS])
 def test_nan_in_one_sample_stays_in_that_sample(name, arg):
     fn, build, _, which = CASES[name]
     clean = _pick(fn(**build()), which)
@@ -95,11 +98,11 @@ def _grad_of_entry_1(fn, kw, arg, which):
 
 
 # the result does not depend smoothly on these (a sign test of m; the unused thickness)
-NOT_DIFFERENTIABLE = {("smith_g", "m"), ("ibl.gaussian_path_thin_film_xyz", "thickness")}
+NOT_DIFFERENTIABLE = {("smith_g", "m"), ("ibl.thin_film_xyz_gaussian_path", "thickness")}
 GRAD_PARAMS = [p for p in PARAMS if p not in NOT_DIFFERENTIABLE]
 
 
-@pytest.mark.parametrize("name,arg", GRAD_PARAMS, ids=[f"{n}-{a}" for n, a in GRAD_PARAMS])
+@pytest.mark.parametrize("name,arg", GRAD_PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in GRAD_PARAMS])
 def test_nan_sample_leaves_the_other_gradients_alone(name, arg):
     """d(entry 1)/d(arg) is the same with entry 0 NaN: the NaN sample does not leak into the
     gradient of a good one through the backward pass (0 · NaN)."""
@@ -123,7 +126,7 @@ def _as_float32(kw):
 TABLE_DTYPE = {"lookup_film_reflectance k_r", "lookup_film_reflectance k_t"}
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", list(CASES), ids=[case_id(n) for n in CASES])
 def test_float32_inputs_give_float32_close_to_float64(name):
     """docs/conventions.md: dtype from the inputs; float32 stays finite and in range. Over the same table:
     float32 in → float32 (complex64) out, finite, within 1e-3 (relative, absolute below 1e-3) of
@@ -146,7 +149,7 @@ NARROWER_BY_DESIGN = {(f, a) for f in ("transmission_probability", "transmission
 BROADCAST_PARAMS = [p for p in PARAMS if p not in NARROWER_BY_DESIGN]
 
 
-@pytest.mark.parametrize("name,arg", BROADCAST_PARAMS, ids=[f"{n}-{a}" for n, a in BROADCAST_PARAMS])
+@pytest.mark.parametrize("name,arg", BROADCAST_PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in BROADCAST_PARAMS])
 def test_one_argument_with_extra_batch_axes_broadcasts(name, arg):
     """docs/conventions.md: every tensor argument broadcasts with the others. One per-sample argument
     gets two extra leading axes (3, 1, 2, …) while the others keep (2, …): the result is the
@@ -162,7 +165,7 @@ def test_one_argument_with_extra_batch_axes_broadcasts(name, arg):
         assert torch.allclose(out[k, 0], clean, rtol=1e-12, atol=1e-300), (name, arg, k)
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", list(CASES), ids=[case_id(n) for n in CASES])
 def test_empty_batch_gives_an_empty_result(name):
     """A batch of zero samples (every per-sample argument sliced to [:0]) returns an empty
     result of the right trailing shape instead of raising (e.g. on ``min()`` of an empty tensor)."""
@@ -182,7 +185,7 @@ ON_THE_DOMAIN_EDGE = {("multilayer absorbing", "indices"), ("rough_multilayer_re
 FD_PARAMS = [p for p in GRAD_PARAMS if p not in ON_THE_DOMAIN_EDGE]
 
 
-@pytest.mark.parametrize("name,arg", FD_PARAMS, ids=[f"{n}-{a}" for n, a in FD_PARAMS])
+@pytest.mark.parametrize("name,arg", FD_PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in FD_PARAMS])
 def test_gradients_match_finite_differences(name, arg):
     """Autograd through every case of the table against central differences (float64,
     ``torch.autograd.gradcheck``, eps 1e-6, atol 1e-6, rtol 1e-4), one argument at a time; the
@@ -202,12 +205,12 @@ def test_gradients_match_finite_differences(name, arg):
 COSINE_PARAMS = [(n, a) for n, a in PARAMS if a.startswith("cos")]
 # domains that exclude grazing by design (documented ValueError), and Λ(θ → 90°) = ∞ (G1 = 1/(1 + Λ) = 0)
 NO_GRAZING = {n for n, _ in COSINE_PARAMS if n.split()[0] in (
-    "uniform_thin_film_xyz", "ibl.path_difference_moments", "ibl.uniform_light_moments", "ibl.light_mixture",
-    "ibl.cos_theta1_distribution")}
+    "thin_film_xyz_uniform", "ibl.path_difference_moments", "ibl.uniform_light_moments", "ibl.light_mixture",
+    "ibl.uniform.cos_theta1_distribution")}
 INFINITE_AT_GRAZING = {"microfacet.smith_lambda"}
 
 
-@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{n}-{a}" for n, a in COSINE_PARAMS])
+@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in COSINE_PARAMS])
 def test_grazing_and_normal_incidence_are_finite_with_finite_gradients(name, arg):
     """docs/conventions.md's hard cases: cos θ = 0 and cos θ = 1 give finite values and finite gradients
     (the √(1 − cos²θ) and cot θ singularities guarded; a one-sided or 0 slope is reported where
@@ -231,7 +234,7 @@ def test_grazing_and_normal_incidence_are_finite_with_finite_gradients(name, arg
     assert g is not None and torch.isfinite(g[-1]).all() and (name in INFINITE_AT_GRAZING or torch.isfinite(g).all()), g
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", list(CASES), ids=[case_id(n) for n in CASES])
 def test_python_lists_take_the_working_dtype(name):
     """Per-sample arguments given as nested Python lists: with a float64 tensor among the other
     arguments the result is the all-tensor one (the lists are built in float64, not via float32);
@@ -258,7 +261,7 @@ DATA_DTYPE = {"spectrum_to_xyz"}
 
 _INFERENCE_FIRST = """
 import sys, torch
-sys.path[:0] = [{tests!r}]
+sys.path[:0] = {paths!r}
 import test_nan_harness as h  # (the table lives in api_cases.py)
 for name, (fn, build, _, which) in h.CASES.items():  # the first call of everything, in inference mode
     with torch.inference_mode():
@@ -287,8 +290,9 @@ def test_caches_filled_in_inference_mode_serve_autograd():
     import subprocess
     import sys
 
-    tests = str(pathlib.Path(__file__).resolve().parent)
-    run = subprocess.run([sys.executable, "-c", _INFERENCE_FIRST.format(tests=tests)], capture_output=True,
+    here = pathlib.Path(__file__).resolve().parent  # tests/contract, then tests/ (api_cases, tensors)
+    paths = [str(here), str(here.parent)]
+    run = subprocess.run([sys.executable, "-c", _INFERENCE_FIRST.format(paths=paths)], capture_output=True,
                          text=True, timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "failed: 0" in run.stdout, run.stdout[-3000:]
@@ -304,7 +308,7 @@ def test_inputs_are_not_modified():
             assert torch.equal(kw[k], v), f"{name} modified {k}"
 
 
-@pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{n}-{a}" for n, a in PARAMS])
+@pytest.mark.parametrize("name,arg", PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in PARAMS])
 def test_a_string_argument_raises_value_error_naming_it(name, arg):
     """docs/conventions.md: bad input → ValueError naming the parameter (not a TypeError from deep inside)."""
     fn, build, _, _ = CASES[name]
@@ -316,7 +320,7 @@ SIGNED_COSINES = {("ggx_d", "cos_theta_m"), ("smith_g1", "cos_theta"), ("microfa
                   ("optics.he_directional_diffuse", "cos_phi"), ("rough_multilayer_diffuse", "cos_phi")}
 
 
-@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{n}-{a}" for n, a in COSINE_PARAMS])
+@pytest.mark.parametrize("name,arg", COSINE_PARAMS, ids=[f"{case_id(n)}-{a}" for n, a in COSINE_PARAMS])
 def test_a_cosine_out_of_range_raises_value_error_naming_it(name, arg):
     """A cosine above 1 (and, where the sign has no meaning, below 0) in one sample → ValueError
     naming the argument, before any work."""

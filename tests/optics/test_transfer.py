@@ -157,7 +157,7 @@ def test_thick_absorber_is_bulk(metal, d, exit_medium):
     c = np.array(_COS)[:, None]
     for pol in POLS:
         R, T = ml(wl, c, idx, [d], pol)
-        Rb = torchirid.fresnel_reflectance(t64(c), 1.0, tc128(nm), polarization=pol)
+        Rb = torchirid.optics.fresnel_reflectance(t64(c), 1.0, tc128(nm), polarization=pol)
         assert torch.isfinite(R).all() and torch.isfinite(T).all()
         assert (R - Rb).abs().max().item() <= 1e-12
         # Into glass or Cu the transmitted power is physical, e^{-4πκd/λ}-small: 1 µm W lets
@@ -191,7 +191,7 @@ def test_thick_absorber_float32_and_gradients(metal, d, dtype):
             assert torch.isfinite(R).all() and torch.isfinite(T).all()
             assert R.min().item() >= 0.0 and R.max().item() <= 1.0
             assert T.min().item() >= 0.0 and T.max().item() <= 1e-18
-            Rb = torchirid.fresnel_reflectance(c.detach(), 1.0, idx[:, 1], polarization=pol)
+            Rb = torchirid.optics.fresnel_reflectance(c.detach(), 1.0, idx[:, 1], polarization=pol)
             tol = 1e-12 if dtype == F64 else 1e-6
             assert (R - Rb).abs().max().item() <= tol
             grads = torch.autograd.grad((R + T).sum(), (wl, c, th))
@@ -401,7 +401,7 @@ def test_bare_interface_L0(pol):
         idx = tc128([n0, n1])
         R, T = torchirid.multilayer(t64(500.0), c, idx, t64(np.zeros(0)), polarization=pol)
         assert R.shape == (51,)
-        Rf = torchirid.fresnel_reflectance(c, n0, tc128(n1), polarization=pol)
+        Rf = torchirid.optics.fresnel_reflectance(c, n0, tc128(n1), polarization=pol)
         assert (R - Rf).abs().max().item() <= 1e-15
         if complex(n1).imag == 0:
             tir = n0 * n0 * (1 - c * c) >= complex(n1).real ** 2

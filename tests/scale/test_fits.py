@@ -10,7 +10,8 @@ import pytest
 import torch
 
 import torchirid.estimation as E
-from torchirid.scale import fit_batch, fit_item, write_results
+from torchirid.scale import fit_batch, write_results
+from torchirid.scale.fits import fit_item
 
 F64 = torch.float64
 
@@ -74,12 +75,12 @@ def test_local_cluster_gives_the_in_process_records(cubes):
 
 
 def test_scatterogram_batch(tmp_path):
-    from torchirid.fitting import render_targets, save_scatterogram_png
+    from torchirid.fitting import render_targets, write_scatterogram
     from torchirid.layered.presets import jewel_beetle
 
     lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
     target = render_targets(jewel_beetle("green"), [(0.0, 0.0)], resolution=12, wavelength=lam)[0]
-    good = save_scatterogram_png(target / float(target[..., 1].max()) * 0.8, tmp_path / "green.png")
+    good = write_scatterogram(tmp_path / "green.png", target / float(target[..., 1].max()) * 0.8)
     (tmp_path / "empty.png").write_bytes(b"")
     fit = dict(incident_deg=(0.0, 0.0), n1=1.59, cells=(8,), period_range=None, wavelength=lam,
                init={"period": 166.0, "delta": 0.51, "dn": 0.08, "alpha": 0.07}, short_iter=4, max_iter=6)
@@ -97,10 +98,10 @@ def test_scatterogram_batch(tmp_path):
 def test_result_tables(tmp_path, cubes):
     recs = [fit_item("film", cubes[0]), fit_item("film", cubes[3])]
     recs[0]["rms_mean"] = float("nan")  # a non-finite figure: null in JSON, empty in CSV
-    back = json.loads(write_results(recs, tmp_path / "r.json").read_text())
+    back = json.loads(write_results(tmp_path / "r.json", recs).read_text())
     assert [r["status"] for r in back] == ["ok", "error"] and back[0]["rms_mean"] is None
     assert back[0]["index_params"] == recs[0]["index_params"]
-    with open(write_results(recs, tmp_path / "sub" / "r.csv"), newline="") as f:
+    with open(write_results(tmp_path / "sub" / "r.csv", recs), newline="") as f:
         rows = list(csv.DictReader(f))
     assert rows[0]["status"] == "ok" and rows[0]["rms_mean"] == "" and float(rows[0]["n"]) == recs[0]["n"]
     assert rows[1]["error"].startswith("ValueError") and rows[1]["n"] == ""
@@ -108,12 +109,12 @@ def test_result_tables(tmp_path, cubes):
         import pyarrow.parquet as pq
     except ImportError:
         with pytest.raises(ValueError, match="pyarrow"):
-            write_results(recs, tmp_path / "r.parquet")
+            write_results(tmp_path / "r.parquet", recs)
     else:
-        table = pq.read_table(write_results(recs, tmp_path / "r.parquet")).to_pylist()
+        table = pq.read_table(write_results(tmp_path / "r.parquet", recs)).to_pylist()
         assert [r["status"] for r in table] == ["ok", "error"]
     with pytest.raises(ValueError, match=r"\.json, \.csv or \.parquet"):
-        write_results(recs, tmp_path / "r.txt")
+        write_results(tmp_path / "r.txt", recs)
 
 
 @pytest.mark.parametrize("call, match", [
@@ -121,6 +122,7 @@ def test_result_tables(tmp_path, cubes):
     (lambda: fit_batch("film", "a.npz"), "items"),
     (lambda: fit_batch("film", []), "items"),
     (lambda: fit_batch("film", ["a.npz"], fit=[1]), "fit"),
+    (lambda: fit_batch("film", ["a.npz"], progress=True), "progress"),
     (lambda: fit_batch("film", ["a.npz"], fit={"bogus": 1}), "bogus"),
     (lambda: fit_batch("film", ["a.npz"], fit={"wavelength": 1}), "comes from each file"),
     (lambda: fit_batch("film", ["a.npz"], read={"exposure": 2}), "exposure"),
