@@ -1,0 +1,61 @@
+"""Tests of torchirid.estimation.estimate's noise estimate, ``noise_level``, against closed forms.
+
+The 4th difference Δ⁴y = y₋₂ − 4y₋₁ + 6y₀ − 4y₁ + y₂ annihilates every cubic exactly, multiplies
+white noise of standard deviation σ by √(1 + 16 + 36 + 16 + 1) = √70, and the median absolute
+value of a zero-mean Gaussian is σ Φ⁻¹(3/4). (``estimate_film`` itself — the bars on the paper's
+samples, the index-model choice, progress, dead pixels — is tested in tests/estimation/test_refine.py
+and test_invalid_pixels.py.)
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+
+import pytest
+import torch
+
+from torchirid.estimation import noise_level
+
+F64 = torch.float64
+
+
+def test_a_cubic_spectrum_has_no_noise():
+    x = torch.linspace(-1.0, 1.0, 81, dtype=F64)
+    y = 0.1 + 0.3 * x - 0.2 * x**2 + 0.05 * x**3  # Δ⁴ of a cubic is 0 (to rounding)
+    assert noise_level(y.expand(4, 81)) < 1e-15
+
+
+def test_gaussian_noise_gives_its_sigma():
+    g = torch.Generator().manual_seed(1)
+    sigma = 0.004
+    y = 0.2 + sigma * torch.randn(400, 121, generator=g, dtype=F64)
+    # 400 × 117 differences: the MAD's relative standard error is ~1/√(0.37 n) ≈ 0.8 %
+    assert noise_level(y) == pytest.approx(sigma, rel=0.04)
+
+
+def test_the_estimate_is_the_scaled_median_of_the_fourth_differences():
+    g = torch.Generator().manual_seed(2)
+    y = torch.rand(3, 9, generator=g, dtype=F64)
+    d4 = [abs(r[b - 2] - 4 * r[b - 1] + 6 * r[b] - 4 * r[b + 1] + r[b + 2]) for r in y.tolist() for b in range(2, 7)]
+    mad_to_sigma = 1 / statistics.NormalDist().inv_cdf(0.75)
+    # torch's median of an even count is the lower middle value
+    lower_median = sorted(d4)[(len(d4) - 1) // 2]
+    assert noise_level(y) == pytest.approx(mad_to_sigma * lower_median / math.sqrt(70), rel=1e-12)
+
+
+def test_outliers_and_missing_samples_barely_move_it():
+    g = torch.Generator().manual_seed(4)
+    sigma = 0.01
+    y = 0.3 + sigma * torch.randn(200, 81, generator=g, dtype=F64)
+    clean = noise_level(y)
+    spiky = y.clone()
+    spiky[::10, 40] = 5.0  # a spike in every 10th spectrum
+    spiky[3, 7] = math.nan  # a missing sample: the 5 differences that contain it are skipped
+    assert noise_level(spiky) == pytest.approx(clean, rel=0.03)
+    assert math.isnan(noise_level(torch.full((2, 9), math.nan, dtype=F64)))
+
+
+def test_fewer_than_five_bands_raise():
+    with pytest.raises(ValueError, match="5 bands"):
+        noise_level(torch.zeros(3, 4))
