@@ -59,7 +59,7 @@ print(f"2Λ:    Λ {double.period:.1f} nm, δ {double.delta:.3f}, n2 {double.n2:
 
 with torch.no_grad():
     model = fit.exposure * render_targets(fit.structure(), beams, resolution=resolution, wavelength=wavelength)
-    other = double.exposure * render_targets(bragg_structure(double.period, double.delta, double.n1, double.n2,
+    other = double.exposure * render_targets(bragg_structure(double.n1, double.n2, double.period, double.delta,
                                                              double.cells, double.alpha),
                                              beams, resolution=resolution, wavelength=wavelength)
 _, disc = scatterogram_directions(resolution)

@@ -33,7 +33,7 @@ def green_target():
 # ---------------------------------------------------------------------------- the loss
 def test_loss_exposure_invariant(green_target):
     t = green_target / green_target[..., 1].max()
-    wrong = render_targets(bragg_structure(170.0, 0.51, 1.59, 1.67, 8, 0.05), INCS, resolution=12, wavelength=LAM)
+    wrong = render_targets(bragg_structure(1.59, 1.67, 170.0, 0.51, 8, 0.05), INCS, resolution=12, wavelength=LAM)
     base = scatterogram_loss(wrong, t)
     for k in (1e-3, 0.37, 12.0):
         torch.testing.assert_close(scatterogram_loss(k * wrong, t), base, rtol=1e-10, atol=0)
@@ -53,7 +53,7 @@ def test_loss_is_lab_distance():
 
 def test_loss_gradients_finite(green_target):
     period = torch.tensor(163.0, dtype=F64, requires_grad=True)
-    model = render_targets(bragg_structure(period, 0.51, 1.59, 1.67, 8, 0.05), INCS, resolution=12, wavelength=LAM)
+    model = render_targets(bragg_structure(1.59, 1.67, period, 0.51, 8, 0.05), INCS, resolution=12, wavelength=LAM)
     loss = scatterogram_loss(model, green_target / green_target[..., 1].max())
     loss.backward()
     assert math.isfinite(float(period.grad)) and float(period.grad) > 0  # too long: the gradient says shorten

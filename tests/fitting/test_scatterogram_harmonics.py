@@ -27,7 +27,7 @@ SMALL = dict(incident_deg=INCS, n1=1.6, wavelength=LAM, cells=(6, 8, 10), period
 
 @pytest.fixture(scope="module")
 def target():
-    return 1.7 * render_targets(bragg_structure(178.0, 0.6, 1.6, 1.66, 10, 0.03), INCS, resolution=12, wavelength=LAM)
+    return 1.7 * render_targets(bragg_structure(1.6, 1.66, 178.0, 0.6, 10, 0.03), INCS, resolution=12, wavelength=LAM)
 
 
 def _by_label(fit):
@@ -97,7 +97,7 @@ def test_other_ranges_bound_fit_and_refits(target):
 def test_a_harmonic_that_replaces_the_fit_adds_its_round_to_the_progress_total():
     """From Λ = 250 nm (8 px, no grid) the 2Λ/3 refit (≈ 167 nm) fits better and replaces the fit: the
     progress total grows by its round (one other N, the polish, two harmonics) and ends at done == total."""
-    t = 1.7 * render_targets(bragg_structure(178.0, 0.6, 1.6, 1.66, 10, 0.03), INCS, resolution=8, wavelength=LAM)
+    t = 1.7 * render_targets(bragg_structure(1.6, 1.66, 178.0, 0.6, 10, 0.03), INCS, resolution=8, wavelength=LAM)
     seen = []
     fit = match_scatterogram(t, incident_deg=INCS, n1=1.6, cells=(9, 10), period_range=None,
                              init={"period": 250.0, "delta": 0.4}, short_iter=3, max_iter=1, harmonics=(0.5, 2 / 3),

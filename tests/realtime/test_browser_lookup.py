@@ -161,7 +161,7 @@ def test_bragg_lookup_in_the_browser_is_the_python_lookup(browser):
     got = _evaluate(browser, f"vec4 evaluate(vec4 p) {{ return vec4(tirid_bragg_rgb(tex, {_axes(lut)}, p.x, p.y, p.z, "
                              f"{n1}, {n2}, {n0}), 1.0); }}", torch.stack([cos, period, delta], -1),
                     [_lut_texture("tex", lut)])
-    lam_b = bragg_wavelength(cos, period, delta, n1, n2, n0)
+    lam_b = bragg_wavelength(cos, n1, n2, period, delta, n0)
     want = lookup(lut.to(F64), "bragg", torch.stack([cos, lam_b, delta], -1)).numpy()
     np.testing.assert_allclose(got[:, :3], want, rtol=0, atol=_tolerance(lut))
 
@@ -176,7 +176,7 @@ def test_path_and_rough_film_lookups_in_the_browser_are_the_python_lookups(brows
     cos, d, n = u[:, 0], 600.0 * u[:, 1], 1.2 + 1.2 * u[:, 2]
     got = _evaluate(browser, f"vec4 evaluate(vec4 p) {{ return vec4(tirid_thin_film_path_rgb(tex, {_axes(lut)}, "
                              "p.x, p.y, p.z, 1.0), 1.0); }", torch.stack([cos, d, n], -1), [_lut_texture("tex", lut)])
-    want = lookup(lut.to(F64), "thin_film_path", torch.stack([cos, path_difference(cos, d, n), n], -1)).numpy()
+    want = lookup(lut.to(F64), "thin_film_path", torch.stack([cos, path_difference(cos, n, d), n], -1)).numpy()
     np.testing.assert_allclose(got[:, :3], want, rtol=0, atol=_tolerance(lut))
 
     lut = shipped_texture("rough_thin_film")

@@ -95,7 +95,7 @@ def test_bragg_wavelength_is_the_reflection_peak():
     """λ_B = 2(n1 d1 cos θ1 + n2 d2 cos θ2): the first-order band of a 20-cell mirror is there."""
     for cos_theta in (1.0, 0.6):
         period, delta = 250.0, 0.4
-        lam_b = float(bragg_wavelength(torch.tensor(cos_theta, dtype=F64), period, delta, 1.0, 1.5))
+        lam_b = float(bragg_wavelength(torch.tensor(cos_theta, dtype=F64), 1.0, 1.5, period, delta))
         if cos_theta == 1.0:
             assert lam_b == pytest.approx(2 * (1.0 * 150.0 + 1.5 * 100.0))
         lam = torch.linspace(0.8 * lam_b, 1.2 * lam_b, 801, dtype=F64)
@@ -113,7 +113,7 @@ def test_bragg_texture_is_fitted_over_the_warped_axis():
     assert fit.errors["fitted"]["mean"] < fit.errors["sampled"]["mean"]
     # a point of the texture domain is the mirror of period λ_B / (2 n̄ cos θ̄)
     x = torch.tensor([[0.8, 600.0, 0.5]], dtype=F64)
-    period = 600.0 / float(bragg_wavelength(torch.tensor(0.8, dtype=F64), 1.0, 0.5, 1.59, 1.67))
+    period = 600.0 / float(bragg_wavelength(torch.tensor(0.8, dtype=F64), 1.59, 1.67, 1.0, 0.5))
     want = ti.color.xyz_to_linear_srgb(ti.bragg_xyz(torch.tensor(0.8, dtype=F64), 1.59, 1.67, period / 2, period / 2, 8))
     torch.testing.assert_close(exact_colour("bragg", x, P)[0], want, rtol=1e-12, atol=1e-12)
 
@@ -177,11 +177,11 @@ def test_path_difference_axis_is_the_film_of_that_thickness():
     cos = torch.tensor([1.0, 0.6, 0.1], dtype=F64)
     d = torch.tensor([300.0, 150.0, 500.0], dtype=F64)
     n = torch.tensor([1.33, 2.0, 1.6], dtype=F64)
-    p = path_difference(cos, d, n)
+    p = path_difference(cos, n, d)
     torch.testing.assert_close(p, 2 * d * torch.sqrt(n**2 - (1 - cos**2)), rtol=1e-14, atol=0)
     got = exact_colour("thin_film_path", torch.stack([cos, p, n], -1), {"n_substrate": [2.0, 0.5]})
     for i in range(3):
         want = exact_colour("thin_film", torch.stack([cos[i:i + 1], d[i:i + 1]], -1),
                             {"n_film": float(n[i]), "n_substrate": complex(2.0, 0.5)})
         torch.testing.assert_close(got[i:i + 1], want, rtol=1e-12, atol=1e-14)
-    assert float(path_difference(torch.tensor(0.0, dtype=F64), 100.0, 1.5)) == pytest.approx(200 * math.sqrt(1.25))
+    assert float(path_difference(torch.tensor(0.0, dtype=F64), 1.5, 100.0)) == pytest.approx(200 * math.sqrt(1.25))

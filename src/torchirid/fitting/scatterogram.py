@@ -117,12 +117,12 @@ _LOSSES = ("lab", "de2000")
 # ----------------------------------------------------------------------------------------
 # the model
 # ----------------------------------------------------------------------------------------
-def bragg_structure(period, delta, n1, n2, cells: int, alpha, *, n_incident: float = 1.0,
+def bragg_structure(n1, n2, period, delta, cells: int, alpha, *, n_incident: float = 1.0,
                     base_albedo: float = 0.0) -> LayeredBragg:
     """One rough Bragg layer ``d2 = δΛ``, ``d1 = (1 − δ)Λ`` (the preset convention) as a
     :class:`~torchirid.layered.structure.LayeredBragg`; tensor parameters keep their graph.
 
-    >>> s = bragg_structure(160.0, 0.51, 1.59, 1.67, 8, 0.05)
+    >>> s = bragg_structure(1.59, 1.67, 160.0, 0.51, 8, 0.05)
     >>> l = s.layers[0]
     >>> round(l.d1, 6), round(l.d2, 6), l.n_incident
     (78.4, 81.6, 1.0)
@@ -337,7 +337,7 @@ class ScatterogramFit:
 
     def structure(self, *, n_incident: float = 1.0, base_albedo: float = 0.0) -> LayeredBragg:
         """The recovered layer as a structure (float parameters)."""
-        return bragg_structure(self.period, self.delta, self.n1, self.n2, self.cells, self.alpha,
+        return bragg_structure(self.n1, self.n2, self.period, self.delta, self.cells, self.alpha,
                                n_incident=n_incident, base_albedo=base_albedo)
 
     def numbers(self) -> dict:
@@ -452,7 +452,7 @@ class _Problem:
 
     def render(self, period, delta, n1, n2, cells, alpha):
         self.evaluations += 1
-        s = bragg_structure(period, delta, n1, n2, cells, alpha, n_incident=self.n_incident, base_albedo=self.base_albedo)
+        s = bragg_structure(n1, n2, period, delta, cells, alpha, n_incident=self.n_incident, base_albedo=self.base_albedo)
         return render_targets(s, self.incs, resolution=self.resolution, wavelength=self.lam,
                               projection=self.projection, lut=self.lut)
 

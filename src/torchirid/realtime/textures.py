@@ -89,7 +89,7 @@ def _index(n):
     return complex(*n) if isinstance(n, (list, tuple)) else n
 
 
-def path_difference(cos_theta, thickness, n_film, n_incident: float = 1.0):
+def path_difference(cos_theta, n_film, thickness, n_incident: float = 1.0):
     r"""The optical path difference (nm) of a film's two first reflections,
     :math:`p = 2 n_f d \cos\theta_f = 2d\sqrt{n_f^2 - n_0^2(1 - \cos^2\theta)}`.
 
@@ -99,14 +99,14 @@ def path_difference(cos_theta, thickness, n_film, n_incident: float = 1.0):
     the same way before the lookup (``tirid_path_difference``).
 
     Args:
-        cos_theta: cos θ in the incident medium; thickness: d (nm); n_film: real film index;
+        cos_theta: cos θ in the incident medium; n_film: real film index; thickness: d (nm);
             n_incident: real index of the incident medium — broadcasting; dtype/device from them.
 
     Returns:
         p in nm (0 where the film would totally reflect, n_f < n_0 sin θ).
 
     Example:
-        >>> round(float(path_difference(1.0, 300.0, 1.33)), 6)
+        >>> round(float(path_difference(1.0, 1.33, 300.0)), 6)
         798.0
     """
     dtype, device = _checks.resolve_dtype_device(cos_theta, thickness, n_film, n_incident)
@@ -119,14 +119,14 @@ def _thin_film_path(x, *, n_substrate, n_incident: float = 1.0):
     from ..optics import thin_film_reflectance
 
     cos_theta, path, n_film = x[..., 0], x[..., 1], x[..., 2]
-    d = path / path_difference(cos_theta, 1.0, n_film, n_incident)
+    d = path / path_difference(cos_theta, n_film, 1.0, n_incident)
     lam = _wavelengths(x.device)
     R = thin_film_reflectance(lam, cos_theta[..., None], n_film[..., None], d[..., None], _index(n_substrate),
                               n_incident=n_incident)
     return spectrum_to_xyz(R, lam)
 
 
-def bragg_wavelength(cos_theta, period, delta, n1: float, n2: float, n_incident: float | None = None):
+def bragg_wavelength(cos_theta, n1: float, n2: float, period, delta, n_incident: float | None = None):
     r"""The first-order Bragg wavelength (nm) of a mirror of period Λ, δ the fraction in n2:
 
     .. math:: \lambda_B = 2\Lambda\left[(1-\delta)\, n_1\cos\theta_1 + \delta\, n_2\cos\theta_2\right],
@@ -144,10 +144,10 @@ def bragg_wavelength(cos_theta, period, delta, n1: float, n2: float, n_incident:
 
     Example (Λ = 160 nm, δ = ½, n1 = 1.56, n2 = 1.68, at normal incidence and at cos θ = 0.5):
         >>> import torch
-        >>> lam = bragg_wavelength(torch.tensor([1.0, 0.5]), 160.0, 0.5, 1.56, 1.68)
+        >>> lam = bragg_wavelength(torch.tensor([1.0, 0.5]), 1.56, 1.68, 160.0, 0.5)
         >>> [round(v, 1) for v in lam.tolist()]  # nm; at normal incidence 2Λ(n1 + n2)/2
         [518.4, 284.6]
-        >>> round(float(bragg_wavelength(1.0, 160.0, 0.5, 1.56, 1.68)), 1)  # numbers work too
+        >>> round(float(bragg_wavelength(1.0, 1.56, 1.68, 160.0, 0.5)), 1)  # numbers work too
         518.4
     """
     dtype, device = _checks.resolve_dtype_device(cos_theta, period, delta)
@@ -164,7 +164,7 @@ def _bragg(x, *, cells: int, n1: float, n2: float, n_incident: float | None = No
     from ..spectral import bragg_xyz
 
     cos_theta, lam_b, delta = x[..., 0], x[..., 1], x[..., 2]
-    period = lam_b / bragg_wavelength(cos_theta, 1.0, delta, n1, n2, n_incident)
+    period = lam_b / bragg_wavelength(cos_theta, n1, n2, 1.0, delta, n_incident)
     # δ: the fraction of the period in the n2 layer (Fourneau et al. Table 3)
     return bragg_xyz(cos_theta, n1, n2, period * (1 - delta), period * delta, cells, n_incident=n_incident,
                      method="spectral")
