@@ -200,8 +200,52 @@ def inference_when_no_grad(fn):
     return run
 
 
+#: the most points (the product of the tensor arguments' sizes) that :func:`inference_when_small` runs
+#: in inference mode: one-point and few-point calls, whose copy of the result costs one small op
+SMALL_CALL = 128
+
+
+def inference_when_small(fn):
+    """Decorator for a function returning one tensor and filling no cache: a call of at most
+    :data:`SMALL_CALL` points (the product of its tensor arguments' sizes; numbers, strings and
+    None count one) that no gradient can flow through runs in :func:`torch.inference_mode` and
+    returns a copy made outside it (an ordinary tensor). Its few hundred small ops then skip the
+    autograd bookkeeping (~10 % of a one-point call); larger calls, calls with a gradient, inside
+    inference mode already, under vmap or ``torch.compile`` (:func:`traceable`) just run."""
+
+    @functools.wraps(fn)
+    def run(*args, **kwargs):
+        if torch.is_inference_mode_enabled() or traceable():
+            return fn(*args, **kwargs)
+        grad = torch.is_grad_enabled()
+        size = 1
+        for v in (*args, *kwargs.values()):
+            if isinstance(v, torch.Tensor):
+                if grad and v.requires_grad:
+                    return fn(*args, **kwargs)
+                size *= v.numel()
+            elif not (v is None or isinstance(v, (numbers.Number, str))):  # (sequences, arrays: not counted here)
+                return fn(*args, **kwargs)
+        if size > SMALL_CALL:
+            return fn(*args, **kwargs)
+        with torch.inference_mode():
+            out = fn(*args, **kwargs)
+        return out.clone()
+
+    return run
+
+
 def complex_dtype(real_dtype: torch.dtype) -> torch.dtype:
     return torch.complex128 if real_dtype == torch.float64 else torch.complex64
+
+
+def _number(x, dtype, device) -> torch.Tensor:
+    """A Python float or complex as a 0-d tensor of ``dtype``: ``torch.scalar_tensor`` (half the cost of
+    ``as_tensor``) in double precision, where every Python number fits; ``as_tensor`` otherwise (it
+    rounds a float32 overflow to inf where ``scalar_tensor`` raises)."""
+    if dtype == torch.float64 or dtype == torch.complex128:
+        return torch.scalar_tensor(x, dtype=dtype, device=device)
+    return torch.as_tensor(x, dtype=dtype, device=device)
 
 
 def as_real(x, name: str, dtype, device) -> torch.Tensor:
@@ -214,7 +258,7 @@ def as_real(x, name: str, dtype, device) -> torch.Tensor:
     if isinstance(x, bool):
         raise ValueError(f"{name} must be a real number, got a bool")
     if isinstance(x, numbers.Real):
-        return torch.as_tensor(float(x), dtype=dtype, device=device)
+        return _number(float(x), dtype, device)
     if isinstance(x, torch.Tensor) and x.dtype == dtype and x.device == device:
         return x  # (already a real tensor of dtype where it belongs)
     try:
@@ -235,9 +279,9 @@ def as_index(x, name: str, dtype, device) -> torch.Tensor:
     if isinstance(x, bool):
         raise ValueError(f"{name} must be a refractive index, got a bool")
     if isinstance(x, complex):
-        return torch.as_tensor(x, dtype=complex_dtype(dtype), device=device)
+        return _number(x, complex_dtype(dtype), device)
     if isinstance(x, numbers.Real):
-        return torch.as_tensor(float(x), dtype=dtype, device=device)
+        return _number(float(x), dtype, device)
     if isinstance(x, torch.Tensor) and (x.dtype == dtype or x.dtype == complex_dtype(dtype)) and x.device == device:
         return x  # (already a real or complex tensor of the precision where it belongs)
     try:
@@ -557,6 +601,11 @@ def check_polarization(polarization: str) -> None:
         )
 
 
+#: the pure polarizations averaged for each valid ``polarization`` (:func:`polarization_terms` without
+#: the check, for kernels called after it)
+POLARIZATION_TERMS = {"s": ("s",), "p": ("p",), "unpolarized": ("s", "p")}
+
+
 def polarization_terms(polarization: str) -> tuple[str, ...]:
     """The pure polarizations whose results are averaged for ``polarization`` (validated):
     ``("s", "p")`` for ``"unpolarized"`` (the mean of the s and p quantities), else itself.
@@ -565,7 +614,7 @@ def polarization_terms(polarization: str) -> tuple[str, ...]:
     (('s', 'p'), ('p',))
     """
     check_polarization(polarization)
-    return ("s", "p") if polarization == "unpolarized" else (polarization,)
+    return POLARIZATION_TERMS[polarization]
 
 
 def check_int(value, name: str, minimum: int = 1) -> int:
@@ -593,6 +642,18 @@ def names(seq: Sequence[str]) -> str:
     return ", ".join(repr(s) for s in seq)
 
 
+def check_choice(value, name: str, choices):
+    """``value`` if it is one of ``choices`` (a sequence, or a mapping's keys), else the one
+    ValueError of the library for a bad option: ``<name> must be one of 'a', 'b'; got 'c'``."""
+    try:
+        ok = value in choices
+    except TypeError:  # an unhashable value asked of a mapping
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} must be one of {names(choices)}; got {value!r}")
+    return value
+
+
 def broadcast_shapes(*shapes) -> torch.Size:
     """``torch.broadcast_shapes`` in plain Python.
 
@@ -600,6 +661,8 @@ def broadcast_shapes(*shapes) -> torch.Size:
     process — more than a whole small call costs. Raises RuntimeError on incompatible shapes
     like torch does.
     """
+    if shapes and all(s == shapes[0] for s in shapes):  # (one-point calls: every shape ())
+        return torch.Size(shapes[0])
     ndim = 0
     for s in shapes:  # (a loop, not max(..., default=0): torch.compile traces this)
         ndim = max(ndim, len(s))

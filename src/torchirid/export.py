@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from . import _checks
 from ._io import atomic_write, check_readable, file_error, read_exr_channels
 from .lut import LUT
 from ._version import __version__
@@ -205,8 +206,7 @@ def export_lut(lut: LUT, path, *, format: str = "raw", channel_names=None) -> tu
     """
     if not isinstance(lut, LUT):
         raise ValueError(f"lut must be a torchirid.lut.LUT, got {type(lut).__name__}")
-    if format not in EXPORT_FORMATS:
-        raise ValueError(f"format must be one of {EXPORT_FORMATS}, got {format!r}")
+    _checks.check_choice(format, "format", EXPORT_FORMATS)
     stem = _stem(path)
     data_path = stem.with_name(stem.name + _SUFFIX[format])
     side_path = _sidecar_of(data_path)

@@ -74,6 +74,7 @@ from typing import Any, Mapping
 import numpy as np
 import torch
 
+from . import _checks
 from ._io import atomic_write
 from ._lut_file import (_FLOAT_DTYPES, _FORMAT_TAG, _RESERVED_AXIS_NAMES, _SAVABLE, EXPECT_KEYS,  # noqa: F401
                         EXTRAPOLATE_MODES, FORMAT_VERSION, _canonical_json, _current_version, _dtype_name,
@@ -376,8 +377,7 @@ class LUT:
             tensor([[ 5.2500, 15.2500],
                     [ 5.5000, 15.5000]], dtype=torch.float64)
         """
-        if extrapolate not in EXTRAPOLATE_MODES:
-            raise ValueError(f"extrapolate must be one of {EXTRAPOLATE_MODES}, got {extrapolate!r}")
+        _checks.check_choice(extrapolate, "extrapolate", EXTRAPOLATE_MODES)
         names = tuple(self._axes)
         if len(args) > len(names):
             raise ValueError(

@@ -112,7 +112,7 @@ def _polarization_defaults():
 
 def test_one_polarization_default_and_the_cube_matches_the_fit():
     defaults = dict(_polarization_defaults())
-    assert {"estimate_film", "refine_film", "peak_method", "synthetic_cube", "band_reflectance"} <= set(defaults)
+    assert {"estimate_film", "refine_film", "peak_method", "synthetic_cube"} <= set(defaults)
     assert set(defaults.values()) == {"unpolarized"}, defaults
     c = E.synthetic_cube("mgf2_600", height=8, width=8, seed=2)  # both defaults: a consistent pair
     est = E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, sample=64)

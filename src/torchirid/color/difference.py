@@ -229,8 +229,7 @@ def delta_e(lab1, lab2, *, method: str = "CIE 2000") -> torch.Tensor:
         >>> round(delta_e(lab1, lab2, method="CIE 1976").item(), 4)
         4.0011
     """
-    if not isinstance(method, str) or method not in _METHODS:
-        raise ValueError(f"method must be one of {_checks.names(DELTA_E_METHODS)}; got {method!r}")
+    _checks.check_choice(method, "method", DELTA_E_METHODS)
     return _METHODS[method](lab1, lab2)
 
 

@@ -42,8 +42,7 @@ _ZNS_C = (0.2421, 36.71)
 
 
 def _check_model(model) -> None:
-    if model not in INDEX_MODELS:
-        raise ValueError(f"index model must be one of {_checks.names(tuple(INDEX_MODELS))}; got {model!r}")
+    _checks.check_choice(model, "index model", INDEX_MODELS)
 
 
 def index_model_size(model: str) -> int:

@@ -255,8 +255,7 @@ class _Scan:
 def _validate_inputs(cube, wavelength, cos_theta, n_substrate, index_model_name, band, n_range, thickness_range,
                      smoothness, sample, iterations, final_iterations, seed, progress) -> _Setup:
     """Check every argument of :func:`estimate_film` (ValueError naming it) before any work."""
-    if index_model_name not in INDEX_CHOICES:
-        raise ValueError(f"index_model_name must be one of {_checks.names(INDEX_CHOICES)}; got {index_model_name!r}")
+    _checks.check_choice(index_model_name, "index_model_name", INDEX_CHOICES)
     y, lam, c = cube_axes(cube, wavelength, cos_theta, pixel_axes=1)
     if lam.numel() < 7:
         raise ValueError(f"wavelength must have at least 7 bands; got {lam.numel()}")

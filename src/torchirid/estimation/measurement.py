@@ -52,8 +52,7 @@ def band_nodes(bandwidth: float, nodes: int = 3, passband: str = "box", *, dtype
     >>> [round(v, 4) for v in off.tolist()], [round(v, 3) for v in wts.tolist()]
     ([-1.1547, 1.1547], [0.5, 0.5])
     """
-    if passband not in PASSBANDS:
-        raise ValueError(f"passband must be one of {_checks.names(PASSBANDS)}; got {passband!r}")
+    _checks.check_choice(passband, "passband", PASSBANDS)
     nodes = _checks.check_int(nodes, "nodes")
     bw = float(bandwidth)
     if not math.isfinite(bw) or bw < 0:
@@ -200,8 +199,7 @@ def band_variance(bandwidth: float, passband: str = "box") -> float:
     >>> round(band_variance(4.0), 6)
     1.333333
     """
-    if passband not in PASSBANDS:
-        raise ValueError(f"passband must be one of {_checks.names(PASSBANDS)}; got {passband!r}")
+    _checks.check_choice(passband, "passband", PASSBANDS)
     bw = float(bandwidth)
     if not math.isfinite(bw) or bw < 0:
         raise ValueError(f"bandwidth must be >= 0 nm and finite; got {bandwidth!r}")

@@ -185,7 +185,7 @@ def d_only_gauss_newton(cube, thickness, terms, *, iterations: int = 3, max_step
     nan = d.isnan()
     d = d.nan_to_num(0.0)
     sse_out = torch.empty_like(d)
-    for i0, i1 in pixel_chunks(P, C * terms_size(terms)):
+    for i0, i1 in pixel_chunks(P, C * terms_size(terms), device=cube.device):
         y, dd = cube[i0:i1], d[i0:i1]
         r, Jd, _ = residual_parts(y, dd, terms)
         r = r.nan_to_num(0.0)
@@ -357,7 +357,7 @@ class _Fit:
         terms = self.terms(theta)
         P = self.Y.shape[0]
         out = torch.empty(P, dtype=self.Y.dtype, device=self.Y.device)
-        for i0, i1 in pixel_chunks(P, terms_size(terms)):
+        for i0, i1 in pixel_chunks(P, terms_size(terms), device=self.Y.device):
             r, _, _ = residual_parts(self.Y[i0:i1], d[i0:i1, None], terms, with_jacobian=False)
             r = torch.where(self.valid[i0:i1, None], r, torch.zeros_like(r))
             out[i0:i1] = (r * r).sum((-1, -2))[:, 0]
@@ -390,8 +390,7 @@ def _refine_inputs(cube, wavelength, cos_theta, n_substrate, thickness_init, ind
                    smoothness, iterations, tol):
     """Validate :func:`refine_film`'s arguments (ValueError naming the parameter) and prepare the
     problem → ``(fit, theta (K,), d (P,))``; NaN starts become the median start."""
-    if index_model_name not in INDEX_MODELS:
-        raise ValueError(f"index_model_name must be one of {_checks.names(tuple(INDEX_MODELS))}; got {index_model_name!r}")
+    _checks.check_choice(index_model_name, "index_model_name", INDEX_MODELS)
     smoothness = weight(smoothness, "smoothness")
     _checks.check_int(iterations, "iterations", minimum=0)
     weight(tol, "tol")
@@ -434,7 +433,7 @@ def _normal_equations(fit, theta, d, sse, fit_index) -> _Normal:
         Hdt = torch.zeros(P, K, dtype=dtype, device=device)
     Hdd = torch.empty(P, dtype=dtype, device=device)
     gd = torch.empty(P, dtype=dtype, device=device)
-    for i0, i1 in pixel_chunks(P, terms_size(terms)):
+    for i0, i1 in pixel_chunks(P, terms_size(terms), device=fit.Y.device):
         r, Jd, Jt = lm_jacobian(fit.Y[i0:i1], d[i0:i1], terms, dterms if fit_index else None)
         m = fit.valid[i0:i1]
         r = torch.where(m, r, torch.zeros_like(r))

@@ -239,11 +239,9 @@ def read_scatterogram(path, *, projection: str = "equidistant", center=None, rad
             raise ValueError("saturation applies to OpenEXR files only (a PNG saturates at its maximum code)")
         if isinstance(saturation, bool) or not isinstance(saturation, numbers.Real) or not saturation > 0:
             raise ValueError(f"saturation must be None or a number > 0; got {saturation!r}")
-    if projection not in PROJECTIONS:
-        raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
+    _checks.check_choice(projection, "projection", PROJECTIONS)
     grid_projection = projection if grid_projection is None else grid_projection
-    if grid_projection not in PROJECTIONS:
-        raise ValueError(f"grid_projection must be one of {_checks.names(PROJECTIONS)}; got {grid_projection!r}")
+    _checks.check_choice(grid_projection, "grid_projection", PROJECTIONS)
     for name, v in (("exposure", exposure), ("radius_px", 1.0 if radius_px is None else radius_px)):
         if isinstance(v, bool) or not isinstance(v, numbers.Real) or not v > 0:
             raise ValueError(f"{name} must be a number > 0; got {v!r}")
@@ -382,8 +380,8 @@ def write_scatterogram(path, scatterogram_or_xyz, *, format: str | None = None, 
         format = os.path.splitext(os.fspath(path))[1].lower().lstrip(".")
         if format not in ("png", "exr"):
             raise ValueError(f"path must end in .png or .exr (or pass format='png' / 'exr'); got {os.fspath(path)!r}")
-    elif format not in ("png", "exr"):
-        raise ValueError(f"format must be one of 'png', 'exr'; got {format!r}")
+    else:
+        _checks.check_choice(format, "format", ("png", "exr"))
     if format == "png":
         return _write_scatterogram_png(path, scatterogram_or_xyz, exposure, bits, mask)
     return _write_scatterogram_exr(path, scatterogram_or_xyz, exposure, mask)

@@ -204,8 +204,7 @@ def scatterogram_loss(model_xyz, target_xyz, mask=None, *, scale=None, loss: str
     >>> float(scatterogram_loss(3.7 * t, t)) < 1e-20  # exposure invariance
     True
     """
-    if loss not in _LOSSES:
-        raise ValueError(f"loss must be one of {_checks.names(_LOSSES)}; got {loss!r}")
+    _checks.check_choice(loss, "loss", _LOSSES)
     model_xyz = torch.as_tensor(model_xyz)
     target_xyz = torch.as_tensor(target_xyz)
     if model_xyz.shape != target_xyz.shape or model_xyz.dim() < 3 or model_xyz.shape[-1] != 3:
@@ -668,10 +667,8 @@ def match_scatterogram(
     if target.shape[0] != len(incs):
         raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident_deg names {len(incs)} "
                          "illuminations")
-    if projection not in PROJECTIONS:
-        raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
-    if loss not in _LOSSES:
-        raise ValueError(f"loss must be one of {_checks.names(_LOSSES)}; got {loss!r}")
+    _checks.check_choice(projection, "projection", PROJECTIONS)
+    _checks.check_choice(loss, "loss", _LOSSES)
     if isinstance(n1, bool) or not isinstance(n1, numbers.Real) or not n1 > 0:
         raise ValueError(f"n1 must be a real number > 0; got {n1!r}")
     cells = _check_cells(cells)

@@ -54,9 +54,7 @@ FILTERED_SENSITIVITY_MODES = ("exact", "lut")
 
 
 def _check_sensitivity(sensitivity):
-    if sensitivity not in FILTERED_SENSITIVITY_MODES:
-        raise ValueError(f"sensitivity must be one of {_checks.names(FILTERED_SENSITIVITY_MODES)}; "
-                         f"got {sensitivity!r}")
+    _checks.check_choice(sensitivity, "sensitivity", FILTERED_SENSITIVITY_MODES)
 
 __all__ = ["thin_film_xyz_filtered", "thin_film_xyz_gaussian_path"]
 

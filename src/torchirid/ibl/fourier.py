@@ -611,8 +611,7 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
         [0.0516, 0.0675, 0.0417]
     """
     _checks.check_int(terms, "terms", 0)
-    if sensitivity not in SENSITIVITY_MODES:
-        raise ValueError(f"sensitivity must be one of {_checks.names(SENSITIVITY_MODES)}; got {sensitivity!r}")
+    _checks.check_choice(sensitivity, "sensitivity", SENSITIVITY_MODES)
     _check_names(observer, illuminant)
     _checks.check_polarization(polarization)
     dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)

@@ -70,9 +70,7 @@ def thin_film_xyz(cos_theta, n_film, thickness, n_substrate, *, alpha=None, meth
     >>> smooth.shape, rough.shape
     (torch.Size([2, 3]), torch.Size([2, 3]))
     """
-    fn = THIN_FILM_XYZ_METHODS.get(method)
-    if fn is None:
-        raise ValueError(f"method must be one of {_checks.names(THIN_FILM_XYZ_METHODS)}; got {method!r}")
+    fn = THIN_FILM_XYZ_METHODS[_checks.check_choice(method, "method", THIN_FILM_XYZ_METHODS)]
     if method in _ROUGH:
         if alpha is None:
             raise ValueError(f"method {method!r} is a rough film: pass its GGX roughness alpha=")

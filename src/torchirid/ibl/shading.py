@@ -164,10 +164,8 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
     if not isinstance(prefiltered, PrefilteredEnvironment):
         raise ValueError(f"prefiltered must be a PrefilteredEnvironment (from prefilter_environment); "
                          f"got {type(prefiltered).__name__}")
-    if method not in SHADING_METHODS:
-        raise ValueError(f"method must be one of {_checks.names(SHADING_METHODS)}; got {method!r}")
-    if output not in SHADING_OUTPUTS:
-        raise ValueError(f"output must be one of {_checks.names(SHADING_OUTPUTS)}; got {output!r}")
+    _checks.check_choice(method, "method", SHADING_METHODS)
+    _checks.check_choice(output, "output", SHADING_OUTPUTS)
     _checks.check_int(terms, "terms", 0)
     _check_names(observer, "D65")
     _check_sensitivity(sensitivity)

@@ -79,9 +79,7 @@ MASKING_MODES = ("separable", "height-correlated")
 
 def _check_masking(masking) -> str:
     """Validate ``masking`` (one of :data:`MASKING_MODES`) and return it."""
-    if not isinstance(masking, str) or masking not in MASKING_MODES:
-        raise ValueError(f"masking must be one of {_checks.names(MASKING_MODES)}; got {masking!r}")
-    return masking
+    return _checks.check_choice(masking, "masking", MASKING_MODES)
 
 
 def _geometry(cos_theta_o, alpha):

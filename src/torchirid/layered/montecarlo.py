@@ -446,8 +446,7 @@ def montecarlo_brdf(
         structure = LayeredBragg([structure])
     if not isinstance(structure, LayeredBragg):
         raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
-    if transmission not in TRANSMISSION_MODES:
-        raise ValueError(f"transmission must be one of {TRANSMISSION_MODES}; got {transmission!r}")
+    _checks.check_choice(transmission, "transmission", TRANSMISSION_MODES)
     samples = _checks.check_int(samples, "samples", 2)
     seed = _checks.check_int(seed, "seed", 0)
     max_depth = _checks.check_int(max_depth, "max_depth", 1)

@@ -69,8 +69,7 @@ def jewel_beetle(name: str, *, alpha: float = JEWEL_BEETLE_ALPHA, base_albedo: f
     >>> (l.n1, l.n2, round(l.d1 + l.d2, 9), l.cells, s.base_albedo)
     (1.6, 1.68, 205.0, 6, 0.0)
     """
-    if not isinstance(name, str) or name not in JEWEL_BEETLE:
-        raise ValueError(f"name must be one of {_checks.names(JEWEL_BEETLE_NAMES)}; got {name!r}")
+    _checks.check_choice(name, "name", JEWEL_BEETLE_NAMES)
     row = JEWEL_BEETLE[name]
     period, delta = row["period"], row["delta"]
     layer = RoughBraggLayer(row["n1"], row["n2"], (1.0 - delta) * period, delta * period, row["cells"], alpha,

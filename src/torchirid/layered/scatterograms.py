@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .._quadrature import gauss_legendre01
 from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
@@ -78,16 +78,13 @@ DEFAULT_WAVELENGTHS = (380.0, 780.0, 81)
 LOBE_NODES = (24, 16)
 #: white environment with a Lambertian base: cosine-weighted hemisphere (GL in sin²θ_i, azimuths)
 COSINE_NODES = (16, 32)
-#: direction pairs × wavelengths per call of the BRDF (memory bound of one chunk)
-_CHUNK_ELEMENTS = 1 << 21
 
 
 # ----------------------------------------------------------------------------------------
 # the angular mapping
 # ----------------------------------------------------------------------------------------
 def _check_projection(projection) -> None:
-    if projection not in PROJECTIONS:
-        raise ValueError(f"projection must be one of {_checks.names(PROJECTIONS)}; got {projection!r}")
+    _checks.check_choice(projection, "projection", PROJECTIONS)
 
 
 def projection_radius(theta_rad, projection: str = "equidistant") -> torch.Tensor:
@@ -248,22 +245,29 @@ def _brdf_kwargs(structure: LayeredBragg, lut: bool, transmissivity_angles) -> d
     return kw
 
 
+def _pairs_per_block(lam, count) -> int:
+    """Direction pairs per call of the BRDF: pairs × wavelengths ≤ the block size of
+    :mod:`torchirid._chunks` (``options(chunk_size=None)``: all ``count`` pairs at once)."""
+    chunk = _chunks.get_chunk_size(lam.device)
+    return max(1, count) if chunk is None else max(1, chunk // lam.numel())
+
+
 def _brdf(structure, wi, wo, lam, kw) -> torch.Tensor:
-    """single_reflection_brdf over the broadcast pairs (*, 3), in chunks bounded in memory."""
+    """single_reflection_brdf over the broadcast pairs (*, 3), block by block (bounded memory)."""
     wi, wo = torch.broadcast_tensors(wi, wo)
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
-    step = max(1, _CHUNK_ELEMENTS // lam.numel())
+    step = _pairs_per_block(lam, wi.shape[0])
     out = [single_reflection_brdf(lam, wi[k:k + step], wo[k:k + step], structure, **kw)
            for k in range(0, wi.shape[0], step)]
     return torch.cat(out, 0).reshape(*shape, lam.numel())
 
 
 def _beam_xyz(structure, wi, wo, lam, kw, weights) -> torch.Tensor:
-    """XYZ ``(pixels, 3)`` of ``f_r cos θi`` integrated against ``weights``, chunk by chunk (each
-    chunk's spectra are reduced at once: the (pixels, W) spectra never exist whole)."""
-    step = max(1, _CHUNK_ELEMENTS // lam.numel())
+    """XYZ ``(pixels, 3)`` of ``f_r cos θi`` integrated against ``weights``, block by block (each
+    block's spectra are reduced at once: the (pixels, W) spectra never exist whole)."""
     wo = wo.reshape(-1, 3)
+    step = _pairs_per_block(lam, wo.shape[0])
     out = [(_brdf(structure, wi, wo[k:k + step], lam, kw) * wi[2]) @ weights for k in range(0, wo.shape[0], step)]
     return torch.cat(out, 0) if out else torch.zeros(0, 3, dtype=lam.dtype, device=lam.device)
 

@@ -110,8 +110,7 @@ def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int
         raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
     A = _checks.check_int(angles, "angles", 2)
     W = _checks.check_int(wavelengths, "wavelengths", 2)
-    if angle_axis not in ANGLE_AXES:
-        raise ValueError(f"angle_axis must be one of {ANGLE_AXES}; got {angle_axis!r}")
+    _checks.check_choice(angle_axis, "angle_axis", ANGLE_AXES)
     _checks.check_polarization(polarization)
     try:
         lo, hi = (float(v) for v in wavelength_range)

@@ -151,8 +151,7 @@ def _preflight(kind: str, read: dict, fit: dict) -> None:
 def check_batch(kind, items, read=None, fit=None) -> list[str]:
     """Check a batch before any file is read (:func:`fit_batch` does it first): ``kind``, the
     list of ``items`` (returned as strings) and the ``read`` / ``fit`` settings; ValueError otherwise."""
-    if kind not in _FITS:
-        raise ValueError(f"kind must be one of {', '.join(map(repr, KINDS))}; got {kind!r}")
+    _checks.check_choice(kind, "kind", _FITS)
     if isinstance(items, (str, bytes, os.PathLike)) or not isinstance(items, Sequence):
         raise ValueError(f"items must be a list of file paths; got {type(items).__name__}")
     if len(items) == 0:

@@ -58,7 +58,7 @@ import torch
 
 from .. import _checks, _chunks, _threads
 from ..color.convert import xyz_weights
-from ..optics.bragg import bragg_reflectance
+from ..optics.bragg import bragg_reflectance_kernel, prepare_bragg_mirror
 from .envelope import bragg_xyz_envelope
 from .piecewise import bragg_xyz_piecewise
 from .sampling import spectral_samples
@@ -145,8 +145,7 @@ def bragg_xyz(
         [0.203, 0.074, 0.772]
     """
     _checks.check_polarization(polarization)
-    if method not in BRAGG_XYZ_METHODS:
-        raise ValueError(f"method must be one of {_checks.names(BRAGG_XYZ_METHODS)}; got {method!r}")
+    _checks.check_choice(method, "method", BRAGG_XYZ_METHODS)
     _checks.check_numbers(cos_theta=cos_theta, n1=n1, n2=n2, d1=d1, d2=d2, n_incident=n_incident)
     lo, hi = _checks.check_wavelength_range(wavelength_range)
     if method == "auto":
@@ -180,8 +179,9 @@ def bragg_xyz(
         _checks.check_int(samples, "samples", 2)
     if not samples_per_fringe > 0:
         raise ValueError(f"samples_per_fringe must be > 0; got {samples_per_fringe!r}")
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, d1, d2, n_incident)
-    N = _checks.as_cells(cells, device)
+    # the mirror checked once here (its values too), then the unchecked reflectance kernel per block
+    dtype, c, n1t, n2t, d1t, d2t, nh, N = prepare_bragg_mirror(cos_theta, n1, n2, d1, d2, cells, n_incident)
+    device = c.device
     if samples is None:
         samples = spectral_samples(n1, n2, d1, d2, N, wavelength_range=(lo, hi),
                                    samples_per_fringe=samples_per_fringe, max_samples=max_samples)
@@ -191,21 +191,21 @@ def bragg_xyz(
     lam = _wavelengths(method, samples, (lo, hi), dtype, device)
     W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (K, 3), Y column sums to 1
 
-    def trailing(x, name):  # mirror parameters gain a wavelength axis (Python numbers built in dtype)
-        t = _checks.as_index(x, name, dtype, device)  # (real or complex; bragg_reflectance validates)
+    def trailing(t):  # mirror parameters gain a wavelength axis
         return t.unsqueeze(-1) if t.ndim else t
 
-    args = [trailing(x, name) for x, name in zip((cos_theta, n1, n2, d1, d2), ("cos_theta", "n1", "n2", "d1", "d2"))]
-    host = None if n_incident is None else trailing(n_incident, "n_incident")
-    Nw = N.unsqueeze(-1) if N.ndim else N
+    args = [trailing(t) for t in (c, n1t, n2t, d1t, d2t)]
+    host = None if nh is None else trailing(nh)
+    Nw = trailing(N)
     batch = _checks.broadcast_shapes(*(a.shape[:-1] if a.ndim else () for a in args + [Nw]),
                                      *(() if host is None or host.ndim == 0 else (host.shape[:-1],)))
     # wavelengths per block: batch × wavelengths ≤ the block size (torchirid._chunks; None: all at once)
     chunk = _chunks.get_chunk_size(device)
     step = samples if chunk is None else max(1, chunk // max(1, math.prod(batch)))
+    n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
     xyz = None
     for k in range(0, samples, step):  # chunks over wavelength bound the memory, not a loop over samples
-        R = bragg_reflectance(lam[k:k + step], *args, Nw, n_incident=host, polarization=polarization)
+        R = bragg_reflectance_kernel(lam[k:k + step], *args, host, Nw, polarization=polarization, n_max=n_max)
         part = R @ W[k:k + step]
         xyz = part if xyz is None else xyz + part
     return xyz
