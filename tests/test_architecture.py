@@ -196,8 +196,9 @@ SHARED_KERNELS = {
     "torchirid.color.colorimetry": ("weighted_cmfs_numpy", "check_illuminant", "check_observer"),
     # the complex interface amplitudes, admittances and normal wavenumbers of a stack
     "torchirid.optics.fresnel": ("admittance", "interface", "normal_wavenumber"),
-    # Yeh's closed form on prepared tensors (no checks): the envelope colour evaluates it per node
-    "torchirid.optics.bragg": ("yeh_reflectance_kernel",),
+    # Yeh's closed form on prepared tensors (no checks): the envelope colour evaluates it per node;
+    # the mirror's arguments checked once and the unchecked reflectance (the spectral colour's blocks)
+    "torchirid.optics.bragg": ("yeh_reflectance_kernel", "prepare_bragg_mirror", "bragg_reflectance_kernel"),
     # GGX D and Smith G1 on cosines, without the argument checks (inner loops of quadratures)
     "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel"),
 }

@@ -215,7 +215,7 @@ def inference_when_small(fn):
 
     @functools.wraps(fn)
     def run(*args, **kwargs):
-        if torch.is_inference_mode_enabled() or traceable():
+        if traceable() or torch.is_inference_mode_enabled():  # (traceable first: torch.compile cannot trace the other)
             return fn(*args, **kwargs)
         grad = torch.is_grad_enabled()
         size = 1

@@ -61,8 +61,10 @@ _NO_CELLS = object()
 
 
 def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells=_NO_CELLS):
+    """The arguments as checked tensors ``(dtype, lam, c, n1, n2, d1, d2, nh, N)``; ``nh`` None for a
+    mirror lit from n1 (also when ``n_incident`` equals n1); ``wavelength`` None: no wavelength."""
     dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n1, n2, d1, d2, n_incident)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    lam = None if wavelength is None else _checks.as_real(wavelength, "wavelength", dtype, device)
     c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
     n1 = _checks.as_index(n1, "n1", dtype, device)
     n2 = _checks.as_index(n2, "n2", dtype, device)
@@ -70,7 +72,8 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells=_NO_CELLS)
     d2 = _checks.as_real(d2, "d2", dtype, device)
     nh = None if n_incident is None else _checks.as_index(n_incident, "n_incident", dtype, device)
     N = None if cells is _NO_CELLS else _checks.as_cells(cells, device)
-    _checks.check_wavelength(lam)
+    if lam is not None:
+        _checks.check_wavelength(lam)
     _checks.check_cosine(c)
     _checks.check_nonnegative(d1, "d1")
     _checks.check_nonnegative(d2, "d2")
@@ -87,6 +90,25 @@ def _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells=_NO_CELLS)
     elif n1.is_complex() and bool((n1.imag != 0).any()):
         raise ValueError("n1 must be real when n_incident is None (n1 is then the incident medium)")
     return dtype, lam, c, n1, n2, d1, d2, nh, N
+
+
+def prepare_bragg_mirror(cos_theta, n1, n2, d1, d2, cells, n_incident=None):
+    """The mirror arguments of :func:`bragg_reflectance`, converted and checked once, for a caller
+    that evaluates the mirror over wavelengths of its own (the Bragg colour): ``(dtype, c, n1, n2,
+    d1, d2, nh, N)``, to pass to :func:`bragg_reflectance_kernel` with a wavelength tensor of
+    ``dtype``. Raises the ValueErrors of :func:`bragg_reflectance`."""
+    dtype, _, c, n1, n2, d1, d2, nh, N = _prepare(None, cos_theta, n1, n2, d1, d2, n_incident, cells)
+    return dtype, c, n1, n2, d1, d2, nh, N
+
+
+def bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max=None):
+    """:func:`bragg_reflectance` of checked arguments (:func:`prepare_bragg_mirror`, a wavelength
+    tensor in nm of their dtype, a valid ``polarization``; ``n_max``: the largest cell count if known
+    as a Python int), with no checks: block by block over large batches (``torchirid._chunks``)."""
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
+                                     () if nh is None else nh.shape)
+    return _chunks.evaluate(_bragg_core, (lam, c, n1, n2, d1, d2, nh, N), batch, polarization=polarization,
+                            n_max=n_max)
 
 
 # ----------------------------------------------------------------------------------------
@@ -146,7 +168,7 @@ def _sin_over_q(phase, q, k0d, zero_possible):
     """
     s = torch.sin(phase)
     if not zero_possible:
-        return s, s * (1 / q)  # 1/q is small (angle-only), one product on the grid
+        return s, s * q.reciprocal()  # 1/q is small (angle-only), one product on the grid
     zero = phase == 0
     # guard: phase = 0 at grazing or zero thickness; the unused branch gets a safe divisor
     safe = torch.where(zero, torch.ones_like(phase), phase)
@@ -173,7 +195,7 @@ class _RealCell:
     """
 
     def __init__(self, lam, q1, q2, d1, d2, need_cos, static=False):
-        k0 = (2 * math.pi) / lam
+        k0 = lam.reciprocal() * (2 * math.pi)  # (= 2π / λ, without torch's Python wrapper of __rtruediv__)
         # small (angle-only) tensors first, then one product on the grid
         qd1, qd2 = q1 * d1, q2 * d2
         self.a = k0 * qd1
@@ -190,8 +212,8 @@ class _RealCell:
         else:
             self.sin_a, self.sin_b = torch.sin(self.a), torch.sin(self.b)
             self._q1, self._q2 = q1, q2
-            self.G_raw, self.g_scale = self.sin_a * self.sin_b, 1 / (q1 * q2)
-            self.sb_raw, self.b_scale = self.sin_b, 1 / q2
+            self.G_raw, self.g_scale = self.sin_a * self.sin_b, (q1 * q2).reciprocal()
+            self.sb_raw, self.b_scale = self.sin_b, q2.reciprocal()
         half = k0 * (0.5 * (qd1 + qd2))
         self.sh = torch.sin(half)
         self.ch = torch.cos(half)
@@ -201,10 +223,10 @@ class _RealCell:
 
     def __getattr__(self, name):  # sin a / q1 and sin b / q2 on the grid, only when asked for
         if name == "sa_q1":
-            self.sa_q1 = self.sin_a * (1 / self._q1)
+            self.sa_q1 = self.sin_a * self._q1.reciprocal()
             return self.sa_q1
         if name == "sb_q2":
-            self.sb_q2 = self.sin_b * (1 / self._q2)
+            self.sb_q2 = self.sin_b * self._q2.reciprocal()
             return self.sb_q2
         raise AttributeError(name)
 
@@ -219,13 +241,16 @@ def _admittance_factors(pol, q1, q2, n1, n2, nd=None):
         return q1, q2, 1.0, 1.0  # Python constants: no tensor ops spent on multiplying by one
     m1, m2 = n1 * n1, n2 * n2
     if not isinstance(pol, str):
-        m1, m2 = _with_s(m1, nd), _with_s(m2, nd)
+        one = torch.ones_like(m1)
+        m1 = _with_s(m1, one, nd)
+        m2 = _with_s(m2, one if one.shape == m2.shape else torch.ones_like(m2), nd)
     return q1 / m1, q2 / m2, m1, m2
 
 
-def _with_s(m, nd):
-    """``[1, m]`` on a new leading axis, its other axes aligned to a batch of ``nd`` dims."""
-    m = torch.stack((torch.ones_like(m), m))
+def _with_s(m, one, nd):
+    """``[1, m]`` (``one``: ones of m's shape) on a new leading axis, its other axes aligned to a
+    batch of ``nd`` dims."""
+    m = torch.stack((one, m))
     return m if m.ndim == nd + 1 else m.reshape(2, *([1] * (nd + 1 - m.ndim)), *m.shape[1:])
 
 
@@ -239,7 +264,8 @@ def _one_minus_x(cell, eta1, eta2, m1, m2, inplace=False):
 
     ``inplace`` (no autograd) reuses the temporaries: same values, fewer passes over memory.
     """
-    D = (0.5 * (eta1 - eta2) ** 2 * (m1 * m2) * cell.g_scale) * cell.G_raw
+    d = eta1 - eta2
+    D = (0.5 * (d * d) * (m1 * m2) * cell.g_scale) * cell.G_raw
     omx = torch.addcmul(D, cell.sh, cell.sh, value=2)
     opx = D.neg_().addcmul_(cell.ch, cell.ch, value=2) if inplace else torch.addcmul(-D, cell.ch, cell.ch, value=2)
     return omx, opx
@@ -266,25 +292,52 @@ def yeh_reflectance_kernel(P2, Q2, eps, N, safe, static=False):
     Both branches are evaluated on valid inputs (also faster: NaN-producing inputs take
     slow paths in the vector math library).
     """
-    gap = eps < 0
     abs_eps = eps.abs()
-    near = abs_eps < _EDGE_SERIES / (N * N)
-    has_near = static or _checks.any_true(near)
+    # A few points on the CPU with a Python cell count (one float64 count): read ε and take only
+    # the branch every point needs (the band-edge series only if some point is near an edge, the
+    # pass-band or gap formula alone if all points lie in one) — the values of the masked form.
+    values = None
+    if not (static or torch.is_tensor(N)) and _checks.reads_cheaply(eps):
+        values = _checks.small_values(eps)
+    if values is not None:
+        threshold = 1.0 / (N * N) * _EDGE_SERIES  # (= the tensor form below: reciprocal, then product)
+        has_near = any(abs(v) < threshold for v in values)  # (NaN is not near, nor in a gap)
+        near = abs_eps < threshold if has_near else None
+        regime = "pass" if not any(v < 0 for v in values) else "gap" if all(v < 0 for v in values) else None
+    else:
+        # (N a tensor, or a Python number read from a one-element float64 count: the same threshold)
+        near = abs_eps < ((N * N).reciprocal() if torch.is_tensor(N) else 1.0 / (N * N)) * _EDGE_SERIES
+        has_near = static or _checks.any_true(near)
+        regime = None
+    gap = eps < 0 if regime is None or has_near else None
     # no autograd (and cells not broadcasting beyond the grid): temporaries may be overwritten
-    inplace = not (safe or static) and _checks.broadcast_shapes(eps.shape, N.shape) == eps.shape
-    absW = abs_eps.mul_(2 - eps) if inplace else abs_eps * (2 - eps)  # |W|, 2 - ε > 0 always
+    inplace = not (safe or static) and _checks.broadcast_shapes(eps.shape, getattr(N, "shape", ())) == eps.shape
+    absW = abs_eps.mul_(torch.rsub(eps, 2)) if inplace else abs_eps * torch.rsub(eps, 2)  # |W|, 2 - ε > 0 always
     if safe and has_near:
         # guard: sqrt'(0) = inf at the edge itself, where the series is used instead
         absW = torch.where(near, torch.ones_like(absW), absW)
     r = torch.sqrt(absW)
-    if inplace:
-        s = torch.atan2(r, 1 - eps).mul_(N).sin_()  # pass band: sin Nθ
+    if regime == "pass":  # sin Nθ, |W| / 4
+        F = torch.atan2(r, torch.rsub(eps, 1)).mul_(N).sin_() if inplace else torch.sin(N * torch.atan2(r, torch.rsub(eps, 1)))
+        Yw = absW * 0.25
+        num = F.mul_(F).mul_(P2) if inplace else P2 * (F * F)
+    elif regime == "gap":  # e^{-2Nt} - 1, 4|W|e^{-2Nt} / 4
+        if inplace:
+            F = r.sub_(eps).log1p_().mul_(-2 * N).expm1_()
+            Yw = torch.add(F, 1).mul_(absW)
+            num = F.mul_(F).mul_(P2)
+        else:
+            F = torch.expm1((-2 * N) * torch.log1p(r - eps))
+            Yw = absW * (1 + F)
+            num = P2 * (F * F)
+    elif inplace:
+        s = torch.atan2(r, torch.rsub(eps, 1)).mul_(N).sin_()  # pass band: sin Nθ
         m = r.sub_(eps).log1p_().mul_(-2 * N).expm1_()  # band gap: e^{-2Nt} - 1
         F = torch.where(gap, m, s)
         Yw = torch.where(gap, m.add_(1), 0.25).mul_(absW)  # (gap: 4|W|e^{-2Nt}, pass: |W|) / 4
         num = F.mul_(F).mul_(P2)
     else:
-        s = torch.sin(N * torch.atan2(r, 1 - eps))
+        s = torch.sin(N * torch.atan2(r, torch.rsub(eps, 1)))
         m = torch.expm1((-2 * N) * torch.log1p(r - eps))
         F = torch.where(gap, m, s)
         Yw = absW * torch.where(gap, 1 + m, 0.25)
@@ -309,29 +362,42 @@ def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
-def _layer_q(n, host, qh, s2, safe):
+def _layer_q(n, host, qh, s2, safe, propagating=False):
     """q = n cos θ = √max(n² − s², 0) of a layer on the real path, exactly ``qh`` where ``n`` is the
-    host index (exact even where cos² θ underflows); ``safe``: a gradient may flow (√ guarded at 0)."""
+    host index (exact even where cos² θ underflows); ``safe``: a gradient may flow (√ guarded at 0);
+    ``propagating``: n² ≥ s² is known everywhere (no clamp)."""
     x = n * n - s2
     # (n² − s² is never −0, so √max(x, 0) is safe_sqrt's value: 0 where x ≤ 0, NaN kept)
-    q = _checks.safe_sqrt(x) if safe else torch.sqrt(x.clamp(min=0))
+    q = _checks.safe_sqrt(x) if safe else torch.sqrt(x if propagating else x.clamp(min=0))
+    if n.numel() == 1 and host.numel() == 1 and _checks.reads_cheaply(n):  # one index each: compare them here
+        return q if not n.item() == host.item() else same_medium(n == host, qh, q)
     same = n == host
     return q if _checks.known_false(same) else same_medium(same, qh, q)
 
 
-def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False):
-    """R on the real path; entries that are not lossless-propagating are garbage (masked later)."""
+def _cell_count(N, dtype):
+    """The cell count in ``dtype`` for the closed form: a Python float when one float64 count can be
+    read cheaply (its products with N are then Python arithmetic, the same values as in float64
+    tensors), else the tensor."""
+    if dtype == torch.float64 and N.numel() == 1 and _checks.reads_cheaply(N):
+        return float(N.item())
+    return N.to(dtype)
+
+
+def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False, propagating=False):
+    """R on the real path; entries that are not lossless-propagating are garbage (masked later).
+    ``propagating``: light is known to propagate in n1 and n2 everywhere (:func:`_propagating`)."""
     host = n1 if nh is None else nh
-    s2 = host * host * (1 - c * c)
+    s2 = host * host * torch.rsub(c * c, 1)  # (1 − c², without torch's Python wrapper of __rsub__)
     qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
     # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
-    q1 = qh if nh is None else _layer_q(n1, nh, qh, s2, safe)
-    q2 = _layer_q(n2, host, qh, s2, safe)
+    q1 = qh if nh is None else _layer_q(n1, nh, qh, s2, safe, propagating)
+    q2 = _layer_q(n2, host, qh, s2, safe, propagating)
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
-    Nf = N.to(lam.dtype)
+    Nf = _cell_count(N, lam.dtype)
     if nh is None:
-        pols = _checks.polarization_terms(polarization)
+        pols = _checks.POLARIZATION_TERMS[polarization]
         nd = max(t.ndim for t in (lam, c, n1, n2, d1, d2, N))
         points = math.prod(_checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape))
         groups = [pols] if len(pols) == 2 and not static and points <= _STACKED_POINTS else pols
@@ -342,13 +408,14 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False)
             omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2, inplace)
             eps = torch.minimum(omx, opx, out=omx) if inplace else torch.minimum(omx, opx)  # 1 - |cos KΛ|
             # |C| U scaled by 2η1: P = (η1² - η2²) m2 sin b / q2, Q = 2 η1
-            P = ((eta1 * eta1 - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
-            out.append(yeh_reflectance_kernel(P.square_() if inplace else P * P, 4 * eta1 * eta1, eps, Nf, safe, static))
+            e1sq = eta1 * eta1
+            P = ((e1sq - eta2 * eta2) * m2 * cell.b_scale) * cell.sb_raw
+            out.append(yeh_reflectance_kernel(P.square_() if inplace else P * P, 4 * e1sq, eps, Nf, safe, static))
         if len(out) == 2:
             return 0.5 * (out[0] + out[1])  # R ≤ 1 by construction
         return out[0] if len(pols) == 1 else out[0].sum(0) * 0.5  # (s, p stacked: their mean)
     out = []
-    for pol in _checks.polarization_terms(polarization):
+    for pol in _checks.POLARIZATION_TERMS[polarization]:
         eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2)
         omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2)
         eps = torch.minimum(omx, opx)  # 1 - |cos KΛ|
@@ -429,7 +496,7 @@ def _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max=None
         bits.append((n & 1).bool())
         n = n >> 1
     out = []
-    for pol in _checks.polarization_terms(polarization):
+    for pol in _checks.POLARIZATION_TERMS[polarization]:
         if pol == "s":
             eta1, eta2 = q1, q2
         else:
@@ -487,6 +554,7 @@ def _needs_general(c, n1, n2, nh):
     return evanescent
 
 
+@_checks.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
 def bragg_reflectance(
     wavelength, cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, polarization: str = "unpolarized"
 ) -> torch.Tensor:
@@ -518,12 +586,8 @@ def bragg_reflectance(
     """
     _checks.check_polarization(polarization)
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells)
-    batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
-                                   () if nh is None else nh.shape)
     n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
-    # block by block over large batches when no gradient is wanted (torchirid._chunks)
-    return _chunks.evaluate(_bragg_core, (lam, c, n1, n2, d1, d2, nh, N), batch, polarization=polarization,
-                            n_max=n_max)
+    return bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, polarization=polarization, n_max=n_max)
 
 
 def _bragg_core(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max):
@@ -540,8 +604,11 @@ def _bragg_core(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max):
         general = _needs_general(c, n1, n2, nh)
         return torch.where(general, _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, n_max), R)
     real = _compile.kernel("bragg_real", _real_reflectance, _real_reflectance_static, math.prod(batch))
+    propagating = _propagating(n1, n2, nh)
+    if propagating and real is _real_reflectance:
+        return real(lam, c, n1, n2, d1, d2, nh, N, polarization, propagating=True)
     R = real(lam, c, n1, n2, d1, d2, nh, N, polarization)
-    if not _propagating(n1, n2, nh):
+    if not propagating:
         general = _needs_general(c, n1, n2, nh)
         if _checks.any_true(general):
             Rg = _general_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization)
@@ -559,7 +626,7 @@ def _propagating(n1, n2, nh) -> bool:
         return False
     layers = (n2,) if nh is None else (n1, n2)
     values = [_checks.small_values(t) for t in (host, *layers)]
-    if any(v is None or any(x != x for x in v) for v in values):  # (too many to read, or NaN)
+    if any(not v or any(x != x for x in v) for v in values):  # (too many to read, none, or NaN)
         return False
     top = max(values[0])
     return all(min(v) >= top for v in values[1:])

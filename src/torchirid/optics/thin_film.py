@@ -26,6 +26,7 @@ from .fresnel import _normal_wavenumber, interface, nudge_critical
 __all__ = ["thin_film_reflectance"]
 
 
+@_checks.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
 def thin_film_reflectance(
     wavelength,
     cos_theta,
@@ -83,7 +84,7 @@ def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
     cdt = _checks.complex_dtype(lam.dtype)
     n0 = n0.real if n0.is_complex() else n0
     n02 = n0 * n0
-    s2 = n02 * (1 - c * c)  # Snell invariant (n0 sin θ0)^2
+    s2 = n02 * torch.rsub(c * c, 1)  # Snell invariant (n0 sin θ0)^2 (rsub: 1 − c² without torch's Python wrapper)
     q0 = (n0 * c).to(cdt)  # exact in the incident medium (no sqrt at grazing)
     nf2, ns2 = nf * nf, ns * ns
     qf = _normal_wavenumber(nf, nf2, s2, n0, q0)
@@ -92,7 +93,7 @@ def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
     qs = _normal_wavenumber(ns, ns2, s2, n0, q0)
     # e^{2iφ}, φ = 2π q_f d / λ: only the decaying exponential (Im φ ≥ 0) is formed
     e2 = torch.exp((4j * math.pi) * qf * d / lam)
-    pols = _checks.polarization_terms(polarization)
+    pols = _checks.POLARIZATION_TERMS[polarization]
     eta0 = _admittances(q0, n02, pols)
     etaf = _admittances(qf, nf2, pols)
     etas = _admittances(qs, ns2, pols)

@@ -14,7 +14,7 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     Samples are uniform in ω, ``samples_per_fringe`` (default 192) per fringe, at least 401,
     and at most ``max_samples`` (262 144). How we know it converged: quadrupling the
     sampling moves no colour by more than ~0.03 ΔE2000 for the N ≤ 50, Λ ≤ 1 µm mirrors
-    tested (``tests/spectral/test_bragg_color.py``, asserted ≤ 0.05; the issue bar is 0.1).
+    tested (``tests/spectral/test_bragg_color.py``, asserted ≤ 0.05).
     Grazing angles converge slowest (fringes sharpen there): at 96 samples per fringe the
     error reached 0.09–0.12 at θ = 89°, hence the default of 192.
 
