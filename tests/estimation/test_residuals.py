@@ -71,6 +71,25 @@ def test_pixel_chunks_cover_every_pixel_once_within_the_budget(count, per_pixel,
     assert all((b - a) == 1 or (b - a) * per_pixel <= budget for a, b in chunks)
 
 
+def test_pixel_chunks_follow_the_chunk_knob():
+    """Without a budget, the ranges hold torchirid.options(chunk_size=...) model samples (the
+    block size of torchirid._chunks on the device); None: one range. cube_sse's pixels are
+    independent: the same values in any ranges."""
+    with torchirid.options(chunk_size=250):
+        assert pixel_chunks(10, 100) == [(0, 2), (2, 4), (4, 6), (6, 8), (8, 10)]
+    with torchirid.options(chunk_size=None):
+        assert pixel_chunks(10**6, 10**6) == [(0, 10**6)] and pixel_chunks(0, 5) == []
+    terms = _terms()
+    g = torch.Generator().manual_seed(5)
+    cube = 0.1 * torch.rand(200, 3, 41, generator=g, dtype=F64)
+    cand = 100.0 + 500.0 * torch.rand(200, 2, generator=g, dtype=F64)
+    with torchirid.options(chunk_size=None):
+        ref = cube_sse(cube, terms, cand)
+    with torchirid.options(chunk_size=5000):  # 10 pixels per range
+        got = cube_sse(cube, terms, cand)
+    torch.testing.assert_close(got, ref, rtol=1e-15, atol=0)
+
+
 def test_order_candidates_are_the_neighbouring_orders():
     d = torch.tensor([100.0, 250.0, 600.0], dtype=F64)
     got = order_candidates(d, 150.0)

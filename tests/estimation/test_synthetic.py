@@ -51,3 +51,19 @@ def test_bad_arguments(kw, match):
     kw = {"sample": "mgf2_400", **kw}
     with pytest.raises(ValueError, match=match):
         synthetic_cube(**kw)
+
+
+def test_pixel_blocks_follow_the_chunk_knob():
+    """Pixels are rendered in blocks of torchirid.options(chunk_size=...) // (pol × A × B × nodes)
+    pixels (torchirid._chunks); None: in one piece. Pixels are independent: the same cube."""
+    import torchirid as ti
+    from block_sizes import largest_tensor
+
+    call = lambda: synthetic_cube("mgf2_400", height=16, width=16, seed=1)  # noqa: E731
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 20000)
+    torch.testing.assert_close(got.cube, ref.cube, rtol=1e-15, atol=1e-17)
+    per_pixel = 2 * 5 * 81  # pol × angles × bands (× passband nodes)
+    assert whole >= 256 * per_pixel * 2  # one piece: every pixel's samples at once
+    assert block < whole / 3  # blocks of 64 pixels (the least a block holds)
+    assert ti.options("chunk_size") == "auto"

@@ -269,3 +269,19 @@ def test_shipped_dfg_matches_builder():
     assert lut.parameters["resolution"] == DFG_SHIPPED["resolution"]
     small = dfg_lut(DFG_SHIPPED["resolution"], samples=DFG_SHIPPED["samples"])
     assert (lut.values - small.values).abs().max() < 1e-6  # float32 on disk
+
+
+def test_output_blocks_follow_the_chunk_knob():
+    """Output directions are evaluated in blocks of torchirid.options(chunk_size=...) // texels
+    (torchirid._chunks); None: every (output, texel) pair at once. Outputs are independent: the
+    same values."""
+    from block_sizes import largest_tensor
+
+    env = torch.rand(16, 32, 3, dtype=F64, generator=torch.Generator().manual_seed(0))
+    call = lambda: prefilter_environment(env, [0.2, 0.5], resolution=16)  # noqa: E731
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 8192)
+    torch.testing.assert_close(got.radiance, ref.radiance, rtol=1e-15, atol=1e-17)
+    torch.testing.assert_close(got.moments, ref.moments, rtol=1e-15, atol=1e-17)
+    assert whole >= (16 * 32) ** 2  # one piece: outputs × texels
+    assert block <= 64 * 512 < whole  # blocks of 64 outputs (8192 // 512 = 16, at least 64) × 512 texels

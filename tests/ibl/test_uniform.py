@@ -153,3 +153,22 @@ def test_validation():
         cos_theta1_distribution(torch.tensor(0.5, dtype=F64), 0.3, bins=0)
     with pytest.raises(ValueError, match="n_film"):
         path_difference_moments(torch.tensor(0.5, dtype=F64), 0.3, 0.9, 100.0)
+
+
+@pytest.mark.parametrize("function", ["uniform_light_moments", "cos_theta1_distribution"])
+def test_geometry_blocks_follow_the_chunk_knob(function):
+    """Geometries are evaluated in blocks of torchirid.options(chunk_size=...) // (2 · nodes²)
+    points (torchirid._chunks); None: in one piece. Each geometry is independent: the same values."""
+    from block_sizes import largest_tensor
+
+    c = torch.linspace(0.05, 1.0, 400, dtype=F64)
+    if function == "uniform_light_moments":
+        call = lambda: torch.cat([t.reshape(400, -1) for t in uniform_light_moments(c, 0.3, nodes=4)], -1)  # noqa: E731
+    else:
+        call = lambda: torch.cat([t.reshape(400, -1) for t in cos_theta1_distribution(c, 0.3, nodes=4, bins=16)[1:]],
+                                 -1)  # noqa: E731
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 2048)
+    torch.testing.assert_close(got, ref, rtol=1e-15, atol=1e-17)
+    assert whole >= 400 * 32 * 3  # one piece: every geometry's quadrature directions at once
+    assert block < whole / 4  # blocks of 64 geometries (2048 // 32 = 64, the least a block holds)

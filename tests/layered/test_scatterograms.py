@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import torch
 
+import torchirid as ti
 from torchirid import layered
 from torchirid.color import xyz_weights
 from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
@@ -159,3 +160,30 @@ def test_float32_follows_the_wavelengths():
     ref = layered.scatterogram(jewel_beetle("green"), resolution=5, **FAST)
     assert sg.xyz.dtype == torch.float32
     torch.testing.assert_close(sg.xyz.double(), ref.xyz, rtol=1e-3, atol=1e-5)
+
+
+@pytest.mark.parametrize("illumination", ["white", "beam"])
+def test_brdf_blocks_follow_the_chunk_knob(illumination, monkeypatch):
+    """The BRDF is called on blocks of torchirid.options(chunk_size=...) // wavelengths direction
+    pairs; None: all pairs in one call. Pairs are independent: the same image."""
+    from torchirid.layered import scatterograms
+
+    kw = FAST if illumination == "white" else dict(wavelength=LAM, incident_deg=(30.0, 0.0))
+    pairs = []
+    real = scatterograms.single_reflection_brdf
+
+    def spy(lam, wi, wo, *a, **k):
+        pairs.append(torch.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]).numel())
+        return real(lam, wi, wo, *a, **k)
+
+    monkeypatch.setattr(scatterograms, "single_reflection_brdf", spy)
+    results = {}
+    for chunk in (None, 48):
+        pairs.clear()
+        with ti.options(chunk_size=chunk):
+            results[chunk] = layered.scatterogram(jewel_beetle("green"), resolution=8, **kw).xyz
+        if chunk is None:
+            assert max(pairs) > 32  # one call per rule (white) or per image (beam)
+        else:
+            assert len(pairs) > 2 and max(pairs) <= chunk // LAM.numel()
+    torch.testing.assert_close(results[48], results[None], rtol=1e-14, atol=1e-16)

@@ -183,3 +183,20 @@ def test_nan_propagates(method, arg):
     assert torch.isfinite(out[2]).all()
     ref = bragg_xyz(t64(0.8), 1.0, 1.5, 125.0, 375.0, 20, method=method, **kw)
     assert torch.allclose(out[2], ref, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("method, kw", [("spectral", {}), ("sampled", {"samples": 1000})])
+def test_block_size_follows_the_chunk_knob(method, kw):
+    """The wavelength blocks of the spectral and sampled integrations take their size from
+    torchirid.options(chunk_size=...): colours × wavelengths per block ≤ chunk_size, None: all
+    wavelengths at once. Blocks split the sum over wavelengths, so the colours agree to the
+    rounding of that sum (≤ 1e-14 relative)."""
+    from block_sizes import largest_tensor
+
+    c = torch.cos(torch.deg2rad(torch.linspace(0.0, 89.0, 100, dtype=F64)))
+    call = lambda: bragg_xyz(c, 1.0, 1.5, 100.0, 150.0, 10, method=method, **kw)  # noqa: E731
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 4096)
+    torch.testing.assert_close(got, ref, rtol=1e-14, atol=1e-16)
+    assert whole >= 100 * 1000  # one piece: the (colours, wavelengths) reflectance at once
+    assert block <= 2 * 4096 < whole / 12  # blocks of ≤ 4096 (complex: 2 floats each)

@@ -330,3 +330,18 @@ def test_script_end_to_end(tmp_path):
     loaded = fitted_coefficients(out)
     assert loaded == (data["coefficients"]["a"], data["coefficients"]["b"])
     assert not [p for p in os.listdir(tmp_path) if p.endswith(".tmp")]  # atomic write left no temp file
+
+
+def test_reference_blocks_follow_the_chunk_knob():
+    """The reference quadrature sums over blocks of dip intervals whose size (batch × nodes ×
+    intervals) follows torchirid.options(chunk_size=...); None: every interval at once. The
+    blocks split the sum, so the values agree to its rounding."""
+    from block_sizes import largest_tensor
+
+    c = torch.linspace(0.0, 1.0, 50, dtype=F64)
+    call = lambda: angular_correction_reference(c, 1.0, 1.5, cells=20, samples=16)  # noqa: E731
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 1000)
+    torch.testing.assert_close(got, ref, rtol=1e-15, atol=1e-15)
+    assert whole >= 50 * 16 * 20  # one piece: batch × nodes × every interval
+    assert block <= 1000

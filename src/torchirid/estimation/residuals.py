@@ -5,7 +5,8 @@ elementwise function of its terms (a, b, e, k, h) — each ``(pol, A, B)``, from
 ``band_terms()`` — and the thickness d. These helpers evaluate it for P
 pixels × C thickness candidates at once, in chunks of bounded size:
 
-* :func:`pixel_chunks` — the pixel ranges of one pass (bounded work per chunk);
+* :func:`pixel_chunks` — the pixel ranges of one pass (bounded work per chunk: the block size
+  of :mod:`torchirid._chunks`, ``torchirid.options(chunk_size=...)``);
 * :func:`residual_parts` — the residual model − data, its closed-form ∂/∂d and the partials
   reused by the second-order band term;
 * :func:`cube_sse` — Σ (model − cube)² per pixel and candidate: Kobayashi et al.'s eq. 14
@@ -25,21 +26,29 @@ import math
 
 import torch
 
+from .. import _chunks
+
 __all__ = [
 ]
 
-CHUNK_BUDGET = 200_000  # model samples per chunk: small chunks stay in cache (~3x faster than one large pass)
 ORDER_OFFSETS = (-1.0, 0.0, 1.0)  # interference orders tried around a thickness, in periods T: the two neighbours
 THICKNESS_GRID_DIVISOR = 8  # grid step λ_min/(8 n): a quarter of the fringe period λ/(2n), so one node per basin
 
 
-def pixel_chunks(count: int, per_pixel: int, budget: int = CHUNK_BUDGET) -> list[tuple[int, int]]:
+def pixel_chunks(count: int, per_pixel: int, budget: int | None = None, *, device=None) -> list[tuple[int, int]]:
     """Ranges ``(i0, i1)`` covering ``count`` pixels with at most ``budget`` model samples each
-    (``per_pixel`` samples per pixel; at least one pixel per chunk).
+    (``per_pixel`` samples per pixel; at least one pixel per chunk). The default budget is the
+    block size on ``device`` (:func:`torchirid._chunks.get_chunk_size`, set by
+    ``torchirid.options(chunk_size=...)``: small blocks stay in cache); ``chunk_size=None``
+    there gives one range.
 
-    >>> pixel_chunks(5, 80_000)
+    >>> pixel_chunks(5, 80_000, 200_000)
     [(0, 2), (2, 4), (4, 5)]
     """
+    if budget is None:
+        budget = _chunks.get_chunk_size(device)
+        if budget is None:  # chunking off: one pass
+            return [(0, count)] if count > 0 else []
     step = max(1, budget // max(per_pixel, 1))
     return [(i, min(count, i + step)) for i in range(0, count, step)]
 
@@ -107,7 +116,7 @@ def cube_sse(cube, terms, thickness) -> torch.Tensor:
     """
     P, C = thickness.shape
     out = torch.empty(P, C, dtype=cube.dtype, device=cube.device)
-    for i0, i1 in pixel_chunks(P, C * terms_size(terms)):
+    for i0, i1 in pixel_chunks(P, C * terms_size(terms), device=cube.device):
         r, _, _ = residual_parts(cube[i0:i1], thickness[i0:i1].nan_to_num(0.0), terms, with_jacobian=False)
         r = r.nan_to_num(0.0)
         out[i0:i1] = (r * r).sum((-1, -2))
