@@ -147,3 +147,22 @@ def test_every_bad_argument_class_is_one_line_and_status_2(tmp_path, capsys, com
     if kind == "unit":
         assert "nm" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_a_missing_app_extra_says_how_to_install_it(monkeypatch, capsys):
+    """Installed without the ``app`` extra, a figure command names the extra (exit 2), not a traceback."""
+    from torchirid.app import cli
+
+    def no_matplotlib(args):
+        raise ModuleNotFoundError("No module named 'matplotlib'", name="matplotlib")
+
+    parser = cli.build_parser()
+    args = parser.parse_args(["spectrum", "--out", "x"])
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    monkeypatch.setattr(args, "func", no_matplotlib, raising=False)
+    monkeypatch.setattr(parser, "parse_known_args", lambda argv=None: (args, []))
+    with pytest.raises(SystemExit) as stop:
+        cli.main(["spectrum"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "matplotlib" in err and "torchirid[app]" in err

@@ -15,6 +15,7 @@ be written prints the same kind of line and returns 1.
 from __future__ import annotations
 
 import argparse
+import sys
 
 from .._version import __version__
 from . import _args
@@ -60,6 +61,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: packages of the ``app`` extra (pyproject.toml): the command's figures and progress bars
+_APP_EXTRA = ("matplotlib", "tqdm")
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``torchirid`` command; returns the exit status (0, or 1 for a failed
     write) and raises ``SystemExit(2)`` for a bad argument, after its one-line message."""
@@ -67,7 +72,15 @@ def main(argv: list[str] | None = None) -> int:
     args, extra = parser.parse_known_args(argv)
     if extra:  # reported by the subcommand's parser, so that the line names the subcommand
         args.parser.error(f"unrecognized arguments: {' '.join(extra)}")
-    status = args.func(args)
+    try:
+        status = args.func(args)
+    except ModuleNotFoundError as error:
+        if error.name not in _APP_EXTRA:
+            raise
+        # the library does not need matplotlib or tqdm; the command's figures and bars do
+        print(f"torchirid: this command needs {error.name}, part of the application's extra: "
+              f"pip install 'torchirid[app]'", file=sys.stderr)
+        raise SystemExit(_args.USAGE_ERROR) from None
     if status == _args.USAGE_ERROR:
         raise SystemExit(status)
     return status
