@@ -1,4 +1,4 @@
-"""Torch threads for small workloads: one thread below a work threshold (issue 23.4).
+"""Torch threads for small workloads: one thread below a work threshold.
 
 Measured on a 2-core machine (``benchmarks/threads.py``, docs/performance.md): for workloads of
 many small ops — one colour, one fitting step on an estimation-sized grid — two torch threads

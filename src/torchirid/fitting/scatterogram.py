@@ -45,8 +45,8 @@ the exposure s always through its logarithm.
 N (n2 − n1) |sin(mπδ)| / m. Seen only between 380 and 780 nm, the first-order peak of Λ is
 also the second-order peak of 2Λ (δ near 1/4 or 3/4, fewer cells, a larger contrast) and the
 third-order peak of 3Λ (δ near 1/2): the *order* of the visible peak, hence Λ up to these
-harmonics, is not identified, and neither is N once N (n2 − n1) is. Measured on the target of
-issue 21 (Λ = 178 nm, δ = 0.6, N = 10, α = 0.03, n1 = 1.6, n2 = 1.66; beams at 0°, 30°, 60°;
+harmonics, is not identified, and neither is N once N (n2 − n1) is. Measured on a synthetic
+target (Λ = 178 nm, δ = 0.6, N = 10, α = 0.03, n1 = 1.6, n2 = 1.66; beams at 0°, 30°, 60°;
 32 px, 1 % noise; the true layer's loss against it, the noise floor, is 0.037, its mean
 ΔE00 over the lit pixels 0.59):
 

@@ -1,4 +1,4 @@
-r"""Batch fitting on Dask: many measurements fitted independently, one result table (issue 24.3).
+r"""Batch fitting on Dask: many measurements fitted independently, one result table.
 
 :func:`fit_batch` fits every file of a list — hyperspectral cubes with
 :func:`torchirid.estimation.estimate_film` (``kind="film"``) or measured scatterograms with

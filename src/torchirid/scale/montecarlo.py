@@ -1,4 +1,4 @@
-r"""Monte Carlo references on Dask: independent seeded blocks, merged in a fixed order (issue 24.2).
+r"""Monte Carlo references on Dask: independent seeded blocks, merged in a fixed order.
 
 :func:`montecarlo_brdf_blocks` splits the ``samples`` paths per direction pair of
 :func:`torchirid.layered.montecarlo_brdf` into ``blocks`` blocks. Block ``b`` runs

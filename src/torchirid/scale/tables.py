@@ -1,5 +1,5 @@
 r"""Chunked, resumable table builds on Dask: any broadcasting library function over a grid of
-named axes, written chunk by chunk to a Zarr store (issue 24.1).
+named axes, written chunk by chunk to a Zarr store.
 
 A table is ``values[i_1, …, i_k, *C] = fn(**{a_j: axes[a_j][i_j]}, **kwargs)``: each axis is a
 keyword argument of ``fn`` that broadcasts along its own dimension (the library's functions
