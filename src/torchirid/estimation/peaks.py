@@ -12,20 +12,20 @@ away. (The paper's eq. 10–11 write 4πd for 2d; eq. 12 is unaffected.)
 
 Steps, each batched over every pixel of the cube:
 
-1. :func:`detect_extrema`: maxima and minima of each spectrum with sub-band precision — the
+1. ``detect_extrema()``: maxima and minima of each spectrum with sub-band precision — the
    spectrum is smoothed with a Gaussian of σ = W/2 bands to find candidates, then a
    least-squares parabola over ±W bands of the raw samples gives the vertex. W adapts to the
    spectra (≈ a fifth of the median distance between neighbouring extrema), so broad
    low-order peaks are located from many bands, not from the three around a 4 nm sample —
    the band-limited peak positions behind the paper's ZnS failure (§5.4).
-2. :func:`track_extrema`: follow each extremum from one incidence angle to the next (it moves
+2. ``track_extrema()``: follow each extremum from one incidence angle to the next (it moves
    to shorter λ as θ grows, by at most the factor allowed by the index range).
-3. :func:`index_from_tracks`: eq. 12 generalised to all angles of a track: λ² = (2d/m)²
+3. ``index_from_tracks()``: eq. 12 generalised to all angles of a track: λ² = (2d/m)²
    (n² − sin²θ) is linear in sin²θ, so n² = −intercept/slope of a least-squares line
-   (with two angles this *is* eq. 12, :func:`index_from_peak_pair`); the film's n is the
+   (with two angles this *is* eq. 12, ``index_from_peak_pair()``); the film's n is the
    median over all tracks of all pixels (robust to mismatched tracks).
-4. :func:`thickness_candidates`: eq. 13 for every admissible order m of the longest track.
-5. :func:`select_candidates`: eq. 14 — the candidate whose modelled cube (all angles and
+4. ``thickness_candidates()``: eq. 13 for every admissible order m of the longest track.
+5. ``select_candidates()``: eq. 14 — the candidate whose modelled cube (all angles and
    bands) is closest in least squares to the measured one
    (:func:`~torchirid.estimation.residuals.cube_sse`).
 
@@ -160,7 +160,7 @@ def detect_extrema(spectra, wavelength, *, window=None, max_extrema: int = MAX_E
 
 
 def _adaptive_window(Yf: torch.Tensor) -> int:
-    """W for :func:`detect_extrema`: a ``WINDOW_FRACTION`` of the median spacing of the extrema of
+    """W for ``detect_extrema()``: a ``WINDOW_FRACTION`` of the median spacing of the extrema of
     lightly smoothed probe spectra, clamped to [``WINDOW_MIN``, ``WINDOW_MAX``]."""
     N, B = Yf.shape
     # (float32 index ramp, whatever the default dtype: the same probe set everywhere)
@@ -177,7 +177,7 @@ def _adaptive_window(Yf: torch.Tensor) -> int:
 
 
 def _detect_extrema(y, lam, step, window, max_extrema):
-    """:func:`detect_extrema` on validated inputs."""
+    """``detect_extrema()`` on validated inputs."""
     batch = y.shape[:-1]
     B = y.shape[-1]
     Y = y.reshape(-1, B)
@@ -238,7 +238,7 @@ def track_extrema(position, kind, cos_theta, *, n_range=(1.2, 3.5), n_incident=1
     r"""Follow each extremum of the first angle through the following angles (step 2).
 
     Args:
-        position, kind: ``(*, A, K)`` from :func:`detect_extrema` on a cube ``(*, A, B)``;
+        position, kind: ``(*, A, K)`` from ``detect_extrema()`` on a cube ``(*, A, B)``;
             angles must be in increasing order of θ (decreasing ``cos_theta``).
         cos_theta: ``(A,)`` cosines of the incidence angles.
         n_range: the film index range allowed; it bounds the shift of an extremum from one
@@ -325,7 +325,7 @@ def thickness_candidates(tracks, kinds, cos_theta, n_film, n_substrate, *, thick
     of r₀₁r₁₂ require (module docstring), restricted to ``thickness_range``.
 
     Args:
-        tracks: ``(P, K, A)``, kinds ``(P, K)`` from :func:`track_extrema`.
+        tracks: ``(P, K, A)``, kinds ``(P, K)`` from ``track_extrema()``.
         n_film: scalar index estimate; n_substrate: real substrate index.
 
     Returns:
@@ -439,7 +439,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
             (``band_terms()``; Kobayashi et al.'s camera: ``polarization="s"``).
         n_range, thickness_range: the admissible film index and thickness (nm).
         n_film: if given, skip eq. 12 and use this index.
-        window: the extremum fit's half-width (bands), default adaptive (:func:`detect_extrema`).
+        window: the extremum fit's half-width (bands), default adaptive (``detect_extrema()``).
         score_stride: eq. 14 scores the orders on every ``score_stride``-th band of the first,
             middle and last angles (enough to tell orders apart, 5× cheaper at the default 3;
             1 with all angles = the full cube).
