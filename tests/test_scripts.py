@@ -25,6 +25,7 @@ TINY = {
     "luts/build_dfg.py": (["--resolution", "4", "--samples", "16", "--out", "{tmp}/dfg.npz"], ["dfg.npz"]),
     "luts/build_fourier_sensitivity.py": (["--observers", "CIE 1931 2", "--d-max", "200", "--out", "{tmp}"],
                                           ["cie_1931_2_d65.npz"]),
+    "luts/build_prefiltered_sensitivity.py": (["--d-max", "200", "--out", "{tmp}"], ["cie_1931_2_d65.npz"]),
     "luts/build_shader_textures.py": (["--only", "thin_film_soap", "--samples", "200", "--validation", "200",
                                        "--iterations", "2", "--out", "{tmp}"], ["thin_film_soap.npz"]),
     "luts/build_light_mixture.py": (["--masking", "separable", "--theta-nodes", "4", "--alpha-nodes", "4",

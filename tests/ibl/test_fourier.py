@@ -215,3 +215,47 @@ def test_prefiltered_lut_accuracy_bound():
         lookup_prefiltered_sensitivity(m, s2, lut=shipped_fourier_sensitivity_lut())
     with pytest.raises(ValueError, match="sigma_nodes"):
         prefiltered_sensitivity_lut(sigma_nodes=2)
+
+
+def test_shipped_prefiltered_table_is_a_fresh_build_in_float32():
+    """data/prefiltered_sensitivity/cie_1931_2_d65.npz (luts/build_prefiltered_sensitivity.py) is
+    the default build with its values rounded to float32 (documented: within 1e-7), and
+    shipped_prefiltered_sensitivity_lut reads it instead of building."""
+    import warnings
+
+    from torchirid.ibl import fourier
+    from torchirid.ibl.fourier import (PREFILTERED_SENSITIVITY_BUILDER, PREFILTERED_SHIPPED,
+                                       prefiltered_sensitivity_path, shipped_prefiltered_sensitivity_lut)
+    from torchirid.lut import LUT
+
+    path = prefiltered_sensitivity_path()
+    assert path.is_file(), f"missing shipped table {path}: run luts/build_prefiltered_sensitivity.py"
+    shipped = LUT.load(path, builder=PREFILTERED_SENSITIVITY_BUILDER)
+    fresh = prefiltered_sensitivity_lut()
+    assert shipped.dtype == torch.float32 and shipped.parameters == fresh.parameters
+    assert {k: fresh.parameters[k] for k in PREFILTERED_SHIPPED} == PREFILTERED_SHIPPED
+    for name in ("mu", "w"):
+        assert torch.equal(shipped.axes[name], fresh.axes[name].float())
+    # round to nearest: |float32(v) − v| ≤ 2⁻²⁴ |v|
+    torch.testing.assert_close(shipped.values.double(), fresh.values, rtol=2.0**-24, atol=1e-30)
+    assert float((shipped.values.double() - fresh.values).abs().max()) < 1e-7
+    fourier._prefiltered_cached.cache_clear()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the shipped file is used, without a warning
+        lut = shipped_prefiltered_sensitivity_lut()
+    assert lut.dtype == F64 and torch.equal(lut.values, shipped.values.double())
+
+
+def test_stale_or_corrupt_shipped_prefiltered_table_falls_back_to_a_build(tmp_path, monkeypatch):
+    from torchirid.ibl import fourier
+
+    small = prefiltered_sensitivity_lut(d_max=500.0, sigma_max=100.0, sigma_nodes=3)  # not the shipped grid
+    small.save(tmp_path / "stale.npz")
+    (tmp_path / "junk.npz").write_bytes(b"junk")
+    monkeypatch.setattr(fourier, "prefiltered_sensitivity_lut", lambda o, i, **kw: small)  # (a fast "build")
+    for name in ("stale", "junk"):
+        monkeypatch.setattr(fourier, "prefiltered_sensitivity_path", lambda o, i, name=name: tmp_path / f"{name}.npz")
+        fourier._prefiltered_cached.cache_clear()
+        with pytest.warns(RuntimeWarning, match="ignoring the shipped table"):
+            assert fourier.shipped_prefiltered_sensitivity_lut() is small
+    fourier._prefiltered_cached.cache_clear()

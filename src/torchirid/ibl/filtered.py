@@ -49,7 +49,7 @@ from .fourier import (_check_names, _sensitivity_width, prefiltered_fourier_sens
                       lookup_prefiltered_sensitivity, thin_film_fourier_terms)
 
 #: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
-#: or ``"lut"`` (Kneiphof's 2-D table, bilinear, built in memory on first use).
+#: or ``"lut"`` (Kneiphof's 2-D table, bilinear: :func:`~torchirid.ibl.shipped_prefiltered_sensitivity_lut`).
 FILTERED_SENSITIVITY_MODES = ("exact", "lut")
 
 

@@ -95,6 +95,10 @@ _REPRESENTATION = "magnitude_phase"
 _GL_NODES = 8
 _SUB_CELL = 1.0  # nm
 _DATA_DIR = "data/fourier_sensitivity"
+_PREFILTERED_DATA_DIR = "data/prefiltered_sensitivity"
+#: the grid of the shipped 2-D tables (:func:`prefiltered_sensitivity_lut`'s defaults), written by
+#: ``luts/build_prefiltered_sensitivity.py`` with float32 values
+PREFILTERED_SHIPPED = {"d_max": _D_MAX, "step": 10.0, "sigma_max": 1000.0, "sigma_nodes": 41}
 _TWO_PI = 2.0 * math.pi
 
 
@@ -305,7 +309,7 @@ def _cached(observer, illuminant, dtype, device) -> LUT:
                                 expect={"axes": ("D",), "channels": (3, 2), "units": {"D": "nm"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead
             warnings.warn(f"fourier_sensitivity: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild it with luts/fourier_sensitivity_lut.py)",
+                          f"memory (rebuild it with luts/build_fourier_sensitivity.py)",
                           RuntimeWarning, stacklevel=3)
     return fourier_sensitivity_lut(observer, illuminant)
 
@@ -361,7 +365,8 @@ def _sigma_warp(sigma2: torch.Tensor, lam_w: float) -> torch.Tensor:
 def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                                   d_max: float = _D_MAX, step: float = 10.0,
                                   sigma_max: float = 1000.0, sigma_nodes: int = 41) -> LUT:
-    r"""Kneiphof's 2-D table Ŝ(μ_D, σ²_D) (eq. 18), built in memory (not shipped).
+    r"""Kneiphof's 2-D table Ŝ(μ_D, σ²_D) (eq. 18); the default grid is shipped
+    (:func:`shipped_prefiltered_sensitivity_lut`, rebuilt by ``luts/build_prefiltered_sensitivity.py``).
 
     Layout (chosen by measurement, below). Axis ``"mu"``: μ in nm, 0 … d_max every ``step``.
     Axis ``"w"``: :math:`w = 1 - e^{-2π^2σ^2/λ_w^2}` with λw = 700 nm — the damping of a
@@ -440,24 +445,51 @@ def _from_prefiltered_lut(lut: LUT, m: torch.Tensor, s2: torch.Tensor) -> torch.
     return torch.where((m < 0)[..., None], s.conj(), s)
 
 
+def prefiltered_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D65"):
+    """Where the shipped 2-D Ŝ(μ, σ²) table lives: ``torchirid/data/prefiltered_sensitivity/<slug>.npz``.
+
+    Example:
+        >>> path = prefiltered_sensitivity_path()  # CIE 1931 2°, D65
+        >>> path.name, path.is_file()
+        ('cie_1931_2_d65.npz', True)
+    """
+    _check_names(observer, illuminant)
+    return importlib.resources.files("torchirid").joinpath(_PREFILTERED_DATA_DIR, _slug(observer, illuminant) + ".npz")
+
+
 @cached(maxsize=None)
 @_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _prefiltered_cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype,
                                                                                                 device=device)
-    return prefiltered_sensitivity_lut(observer, illuminant)
+    resource = prefiltered_sensitivity_path(observer, illuminant)
+    expected = {"observer": observer, "illuminant": illuminant, **PREFILTERED_SHIPPED,
+                "representation": _PREFILTERED_REPRESENTATION, "warp_lambda": _WARP_LAMBDA}
+    if resource.is_file():
+        try:
+            with importlib.resources.as_file(resource) as path:
+                return LUT.load(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=expected,
+                                expect={"axes": ("mu", "w"), "channels": (3, 2), "units": {"mu": "nm"}},
+                                dtype=torch.float64)
+        except ValueError as e:  # corrupt or stale: never use it, say so, build instead
+            warnings.warn(f"prefiltered_sensitivity: ignoring the shipped table ({e}); building it in "
+                          f"memory (rebuild it with luts/build_prefiltered_sensitivity.py)",
+                          RuntimeWarning, stacklevel=3)
+    return prefiltered_sensitivity_lut(observer, illuminant, **PREFILTERED_SHIPPED)
 
 
 def shipped_prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                                 dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """Kneiphof's 2-D Ŝ(μ_D, σ²_D) table with the default grid (μ 0–20 µm every 10 nm, 41 σ nodes
-    to 1000 nm, see :func:`prefiltered_sensitivity_lut`), built in memory on first use (≈ 3–6 s)
-    and cached per observer/illuminant/dtype/device; treat it as read-only.
+    to 1000 nm, see :func:`prefiltered_sensitivity_lut`), cached per observer/illuminant/dtype/device;
+    treat it as read-only. Shipped for CIE 1931 2° under D65 (float32 values on disk, the float64
+    build rounded: within 1e-7); any other observer/illuminant is built in memory on first use
+    (seconds).
 
     Example (the table :func:`lookup_prefiltered_sensitivity` reads by default):
         >>> import torch
-        >>> lut = shipped_prefiltered_sensitivity_lut()  # slow once, then cached
+        >>> lut = shipped_prefiltered_sensitivity_lut()  # read once, then cached
         >>> lut.axis_names, lut.values.shape  # (μ, warped σ, XYZ, (re, im))
         (('mu', 'w'), torch.Size([2001, 41, 3, 2]))
         >>> mu = torch.tensor(1000.0, dtype=torch.float64)  # nm
