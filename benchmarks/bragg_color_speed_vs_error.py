@@ -35,54 +35,14 @@ Outputs (unless ``--no-write``):
   against µs per colour, log–log, one panel per (grid, Λ);
 * the section between ``<!-- bragg-color:start -->`` and ``<!-- bragg-color:end -->`` of
   ``benchmarks/results/bragg_color.md`` (appended if absent; the rest of the file is kept;
-  docs/performance.md is maintained by hand from it);
-* ``src/torchirid/data/bragg_color_errors.json`` (atomic write), for ``method="auto"``.
+  docs/performance.md is maintained by hand from it).
 
-JSON schema (``format`` "torchirid.bragg_color_errors", ``format_version`` 1)::
+The package table ``src/torchirid/data/bragg_color_errors.json`` (these errors and times, for
+``method="auto"``; its schema is in the builder's docstring) is built from this measurement by
+``luts/build_bragg_color_errors.py``; ``--report`` there also writes the two outputs above
+from the same run.
 
-    {
-      "format": "torchirid.bragg_color_errors", "format_version": 1,
-      "description": str,
-      "provenance": {"created": ISO date-time, "command": str, "torchirid_version": str,
-                     "torch_version": str, "python": str, "cpu": str, "threads": int, "cpus": [int],
-                     "dtype": "float64", "allocator": str, "timing": str, "rounds": int,
-                     "contended_rounds": int},
-      "grids": {                       # grid name -> its definition
-        "fig4" | "dense": {"n1": float, "n2": float, "cells": int, "periods_nm": [float],
-                 "d1_over_period": [float], "angles_deg": [float], "polarization": str,
-                 "illuminant": str, "observer": str, "wavelength_range_nm": [lo, hi],
-                 "colours_per_period": 810,
-                 "spectral_samples": {"244": int, ...},      # ω samples of default "spectral"
-                 "error_reference": {"method": "spectral", "samples_per_fringe": 192.0,
-                                     "samples": {"244": int, ...},
-                                     "max_delta_e_vs_refinement": {"244": float, ...},
-                                     "refinement_samples_per_fringe": 384.0}}
-      },
-      "entries": [                     # one per method configuration
-        {"config": {...},              # keyword arguments of torchirid.bragg_xyz, exactly:
-                                       #   {"method": "spectral"}
-                                       #   {"method": "sampled", "samples": K}
-                                       #   {"method": "piecewise", "subdivisions": s,
-                                       #    "weights": "paper"|"averaged", "correction": "paper"|"fitted"}
-                                       #   ("correction" is ignored by weights="averaged")
-         "label": str,                 # e.g. "sampled K=64", "piecewise s=3 paper/paper"
-         "grids": {
-           "fig4" | "dense": {
-             "median": float, "p95": float, "max": float,   # ΔE2000 over all colours of the grid
-             "us_per_colour": float,                        # µs, this machine (see provenance)
-             "speedup_vs_spectral": float,                  # machine-independent-ish ratio
-             "per_period": {"244": {same five keys}, "500": {...}, "988": {...}}}}}
-      ],
-      "batch_size_check": {"grid": "fig4", "periods_nm": [244.0, 500.0, 988.0],
-                           "entries": [{"config": {...},
-                                        "us_per_colour": {"244": {"810": float, "2430": float, "8100": float},
-                                                          "500": {...}, "988": {...}}}]}
-    }
-
-Per-period keys are Λ in nm as integer strings. ``speedup_vs_spectral`` is relative to default
-``spectral`` on the same batch (its own entry has 1.0); times depend on the batch size.
-
-    python benchmarks/bragg_color_speed_vs_error.py              # writes the three outputs
+    python benchmarks/bragg_color_speed_vs_error.py              # writes the two outputs
     python benchmarks/bragg_color_speed_vs_error.py --no-write   # print the tables only
 """
 
@@ -110,7 +70,6 @@ from torchirid.spectral.sampling import spectral_samples
 ROOT = Path(__file__).resolve().parents[1]
 FIGURE = ROOT / "docs" / "figures" / "bragg_color_speed_vs_error.png"
 PERF_MD = ROOT / "benchmarks" / "results" / "bragg_color.md"
-JSON_OUT = ROOT / "src" / "torchirid" / "data" / "bragg_color_errors.json"
 START, END = "<!-- bragg-color:start -->", "<!-- bragg-color:end -->"
 MALLOC = str(1 << 30)  # glibc MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ of --malloc tuned
 REF_SPF, CHECK_SPF = 192.0, 384.0  # samples per fringe: error reference (= the default) and its check
@@ -155,6 +114,11 @@ def label(cfg):
     if cfg["weights"] == "averaged":
         return f"piecewise {name} averaged"
     return f"piecewise {name} paper/{cfg['correction']}"
+
+
+def colours():
+    """Colours per call of the main grids: the d1/Λ values × the angles (9 × 90 = 810)."""
+    return len(FRACTIONS) * len(ANGLES)
 
 
 def batch(grid, period):
@@ -337,12 +301,12 @@ def summarise(cfgs, keys, results):
             per = {}
             for period in g["periods"]:
                 r = results[grid][period][key]
-                per[str(int(period))] = dict(stats(r["errors"]), us_per_colour=r["t"] / 810 * 1e6,
+                per[str(int(period))] = dict(stats(r["errors"]), us_per_colour=r["t"] / colours() * 1e6,
                                              speedup_vs_spectral=r["speedup"])
             allerr = np.concatenate([results[grid][p][key]["errors"].ravel() for p in g["periods"]])
             t_all = sum(results[grid][p][key]["t"] for p in g["periods"])
             t_ref = sum(results[grid][p][keys[0]]["t"] for p in g["periods"])
-            entries[key][grid] = dict(stats(allerr), us_per_colour=t_all / (810 * len(g["periods"])) * 1e6,
+            entries[key][grid] = dict(stats(allerr), us_per_colour=t_all / (colours() * len(g["periods"])) * 1e6,
                                       speedup_vs_spectral=t_ref / t_all, per_period=per)
     return entries
 
@@ -621,50 +585,6 @@ def cpu_name():
         return platform.processor() or platform.machine()
 
 
-def write_json(cfgs, keys, entries, refinfo, args, elapsed):
-    data = {
-        "format": "torchirid.bragg_color_errors",
-        "format_version": 1,
-        "description": ("ΔE2000 (CIE Lab, D65) of torchirid.bragg_xyz methods against the converged "
-                        "method='spectral', and their time per colour, for method selection. Schema: docstring of "
-                        "benchmarks/bragg_color_speed_vs_error.py."),
-        "provenance": {
-            "created": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
-            "command": " ".join(["python benchmarks/bragg_color_speed_vs_error.py", *args.argv]),
-            "torchirid_version": ti.__version__, "torch_version": torch.__version__,
-            "python": platform.python_version(), "cpu": f"{cpu_name()}, {os.cpu_count()} cores",
-            "threads": args.threads, "cpus": args.cpus_used, "dtype": "float64", "allocator": allocator(args),
-            "timing": (f"one call per (method, Λ) on the 9 × 90 batch; median of {args.rounds} interleaved rounds; "
-                       f"whole run {elapsed:.0f} s"),
-            "contended_rounds": refinfo["quiet"]["contended"], "rounds": refinfo["quiet"]["rounds"],
-        },
-        "grids": {
-            grid: {"n1": g["n1"], "n2": g["n2"], "cells": g["cells"], "periods_nm": list(g["periods"]),
-                   "d1_over_period": FRACTIONS, "angles_deg": [float(a) for a in ANGLES],
-                   "polarization": "unpolarized", "illuminant": "D65", "observer": "CIE 1931 2",
-                   "wavelength_range_nm": [380.0, 780.0], "colours_per_period": 810,
-                   "spectral_samples": refinfo[grid]["samples"],
-                   "error_reference": {"method": "spectral", "samples_per_fringe": REF_SPF,
-                                       "samples": refinfo[grid]["ref_samples"],
-                                       "max_delta_e_vs_refinement": refinfo[grid]["check"],
-                                       "refinement_samples_per_fringe": CHECK_SPF}}
-            for grid, g in GRIDS.items()},
-        "entries": [{"config": c, "label": label(c), "grids": entries[k]} for c, k in zip(cfgs, keys)],
-        "batch_size_check": {
-            "grid": BATCH_CHECK["grid"], "periods_nm": list(BATCH_CHECK["periods"]),
-            "entries": [{"config": c, "us_per_colour": {pk: per[json.dumps(c, sort_keys=True)]
-                                                        for pk, per in batch_medians(refinfo).items()}}
-                        for c in BATCH_CONFIGS]},
-    }
-    JSON_OUT.parent.mkdir(parents=True, exist_ok=True)
-    tmp = JSON_OUT.with_name(JSON_OUT.name + ".tmp")
-    with open(tmp, "w") as f:
-        json.dump(data, f, indent=1, ensure_ascii=False)
-        f.write("\n")
-    os.replace(tmp, JSON_OUT)
-    print(f"wrote {JSON_OUT.relative_to(ROOT)}")
-
-
 def section(md, comparison, front, batchmd, entries, refinfo, args, elapsed):
     g4, gd = GRIDS["fig4"], GRIDS["dense"]
     spec = json.dumps({"method": "spectral"}, sort_keys=True)
@@ -693,7 +613,12 @@ def section(md, comparison, front, batchmd, entries, refinfo, args, elapsed):
     quiet = (f"Before each round the script waits (bounded) until other processes leave the cores idle "
              f"({args.threads} torch thread(s) on shared cores can slow down by orders of magnitude next to a busy process); "
              f"{q['contended']} of {q['rounds']} rounds still ran next to one ({q['waited_s']:.0f} s waited).")
-    cmd = "python benchmarks/bragg_color_speed_vs_error.py" + ("" if not args.argv else " " + " ".join(args.argv))
+    cmd = args.command
+    table = ("The same run writes `src/torchirid/data/bragg_color_errors.json` (these numbers, for method\n"
+             "selection; schema in `luts/build_bragg_color_errors.py`) and the figure below."
+             if getattr(args, "json_written", False) else
+             "`src/torchirid/data/bragg_color_errors.json` (the numbers `method=\"auto\"` selects from) is built from\n"
+             "this measurement by `luts/build_bragg_color_errors.py`. This run wrote the figure below.")
     return f"""{START}
 ## Bragg mirror colour (Fourneau Fig. 4 grid)
 
@@ -706,8 +631,7 @@ All figures of this section from one run of
 on {datetime.date.today().isoformat()}: {cpu_name()}, {os.cpu_count()} cores, torch {torch.__version__},
 Python {platform.python_version()}, `torch.set_num_threads({args.threads})`{pin_text(args)}, float64, {allocator(args)};
 whole run {elapsed:.0f} s.
-The same run writes `src/torchirid/data/bragg_color_errors.json` (these numbers, for method
-selection; schema in the script's docstring) and the figure below.
+{table}
 
 Grids: **fig4** = Fourneau et al. 2024 Fig. 4, n1 = {g4['n1']:g}, n2 = {g4['n2']:g}, N = {g4['cells']} cells;
 **dense** = n2 = {gd['n2']:g}, N = {gd['cells']} (more fringes). Both: Λ ∈ {{244, 500, 988}} nm,
@@ -801,10 +725,9 @@ def write_section(text):
     print(f"wrote {PERF_MD.relative_to(ROOT)}")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--no-write", action="store_true",
-                    help="print only: do not write the figure, benchmarks/results/bragg_color.md or the JSON table")
+def parser(description=None):
+    """The measurement's options (this script's and luts/build_bragg_color_errors.py's)."""
+    ap = argparse.ArgumentParser(description=description or __doc__.split("\n")[0])
     ap.add_argument("--rounds", type=int, default=7, help="interleaved timing rounds (median; ≥ 5)")
     ap.add_argument("--malloc", choices=("tuned", "default"), default="tuned",
                     help="glibc allocator: 'tuned' (default) re-runs this script with MALLOC_MMAP_THRESHOLD_ = "
@@ -816,9 +739,12 @@ def main(argv=None):
                     help="pin the process to these CPUs, e.g. '0' or '0,1' (os.sched_setaffinity; default: not pinned)")
     ap.add_argument("--max-wait", type=float, default=150.0,
                     help="seconds in all spent waiting for other processes to leave the cores idle before rounds")
-    args = ap.parse_args(argv)
-    raw = list(sys.argv[1:] if argv is None else argv)
-    args.argv = [a for a in raw if a != "--no-write"]
+    return ap
+
+
+def setup(ap, args, raw, script, min_rounds=5):
+    """Re-run ``script`` with the wanted allocator if needed (glibc reads it at start-up), check
+    the options, pin the CPUs."""
     tuned = os.environ.get("MALLOC_MMAP_THRESHOLD_") == MALLOC and os.environ.get("MALLOC_TRIM_THRESHOLD_") == MALLOC
     if (args.malloc == "tuned") != tuned:  # glibc reads these at start-up: run again with the wanted setting
         env = dict(os.environ)
@@ -828,9 +754,9 @@ def main(argv=None):
             env.pop("MALLOC_MMAP_THRESHOLD_", None)
             env.pop("MALLOC_TRIM_THRESHOLD_", None)
         sys.stdout.flush()
-        os.execve(sys.executable, [sys.executable, os.path.abspath(__file__), *raw], env)
-    if args.rounds < 5:
-        ap.error("--rounds must be >= 5")
+        os.execve(sys.executable, [sys.executable, os.path.abspath(script), *raw], env)
+    if args.rounds < min_rounds:
+        ap.error(f"--rounds must be >= {min_rounds}")
     if args.threads < 1:
         ap.error("--threads must be >= 1")
     if args.cpus:
@@ -839,10 +765,18 @@ def main(argv=None):
         except (ValueError, OSError) as exc:
             ap.error(f"--cpus {args.cpus!r}: {exc}")
     args.cpus_used = sorted(os.sched_getaffinity(0))
+
+
+def run(args):
+    """The measurement: ``(cfgs, keys, results, refinfo, entries, elapsed)``."""
     t0 = time.perf_counter()
     cfgs, keys, results, refinfo = measure(args)
     entries = summarise(cfgs, keys, results)
-    elapsed = time.perf_counter() - t0
+    return cfgs, keys, results, refinfo, entries, time.perf_counter() - t0
+
+
+def report(cfgs, keys, results, refinfo, entries, elapsed, args, write=True):
+    """Print the tables; with ``write``, write the figure and the section of benchmarks/results/bragg_color.md."""
     md = tables(cfgs, keys, entries)
     comparison = paper_comparison(cfgs, keys, entries)
     front, _ = pareto_text(cfgs, keys, entries, results)
@@ -854,12 +788,25 @@ def main(argv=None):
            for g in GRIDS})
     print(f"\n### Pareto front\n\n{front}\n\n### Batch size\n\n{batchmd}\n\n### Paper Table 1\n\n{comparison}\n")
     print(f"measured in {elapsed:.0f} s; timing rounds: {refinfo['quiet']}")
-    if not args.no_write:
+    if write:
         chk = max(v for g in GRIDS for v in refinfo[g]["check"].values())
         plot(cfgs, keys, entries, FIGURE, args, resolution=max(0.05, 2 * chk))
         print(f"wrote {FIGURE.relative_to(ROOT)}")
-        write_json(cfgs, keys, entries, refinfo, args, elapsed)
         write_section(section(md, comparison, front, batchmd, entries, refinfo, args, elapsed))
+
+
+def main(argv=None):
+    ap = parser()
+    ap.add_argument("--no-write", action="store_true",
+                    help="print only: do not write the figure or benchmarks/results/bragg_color.md")
+    args = ap.parse_args(argv)
+    raw = list(sys.argv[1:] if argv is None else argv)
+    args.argv = [a for a in raw if a != "--no-write"]
+    args.command = " ".join(["python benchmarks/bragg_color_speed_vs_error.py", *args.argv])
+    setup(ap, args, raw, __file__)
+    report(*run(args), args, write=not args.no_write)
+    print("(the table method=\"auto\" reads, src/torchirid/data/bragg_color_errors.json, is built from this "
+          "measurement by luts/build_bragg_color_errors.py)")
     return 0
 
 

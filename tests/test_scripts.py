@@ -19,6 +19,9 @@ SCRIPTS = sorted(p.relative_to(ROOT).as_posix() for d in ("training", "luts") fo
 
 #: script → (arguments at a tiny size, with {tmp} for the output folder; files it must write there)
 TINY = {
+    "luts/build_bragg_color_errors.py": (["--grids", "fig4", "--periods", "244", "--angles", "3", "--batch-angles", "2",
+                                          "--rounds", "1", "--max-wait", "0", "--out", "{tmp}/errors.json"],
+                                         ["errors.json"]),
     "luts/build_cie_tables.py": (["--out", "{tmp}/cie_tables.npz"], ["cie_tables.npz"]),
     "luts/build_cmf_cumulative.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
                                       "--out", "{tmp}"], ["cie_1931_2_e_380_780nm.npz"]),
@@ -48,6 +51,20 @@ def _snapshot() -> dict[str, str]:
             if p.is_file():
                 out[str(p.relative_to(ROOT))] = hashlib.sha256(p.read_bytes()).hexdigest()
     return out
+
+
+def test_every_shipped_data_file_has_a_builder_script():
+    """Every file in src/torchirid/data/ is written by a script in luts/ or training/: one of them
+    names the file, or its folder (``data/<folder>/``)."""
+    texts = {s: (ROOT / s).read_text() for s in SCRIPTS}
+    data = ROOT / "src" / "torchirid" / "data"
+    orphans = []
+    for path in sorted(p for p in data.rglob("*") if p.is_file()):
+        rel = path.relative_to(data)
+        names = [f"data/{rel.as_posix()}", path.name] + ([f"data/{rel.parts[0]}"] if len(rel.parts) > 1 else [])
+        if not any(name in text for text in texts.values() for name in names):
+            orphans.append(rel.as_posix())
+    assert not orphans, f"shipped data without a builder script in luts/ or training/: {orphans}"
 
 
 def test_every_script_has_a_tiny_run():

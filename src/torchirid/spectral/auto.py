@@ -1,6 +1,7 @@
 r"""``method="auto"``: the cheapest Bragg-colour method that meets a ΔE2000 tolerance, from measured tables.
 
-The tables are ``src/torchirid/data/bragg_color_errors.json``, written by
+The tables are ``src/torchirid/data/bragg_color_errors.json``, built by
+``luts/build_bragg_color_errors.py`` from the measurement of
 ``benchmarks/bragg_color_speed_vs_error.py`` (p95 ΔE2000 against the converged spectral colour
 and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
 
