@@ -16,7 +16,7 @@ import torch
 
 from torchirid.fitting import ScatterogramAlternative, bragg_structure, match_scatterogram, render_targets
 from torchirid.fitting.scatterogram import DEFAULT_HARMONICS
-from torchirid.fitting.scatterogram import _Space
+from torchirid.fitting.search import _Space
 
 F64 = torch.float64
 LAM = torch.linspace(380.0, 780.0, 41, dtype=F64)

@@ -1,14 +1,9 @@
 """Fitting layered Bragg materials to measurements: scatterogram matching by autograd."""
 
 from .measured import ScatterogramImage, read_scatterogram, write_scatterogram
-from .scatterogram import (
-    ScatterogramAlternative,
-    ScatterogramFit,
-    bragg_structure,
-    match_scatterogram,
-    render_targets,
-    scatterogram_loss,
-)
+from .results import ScatterogramAlternative, ScatterogramFit
+from .scatterogram import match_scatterogram
+from .targets import bragg_structure, render_targets, scatterogram_loss
 
 __all__ = [
     "ScatterogramAlternative",

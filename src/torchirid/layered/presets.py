@@ -11,7 +11,7 @@ Table 3 gives n1, n2, the period Λ, a ratio δ and the number of cells N, but d
 δ. **Here δ is the fraction of Λ in the high-index (n2) layer**: ``d2 = δΛ``, ``d1 = (1 − δ)Λ``
 (with δ = 0.51 the two layers differ by 2 % of Λ either way).
 
->>> from torchirid.layered.presets import jewel_beetle
+>>> from torchirid.layered import jewel_beetle
 >>> layer = jewel_beetle("green").layers[0]
 >>> round(layer.d1, 6), round(layer.d2, 6), layer.cells, layer.alpha, layer.n_incident
 (78.4, 81.6, 8, 0.05, 1.0)
