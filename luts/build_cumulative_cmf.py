@@ -9,8 +9,8 @@ by :func:`torchirid.spectral.cumulative.cumulative_cmf_lut` and written atomical
 Defaults build the shipped set: observers "CIE 1931 2" and "CIE 1964 10" × illuminants
 "D65" and "E", 380–780 nm, automatic node count (measured interpolation error ≤ 5e-7)::
 
-    PYTHONPATH=src python luts/build_cmf_cumulative.py
-    PYTHONPATH=src python luts/build_cmf_cumulative.py --observers "CIE 1931 2" \
+    PYTHONPATH=src python luts/build_cumulative_cmf.py
+    PYTHONPATH=src python luts/build_cumulative_cmf.py --observers "CIE 1931 2" \
         --illuminants D50 --range 360 830 --out /tmp/tables
 
 Only tables built with the automatic node count are picked up by ``shipped_cumulative_cmf_lut``

@@ -23,7 +23,7 @@ TINY = {
                                           "--rounds", "1", "--max-wait", "0", "--out", "{tmp}/errors.json"],
                                          ["errors.json"]),
     "luts/build_cie_tables.py": (["--out", "{tmp}/cie_tables.npz"], ["cie_tables.npz"]),
-    "luts/build_cmf_cumulative.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
+    "luts/build_cumulative_cmf.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
                                       "--out", "{tmp}"], ["cie_1931_2_e_380_780nm.npz"]),
     "luts/build_dfg.py": (["--resolution", "4", "--samples", "16", "--out", "{tmp}/dfg.npz"], ["dfg.npz"]),
     "luts/build_fourier_sensitivity.py": (["--observers", "CIE 1931 2", "--d-max", "200", "--out", "{tmp}"],
@@ -65,6 +65,22 @@ def test_every_shipped_data_file_has_a_builder_script():
         if not any(name in text for text in texts.values() for name in names):
             orphans.append(rel.as_posix())
     assert not orphans, f"shipped data without a builder script in luts/ or training/: {orphans}"
+
+
+def test_every_shipped_table_loader_has_its_build_script():
+    """The naming rule of docs/conventions.md: ``shipped_<quantity>_lut()`` loads the copy that
+    ``luts/build_<quantity>.py`` writes."""
+    import importlib
+
+    loaders = set()
+    for package in ["torchirid"] + [f"torchirid.{name}" for name in ("optics", "layered", "spectral", "color", "ibl",
+                                                                      "microfacet", "realtime", "fitting")]:
+        module = importlib.import_module(package)
+        loaders |= {name for name in module.__all__ if name.startswith("shipped_") and name.endswith("_lut")}
+    assert loaders
+    missing = [name for name in sorted(loaders)
+               if not (ROOT / "luts" / f"build_{name[len('shipped_'):-len('_lut')]}.py").is_file()]
+    assert not missing, f"no luts/build_<quantity>.py for {missing}"
 
 
 def test_every_script_has_a_tiny_run():

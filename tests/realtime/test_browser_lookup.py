@@ -161,7 +161,7 @@ def test_bragg_lookup_in_the_browser_is_the_python_lookup(browser):
     got = _evaluate(browser, f"vec4 evaluate(vec4 p) {{ return vec4(tirid_bragg_rgb(tex, {_axes(lut)}, p.x, p.y, p.z, "
                              f"{n1}, {n2}, {n0}), 1.0); }}", torch.stack([cos, period, delta], -1),
                     [_lut_texture("tex", lut)])
-    lam_b = bragg_wavelength(cos, n1, n2, period, delta, n0)
+    lam_b = bragg_wavelength(cos, n1, n2, period, delta, n_incident=n0)
     want = lookup(lut.to(F64), "bragg", torch.stack([cos, lam_b, delta], -1)).numpy()
     np.testing.assert_allclose(got[:, :3], want, rtol=0, atol=_tolerance(lut))
 

@@ -145,7 +145,7 @@ def test_recorded_error_is_the_true_maximum():
 @pytest.mark.parametrize("observer, illuminant", SHIPPED)
 def test_shipped_file_matches_a_fresh_build(observer, illuminant):
     path = cumulative_cmf_path(observer, illuminant)
-    assert path.is_file(), f"missing shipped table {path}: run luts/build_cmf_cumulative.py"
+    assert path.is_file(), f"missing shipped table {path}: run luts/build_cumulative_cmf.py"
     assert path.stat().st_size < 300_000
     shipped = LUT.load(path, builder=CUMULATIVE_CMF_BUILDER,
                        parameters={"observer": observer, "illuminant": illuminant,

@@ -1,4 +1,4 @@
-r"""Small colour textures for real-time renderers, their node values fitted by autograd (issue 25.1).
+r"""Small colour textures for real-time renderers, their node values fitted by autograd.
 
 A fragment shader that samples a float texture with hardware (bi/tri)linear filtering sees the
 multilinear interpolation of the texel values, with texel ``i`` of an axis of ``n`` texels at
@@ -89,7 +89,7 @@ def _index(n):
     return complex(*n) if isinstance(n, (list, tuple)) else n
 
 
-def path_difference(cos_theta, n_film, thickness, n_incident: float = 1.0):
+def path_difference(cos_theta, n_film, thickness, *, n_incident: float = 1.0):
     r"""The optical path difference (nm) of a film's two first reflections,
     :math:`p = 2 n_f d \cos\theta_f = 2d\sqrt{n_f^2 - n_0^2(1 - \cos^2\theta)}`.
 
@@ -119,14 +119,14 @@ def _thin_film_path(x, *, n_substrate, n_incident: float = 1.0):
     from ..optics import thin_film_reflectance
 
     cos_theta, path, n_film = x[..., 0], x[..., 1], x[..., 2]
-    d = path / path_difference(cos_theta, n_film, 1.0, n_incident)
+    d = path / path_difference(cos_theta, n_film, 1.0, n_incident=n_incident)
     lam = _wavelengths(x.device)
     R = thin_film_reflectance(lam, cos_theta[..., None], n_film[..., None], d[..., None], _index(n_substrate),
                               n_incident=n_incident)
     return spectrum_to_xyz(R, lam)
 
 
-def bragg_wavelength(cos_theta, n1: float, n2: float, period, delta, n_incident: float | None = None):
+def bragg_wavelength(cos_theta, n1: float, n2: float, period, delta, *, n_incident: float | None = None):
     r"""The first-order Bragg wavelength (nm) of a mirror of period Λ, δ the fraction in n2:
 
     .. math:: \lambda_B = 2\Lambda\left[(1-\delta)\, n_1\cos\theta_1 + \delta\, n_2\cos\theta_2\right],
@@ -164,7 +164,7 @@ def _bragg(x, *, cells: int, n1: float, n2: float, n_incident: float | None = No
     from ..spectral import bragg_xyz
 
     cos_theta, lam_b, delta = x[..., 0], x[..., 1], x[..., 2]
-    period = lam_b / bragg_wavelength(cos_theta, n1, n2, 1.0, delta, n_incident)
+    period = lam_b / bragg_wavelength(cos_theta, n1, n2, 1.0, delta, n_incident=n_incident)
     # δ: the fraction of the period in the n2 layer (Fourneau et al. Table 3)
     return bragg_xyz(cos_theta, n1, n2, period * (1 - delta), period * delta, cells, n_incident=n_incident,
                      method="spectral")
@@ -250,8 +250,7 @@ def exact_colour(family: str, points: torch.Tensor, parameters: Mapping) -> torc
         >>> tuple(rgb.shape), [round(v, 3) for v in rgb[0].tolist()]
         ((2, 3), [0.043, 0.078, 0.033])
     """
-    if family not in FAMILIES:
-        raise ValueError(f"family must be one of {', '.join(map(repr, FAMILIES))}; got {family!r}")
+    _checks.check_choice(family, "family", FAMILIES)
     xyz = FAMILIES[family][2](points, **dict(parameters))
     return xyz_to_linear_srgb(xyz)
 
@@ -274,8 +273,7 @@ def shipped_texture(name: str) -> LUT:
     """
     from importlib import resources
 
-    if name not in SHIPPED_TEXTURES:
-        raise ValueError(f"name must be one of {', '.join(map(repr, SHIPPED_TEXTURES))}; got {name!r}")
+    _checks.check_choice(name, "name", SHIPPED_TEXTURES)
     path = resources.files("torchirid") / "data" / "textures" / f"{name}.npz"
     with resources.as_file(path) as p:
         return LUT.load(p, builder=f"luts/build_shader_textures.py {name}")
@@ -392,8 +390,7 @@ def texture_samples(family: str, ranges, parameters: Mapping, *, samples: int = 
 
 
 def _check_ranges(family, ranges):
-    if family not in FAMILIES:
-        raise ValueError(f"family must be one of {', '.join(map(repr, FAMILIES))}; got {family!r}")
+    _checks.check_choice(family, "family", FAMILIES)
     names = FAMILIES[family][0]
     try:
         ranges = tuple((float(lo), float(hi)) for lo, hi in ranges)

@@ -49,7 +49,7 @@ Landmarks outside :math:`[\omega_{min}, \omega_{max}]` are clamped to it (the ta
 the landmarks overlapping the visible range.
 
 The package ships tables in ``torchirid/data/cmf_cumulative/`` (built by
-``luts/build_cmf_cumulative.py``); :func:`shipped_cumulative_cmf_lut` loads them, checks their hash and
+``luts/build_cumulative_cmf.py``); :func:`shipped_cumulative_cmf_lut` loads them, checks their hash and
 metadata, and otherwise builds the table in memory (≈ 0.2 s once colour-science is
 imported; nothing is written).
 """
@@ -326,7 +326,7 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
                                         "units": {"omega": "nm^-1"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead
             warnings.warn(f"shipped_cumulative_cmf_lut: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild the file with luts/build_cmf_cumulative.py)",
+                          f"memory (rebuild the file with luts/build_cumulative_cmf.py)",
                           RuntimeWarning, stacklevel=3)
     return cumulative_cmf_lut(observer, illuminant, (lo, hi))
 
