@@ -452,20 +452,47 @@ def check_length_unit(values, name: str, shown=None) -> None:
                          "(metres or micrometres? 300 nm is 300, not 3e-7 or 0.3)")
 
 
+def check_range(value, name: str, *, low: float = 0.0, high: float = math.inf, closed: bool = False,
+                unit: str = "") -> tuple[float, float]:
+    """The one check of a ``(low, high)`` pair of finite real numbers with ``low < high`` inside the
+    bounds (open: ``low_bound < low``, ``high < high_bound``; ``closed``: ``≤``) → two floats, else
+    the library's one message for it.
+
+    >>> check_range((380, 780), "wavelength_range", low=1.0, high=1e6, closed=True, unit="nm")
+    (380.0, 780.0)
+    >>> check_range((2.0, 1.0), "period_range")
+    Traceback (most recent call last):
+        ...
+    ValueError: period_range must be a pair (low, high) with 0 < low < high; got (2.0, 1.0)
+    """
+    ok = (isinstance(value, (tuple, list)) or (isinstance(value, torch.Tensor) and value.numel() == 2)) \
+        and len(value) == 2
+    if ok:
+        try:
+            a, b = (float(v) for v in value)
+        except (TypeError, ValueError):
+            ok = False
+    if ok and not any(isinstance(v, bool) for v in value):
+        ok = math.isfinite(a) and math.isfinite(b) and a < b and (
+            (low <= a and b <= high) if closed else (low < a and b < high))
+    else:
+        ok = False
+    if not ok:
+        sign = "<=" if closed else "<"
+        upper = "" if high == math.inf else f" {sign} {high:g}"
+        units = f" {unit}" if unit else ""
+        raise ValueError(f"{name} must be a pair (low, high) with {low:g} {sign} low < high{upper}{units}; "
+                         f"got {value!r}")
+    return a, b
+
+
 def check_wavelength_range(wavelength_range, name: str = "wavelength_range") -> tuple[float, float]:
     """``(lo, hi)`` as floats with MIN_WAVELENGTH_NM ≤ lo < hi ≤ MAX_WAVELENGTH_NM nm, else ValueError.
 
     >>> check_wavelength_range((380, 780))
     (380.0, 780.0)
     """
-    try:
-        lo, hi = (float(x) for x in wavelength_range)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a (λ_min, λ_max) pair in nm; got {wavelength_range!r}") from None
-    if not (MIN_WAVELENGTH_NM <= lo < hi <= MAX_WAVELENGTH_NM):
-        raise ValueError(f"{name} must be (λ_min, λ_max) in nm with {MIN_WAVELENGTH_NM:g} ≤ λ_min < λ_max ≤ "
-                         f"{MAX_WAVELENGTH_NM:g} nm; got {wavelength_range!r}")
-    return lo, hi
+    return check_range(wavelength_range, name, low=MIN_WAVELENGTH_NM, high=MAX_WAVELENGTH_NM, closed=True, unit="nm")
 
 
 @_value_check
@@ -563,6 +590,8 @@ def as_cells(cells, device) -> torch.Tensor:
     if isinstance(cells, numbers.Integral):
         if cells < 1:
             raise ValueError(f"cells must be an integer >= 1; got {cells}")
+        if cells < 2**63:  # (scalar_tensor: half the cost of as_tensor, for any int64)
+            return torch.scalar_tensor(int(cells), dtype=torch.int64, device=device)
         return torch.as_tensor(int(cells), dtype=torch.int64, device=device)
     if isinstance(cells, numbers.Real) and not _is_tensorlike(cells):
         if not math.isfinite(cells) or cells != int(cells) or cells < 1:

@@ -46,14 +46,7 @@ def real_index(x, name: str, like: torch.Tensor, *, incident: bool = False) -> f
 def value_range(pair, name: str, *, positive: bool, nm: bool = False) -> tuple[float, float]:
     """``(min, max)`` of two real numbers with min < max and min > 0 (``positive``) or ≥ 0; with
     ``nm`` (a length range) no bound in (0, ``_checks.MIN_LENGTH_NM``) nm: a unit mistake."""
-    try:
-        lo, hi = (float(v) for v in pair)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be two numbers (min, max); got {pair!r}") from exc
-    floor_ok = lo > 0 if positive else lo >= 0
-    if not (floor_ok and lo < hi and math.isfinite(hi)):
-        bound = "0 < min < max" if positive else "0 <= min < max"
-        raise ValueError(f"{name} must be (min, max) with {bound}, finite; got {pair!r}")
+    lo, hi = _checks.check_range(pair, name, closed=not positive, unit="nm" if nm else "")
     if nm:
         _checks.check_length_unit((lo, hi), name, shown=pair)
     return lo, hi

@@ -103,20 +103,6 @@ DEFAULT_HARMONICS = (0.5, 2.0, 2.0 / 3.0, 1.5, 1.0 / 3.0, 3.0)
 DEFAULT_INIT = {"period": 200.0, "delta": 0.5, "n1": 1.6, "dn": 0.06, "alpha": 0.1}
 
 
-def _check_range(name, value, lo=0.0, hi=math.inf, closed=False):
-    """``(low, high)`` with ``lo < low < high < hi`` (``lo <= low < high <= hi`` if ``closed``) → floats."""
-    ok = (isinstance(value, (tuple, list)) and len(value) == 2
-          and all(isinstance(v, numbers.Real) and not isinstance(v, bool) and math.isfinite(v) for v in value))
-    if ok:
-        a, b = float(value[0]), float(value[1])
-        ok = a < b and ((lo <= a and b <= hi) if closed else (lo < a and b < hi))
-    if not ok:
-        sign = "<=" if closed else "<"
-        upper = "" if hi == math.inf else f" {sign} {hi:g}"
-        raise ValueError(f"{name} must be a pair (low, high) with {lo:g} {sign} low < high{upper}; got {value!r}")
-    return a, b
-
-
 def _check_cells(cells):
     cells = tuple(cells) if isinstance(cells, (tuple, list, range)) else cells
     if not isinstance(cells, tuple) or not cells or not all(
@@ -272,11 +258,11 @@ def match_scatterogram(
         raise ValueError(f"n1 must be a real number > 0; got {n1!r}")
     cells = _check_cells(cells)
     ranges = {
-        "period": None if period_range is None else _check_range("period_range", period_range),
-        "delta": _check_range("delta_range", delta_range, 0.0, 1.0, closed=True),
-        "dn": None if dn_range is None else _check_range("dn_range", dn_range),
-        "alpha": None if alpha_range is None else _check_range("alpha_range", alpha_range),
-        "n1": None if n1_range is None else _check_range("n1_range", n1_range),
+        "period": None if period_range is None else _checks.check_range(period_range, "period_range"),
+        "delta": _checks.check_range(delta_range, "delta_range", low=0.0, high=1.0, closed=True),
+        "dn": None if dn_range is None else _checks.check_range(dn_range, "dn_range"),
+        "alpha": None if alpha_range is None else _checks.check_range(alpha_range, "alpha_range"),
+        "n1": None if n1_range is None else _checks.check_range(n1_range, "n1_range"),
     }
     if ranges["n1"] is not None and not ranges["n1"][0] <= n1 <= ranges["n1"][1]:
         raise ValueError(f"n1 must lie inside n1_range {ranges['n1']}; got {n1!r}")

@@ -112,12 +112,7 @@ def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int
     W = _checks.check_int(wavelengths, "wavelengths", 2)
     _checks.check_choice(angle_axis, "angle_axis", ANGLE_AXES)
     _checks.check_polarization(polarization)
-    try:
-        lo, hi = (float(v) for v in wavelength_range)
-    except (TypeError, ValueError):
-        raise ValueError(f"wavelength_range must be a (lo, hi) pair of nm; got {wavelength_range!r}") from None
-    if not (0 < lo < hi < math.inf):
-        raise ValueError(f"wavelength_range must satisfy 0 < lo < hi; got {wavelength_range!r}")
+    lo, hi = _checks.check_wavelength_range(wavelength_range)
     s_lo, s_hi = stack.wavelength_range()
     if lo < s_lo or hi > s_hi:
         raise ValueError(

@@ -18,7 +18,6 @@ figures follow (``torchirid.scale.fits.FIELDS``), None where the item failed.
 from __future__ import annotations
 
 import csv
-import math
 import os
 import time
 from pathlib import Path
@@ -139,12 +138,7 @@ def _preflight(kind: str, read: dict, fit: dict) -> None:
         value = fit.get(key)
         if value is None:
             continue
-        try:
-            lo, hi = (float(v) for v in value)
-        except (TypeError, ValueError):
-            raise ValueError(f"{key} must be a (min, max) pair in nm; got {value!r}") from None
-        if not (math.isfinite(lo) and math.isfinite(hi)) or not 0 < lo < hi:
-            raise ValueError(f"{key} must be a (min, max) pair in nm with 0 < min < max; got {value!r}")
+        lo, hi = _checks.check_range(value, key, unit="nm")
         _checks.check_length_unit((lo, hi), key, shown=value)
 
 
