@@ -501,7 +501,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         wavelength: ``(B,)`` uniformly spaced band centres (nm); cos_theta ``(A,)``.
         n_substrate: real substrate index (known, as in the paper: PET 1.64).
         index_model_name: ``"constant"``, a dispersive ``"cauchy"`` / ``"cauchy3"``, or ``"auto"``
-            (the model of least BIC on the sample, module docstring; ~1.5× the index stage).
+            (the model of least BIC on the sample, module docstring; one index search per model
+            tried; its cost: docs/performance.md, "Thin-film estimation from hyperspectral cubes").
         bandwidth, passband: the camera's band model.
         polarization: ``"unpolarized"``, ``"s"`` or ``"p"``; Kobayashi et al.'s camera sees the
             s wave through a polarizer: their setup is ``polarization="s"``.

@@ -441,8 +441,8 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
         n_film: if given, skip eq. 12 and use this index.
         window: the extremum fit's half-width (bands), default adaptive (``detect_extrema()``).
         score_stride: eq. 14 scores the orders on every ``score_stride``-th band of the first,
-            middle and last angles (enough to tell orders apart, 5× cheaper at the default 3;
-            1 with all angles = the full cube).
+            middle and last angles (enough to tell orders apart; at the default 3 a fifth of the
+            samples of a 5-angle cube; 1 with all angles = the full cube).
 
     Returns:
         :class:`PeakResult`; dtype and device follow the inputs.

@@ -45,30 +45,16 @@ the exposure s always through its logarithm.
 N (n2 − n1) |sin(mπδ)| / m. Seen only between 380 and 780 nm, the first-order peak of Λ is
 also the second-order peak of 2Λ (δ near 1/4 or 3/4, fewer cells, a larger contrast) and the
 third-order peak of 3Λ (δ near 1/2): the *order* of the visible peak, hence Λ up to these
-harmonics, is not identified, and neither is N once N (n2 − n1) is. Measured on a synthetic
-target (Λ = 178 nm, δ = 0.6, N = 10, α = 0.03, n1 = 1.6, n2 = 1.66; beams at 0°, 30°, 60°;
-32 px, 1 % noise; the true layer's loss against it, the noise floor, is 0.037, its mean
-ΔE00 over the lit pixels 0.59):
-
-* the fit (Λ 178.2 nm, δ 0.60, N 11, α 0.0301) has loss 0.036; its 2Λ refit
-  (Λ 354.6 nm, δ 0.29, N 5, n2 − n1 = 0.137) loss 0.046, ΔE00 0.33 from the fit's render over
-  the lit pixels: indistinguishable (flagged);
-* its 3Λ refit (Λ 525.7 nm, δ 0.49, N 6) has loss 0.090, ΔE00 0.71 from the fit's render:
-  below the just-noticeable difference (flagged); the search's own third-order optimum
-  (Λ 530.4 nm, N 10) had loss 0.074;
-* 2Λ/3 and 3Λ/2 of a first-order fit are no Bragg harmonic (no integer order lands on the
-  peak): loss above 10, ΔE00 above 10 — excluded; Λ/2 and Λ/3 would put the first order in
-  the ultraviolet;
-* N: with n2 − n1 free, N = 7 … 12 all fit within 7 % of the noise floor (N = 6: 2.6 times it);
-* identified: the Bragg wavelength 2 n̄ Λ / m of the visible peak and its shift with
-  incidence, the roughness α (the width of each beam's lobe: 0.0301 for 0.03) and the
-  exposure; n1 only weakly (``fit_n1``: the period absorbs it).
-
-Only a prior decides between the harmonics: a ``period_range`` from another measurement
-(an electron micrograph of the cross-section, an infrared or ultraviolet spectrum, which see
-the other orders), or ranges on δ and n2 − n1 that exclude the harmonic's layer (on the same
-target at 12 px, ``dn_range=(0.02, 0.1)`` leaves the 2Λ refit at loss 4.3 and ΔE00 1.7 from
-the fit, ``delta_range=(0.4, 0.6)`` at loss 12.8 and ΔE00 3.0: no longer ambiguous).
+harmonics, is not identified, and neither is N once N (n2 − n1) is. What the data do identify
+are the Bragg wavelength 2 n̄ Λ / m of the visible peak and its shift with incidence, the
+roughness α (the width of each beam's lobe) and the exposure; n1 only weakly (``fit_n1``: the
+period absorbs it). 2Λ/3 and 3Λ/2 of a first-order fit are no Bragg harmonic (no integer order
+lands on the peak), and Λ/2, Λ/3 would put the first order in the ultraviolet. Only a prior
+decides between the harmonics: a ``period_range`` from another measurement (an electron
+micrograph of the cross-section, an infrared or ultraviolet spectrum, which see the other
+orders), or ranges on δ and n2 − n1 that exclude the harmonic's layer. The losses and ΔE00 of
+the harmonic refits on a synthetic target, with and without such ranges: docs/performance.md,
+"Scatterogram matching".
 
 Reading and writing measured scatterograms (PNG, OpenEXR) is in :mod:`torchirid.fitting.measured`.
 """
@@ -198,8 +184,8 @@ def match_scatterogram(
             (then N within ±2 of the refit's is enumerated and polished again; at most twice).
         ambiguity_de2000: an alternative is near-degenerate, and the fit ambiguous, when the mean
             CIEDE2000 between its render and the fit's over the target's lit pixels is below
-            this (≥ 0; default 1, about the just-noticeable difference; the lit pixels of a
-            target with 1 % noise lie 0.59 from the noiseless image).
+            this (≥ 0; default 1, about the just-noticeable difference; a target's noise sets a
+            floor: docs/performance.md, "Scatterogram matching").
         wavelength: ``(W,)`` nm of the model's spectra (default 380–780 nm, 41 values).
         projection: the scatterogram's angular mapping (see
             :data:`~torchirid.layered.scatterograms.PROJECTIONS`).

@@ -317,7 +317,8 @@ def _cached(observer, illuminant, dtype, device) -> LUT:
 def shipped_fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
                             dtype: torch.dtype = torch.float64, device=None) -> LUT:
     """The Ŝ(D) table (shipped for CIE 1931 2° and Stiles & Burch 1959 10° under D65; any
-    other observer/illuminant is built in memory, ≈ 1–3 s), cached; treat it as read-only.
+    other observer/illuminant is built in memory on first use, in seconds), cached; treat it as
+    read-only.
 
     Example:
         >>> shipped_fourier_sensitivity_lut().values.shape
@@ -368,7 +369,7 @@ def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = 
     r"""Kneiphof's 2-D table Ŝ(μ_D, σ²_D) (eq. 18); the default grid is shipped
     (:func:`shipped_prefiltered_sensitivity_lut`, rebuilt by ``luts/build_prefiltered_sensitivity.py``).
 
-    Layout (chosen by measurement, below). Axis ``"mu"``: μ in nm, 0 … d_max every ``step``.
+    Layout (chosen by measurement: docs/performance.md). Axis ``"mu"``: μ in nm, 0 … d_max every ``step``.
     Axis ``"w"``: :math:`w = 1 - e^{-2π^2σ^2/λ_w^2}` with λw = 700 nm — the damping of a
     700 nm component, so Ŝ is close to linear in w (exactly, for a single wavenumber at
     1/λw); ``sigma_nodes − 1`` nodes uniform in w on [0, 0.999] (σ ≈ 0 … 416 nm) and a last
@@ -378,15 +379,12 @@ def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = 
     interpolates without the 2π branch cuts that per-σ unwrapped phases have where |Ŝ_X|
     passes near 0. Read it with :func:`lookup_prefiltered_sensitivity`.
 
-    Accuracy (default grid, max over channels of |Ŝ_lut − Ŝ| at 30,000 random (μ, σ) with
-    μ ∈ [0, 20 µm] and σ ∈ [0, 1000] nm, a third of them below 50 nm; float64): 4.7e-4
-    (``parameters["max_interp_error"]``: the same measure on a fixed 3,000-point sample at build
-    time, 4.9e-4); 2.4e-4 with ``sigma_nodes=61``. The
-    previous layout (σ uniform, 41 nodes, magnitude + per-σ unwrapped phase) erred by 1.5e-2
-    (at σ ≈ 12 nm: linear in σ across a Gaussian in σ; and at μ ≈ 4 µm, σ ≈ 140 nm: a
-    phase branch cut); σ² as the axis with the same nodes: 1.2e-2; demodulated (real, imag)
-    with σ uniform: 1.2e-2; demodulated with w (λw = 550 nm): 1.7e-3. Reproduce:
-    ``benchmarks/thin_film_fig7.py --sensitivity-accuracy``.
+    Accuracy: within 5e-4 of the exact eq. 18 on the default grid (max over channels of
+    |Ŝ_lut − Ŝ|; ``parameters["max_interp_error"]`` records the build's own measure on a fixed
+    3,000-point sample; tests/ibl/test_fourier.py asserts < 6e-4 on random points). The measured
+    error of this layout, of finer grids and of the layouts it replaced, with the command that
+    reproduces them: docs/performance.md, "Thin-film colour on rough surfaces under uniform
+    light: Kneiphof Fig. 7".
 
     Example:
         >>> lut = prefiltered_sensitivity_lut(d_max=500.0, sigma_max=100.0, sigma_nodes=3)
@@ -626,8 +624,8 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
         n_incident: real outer index η₁ (default 1).
         terms: M ≥ 0, the number of m terms kept (default 4, as every other thin-film colour
             function of :mod:`torchirid.ibl`; Belcour & Barla suggest 2–4, Kneiphof et al. use 2).
-            M = 4 costs ≈ 0.2 µs more per colour than M = 2 and cuts the ΔE2000 p95 from 0.044 to
-            0.002 on a dielectric base, 1.58 to 0.30 on a 0.2 + 3i conductor (docs/performance.md).
+            Each term adds one Ŝ evaluation per colour; the error and cost per M are measured in
+            docs/performance.md, "Thin-film colour: Belcour–Barla Fourier series vs exact integration".
         observer, illuminant: the sensitivity (see :func:`fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         sensitivity: ``"lut"`` (the shipped table, 0 beyond |D| = 20 µm) or ``"exact"``
