@@ -136,13 +136,14 @@ CASES = {
         ["cos_theta", "n_film", "thickness", "n_substrate"], None),
     "thin_film_xyz fitted": (ti.thin_film_xyz, lambda: dict(
         cos_theta=two(0.8), alpha=two(0.25), n_film=two(1.3), thickness=two(600.0), n_substrate=two(1.5),
-        method="fitted"), ["cos_theta", "alpha", "n_film", "thickness", "n_substrate"], None),
+        method="fitted", sensitivity="exact"), ["cos_theta", "alpha", "n_film", "thickness", "n_substrate"], None),
     "thin_film_xyz_filtered": (ti.ibl.thin_film_xyz_filtered, lambda: dict(
         wo=two([0.0, 0.0, 1.0]), light_mean=two([0.1, 0.0, 0.9]), light_cov=two(0.01 * torch.eye(3, dtype=F64)),
-        n_film=two(1.33), thickness=two(300.0), n_substrate=two(1.5)),
+        n_film=two(1.33), thickness=two(300.0), n_substrate=two(1.5), sensitivity="exact"),
         ["wo", "light_mean", "light_cov", "n_film", "thickness", "n_substrate"], None),
     "thin_film_xyz_fitted": (ti.ibl.thin_film_xyz_fitted, lambda: dict(
-        cos_theta_o=two(0.8), alpha=two(0.25), n_film=two(1.3), thickness=two(600.0), n_substrate=two(1.5)),
+        cos_theta_o=two(0.8), alpha=two(0.25), n_film=two(1.3), thickness=two(600.0), n_substrate=two(1.5),
+        sensitivity="exact"),
         ["cos_theta_o", "alpha", "n_film", "thickness", "n_substrate"], None),
     "thin_film_xyz_uniform": (ti.ibl.thin_film_xyz_uniform, lambda: dict(
         cos_theta_o=two(0.8), alpha=two(0.25), n_film=two(1.3), thickness=two(600.0), n_substrate=two(1.5),
@@ -247,7 +248,7 @@ SUBPACKAGE_CASES = {
         cos_theta_o=two(0.8), alpha=two(0.25), bins=64, nodes=8)), ["cos_theta_o", "alpha"], i) for i in (1, 2)},
     "ibl.thin_film_xyz_gaussian_path": (_sub("ibl", "thin_film_xyz_gaussian_path"), lambda: dict(
         cos_theta=two(0.8), n_film=two(1.3), thickness=two(600.0), n_substrate=two(1.5), path_mean=two(1500.0),
-        path_var=two(40.0**2)), ["cos_theta", "n_film", "thickness", "n_substrate", "path_mean", "path_var"], None),
+        path_var=two(40.0**2), sensitivity="exact"), ["cos_theta", "n_film", "thickness", "n_substrate", "path_mean", "path_var"], None),
     **{f"estimation.measurement.airy_terms {i}": (_sub("estimation", "airy_terms"), (lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), n_film=two([1.4]), n_substrate=two([1.6]))),
         ["cos_theta", "n_film", "n_substrate"][: 3 if i < 3 else 2], (lambda o, i=i: o[i][0])) for i in range(4)},
@@ -284,7 +285,8 @@ ABSORBING_CASES = {
         ["cos_theta", "thickness", "n_substrate"], None),
     "thin_film_xyz_filtered metal": (ti.ibl.thin_film_xyz_filtered, lambda: dict(
         wo=two([0.0, 0.0, 1.0]), light_mean=two([0.1, 0.0, 0.9]), light_cov=two(0.01 * torch.eye(3, dtype=F64)),
-        n_film=two(1.33), thickness=two(300.0), n_substrate=two(complex(0.2, 3.0))), ["thickness", "n_substrate"], None),
+        n_film=two(1.33), thickness=two(300.0), n_substrate=two(complex(0.2, 3.0)), sensitivity="exact"),
+        ["thickness", "n_substrate"], None),
     "optics.he_directional_diffuse metal": (_sub("optics", "he_directional_diffuse"), lambda: dict(
         wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
         tau=two([300.0]), n_substrate=two([complex(0.5, 2.0)])), ["cos_theta_i", "n_substrate"], None),

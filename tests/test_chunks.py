@@ -197,7 +197,7 @@ def _colour_cases():
         "fourier_lut": lambda: thin_film_xyz_fourier(c, 1.33, d, 0.2 + 3.0j),
         "fourier_exact": lambda: thin_film_xyz_fourier(c, 1.33, d, 1.5, sensitivity="exact", terms=2),
         "fitted_lut": lambda: thin_film_xyz_fitted(c, 0.2, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
-        "fitted_exact": lambda: thin_film_xyz_fitted(c[::3], 0.2, 1.3, d[::4], 1.5, terms=1),
+        "fitted_exact": lambda: thin_film_xyz_fitted(c[::3], 0.2, 1.3, d[::4], 1.5, terms=1, sensitivity="exact"),
         "filtered": lambda: thin_film_xyz_filtered(wo, mu, cov, 1.3, d, complex(2.0, 0.5), sensitivity="lut"),
         "transmissivity": lambda: integrated_transmissivity(lam, c, layer, nodes=64),
         "envelope": lambda: bragg_xyz_envelope(c, 1.0, 1.5, 125.0, d[:, None, None] * 0 + 375.0, 20),

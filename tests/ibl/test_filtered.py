@@ -45,12 +45,12 @@ def _reference(wo, wi, W, **film):
 @pytest.mark.parametrize("n_substrate", [1.5, complex(2.0, 0.5)])
 def test_delta_light_equals_fourier_at_mirror(theta_o, n_substrate):
     wo, r, _, _ = _frame(theta_o)
-    got = thin_film_xyz_filtered(wo, r, torch.zeros(3, 3, dtype=F64), 1.3, 600.0, n_substrate, terms=2)
+    got = thin_film_xyz_filtered(wo, r, torch.zeros(3, 3, dtype=F64), 1.3, 600.0, n_substrate, terms=2, sensitivity="exact")
     cos_h = torch.sqrt((1 + (wo * r).sum()) / 2)
     ref = thin_film_xyz_fourier(cos_h, 1.3, 600.0, n_substrate, terms=2, sensitivity="exact")
     assert (got - ref).abs().max() < 1e-12
     # Σ → 0 continuously
-    tiny = thin_film_xyz_filtered(wo, r, 1e-12 * torch.eye(3, dtype=F64), 1.3, 600.0, n_substrate, terms=2)
+    tiny = thin_film_xyz_filtered(wo, r, 1e-12 * torch.eye(3, dtype=F64), 1.3, 600.0, n_substrate, terms=2, sensitivity="exact")
     assert (tiny - ref).abs().max() < 1e-6
 
 
@@ -59,7 +59,7 @@ def test_delta_light_equals_fourier_at_mirror(theta_o, n_substrate):
 def test_matches_average_over_gaussian_lobe(theta_o, sigma, tol):
     wo, wi, W, mean, cov = _gaussian_lobe(theta_o, sigma)
     ref = _reference(wo, wi, W, **FILM)
-    got = thin_film_xyz_filtered(wo, mean, cov, **FILM)
+    got = thin_film_xyz_filtered(wo, mean, cov, **FILM, sensitivity="exact")
     assert (got - ref).abs().max() < tol
 
 
@@ -68,8 +68,8 @@ def test_filtering_beats_the_mean_direction(theta_o):
     # where the Fresnel terms vary little, the spread of D is what matters (Kneiphof Fig. 2)
     wo, wi, W, mean, cov = _gaussian_lobe(theta_o, 0.1)
     ref = _reference(wo, wi, W, **FILM)
-    err = (thin_film_xyz_filtered(wo, mean, cov, **FILM) - ref).abs().max()
-    err0 = (thin_film_xyz_filtered(wo, mean, torch.zeros_like(cov), **FILM) - ref).abs().max()
+    err = (thin_film_xyz_filtered(wo, mean, cov, **FILM, sensitivity="exact") - ref).abs().max()
+    err0 = (thin_film_xyz_filtered(wo, mean, torch.zeros_like(cov), **FILM, sensitivity="exact") - ref).abs().max()
     assert err < 0.25 * err0
 
 
@@ -80,12 +80,12 @@ def test_broadcasting_and_batch_consistency():
     A = 0.05 * torch.randn(5, 3, 3, generator=g, dtype=F64)
     cov = A @ A.transpose(-1, -2)
     d = torch.tensor([[200.0], [400.0], [600.0], [800.0]], dtype=F64)
-    out = thin_film_xyz_filtered(wo, mean, cov, 1.4, d, complex(1.2, 2.0))
+    out = thin_film_xyz_filtered(wo, mean, cov, 1.4, d, complex(1.2, 2.0), sensitivity="exact")
     assert out.shape == (4, 5, 3)
     for i, j in ((0, 0), (3, 4), (2, 1)):
-        one = thin_film_xyz_filtered(wo[i, 0], mean[0, j], cov[j], 1.4, d[i, 0], complex(1.2, 2.0))
+        one = thin_film_xyz_filtered(wo[i, 0], mean[0, j], cov[j], 1.4, d[i, 0], complex(1.2, 2.0), sensitivity="exact")
         assert torch.allclose(out[i, j], one, atol=1e-14)
-    assert thin_film_xyz_filtered(wo, mean, cov, 1.4, d, 1.5, terms=0).shape == (4, 5, 3)
+    assert thin_film_xyz_filtered(wo, mean, cov, 1.4, d, 1.5, terms=0, sensitivity="exact").shape == (4, 5, 3)
 
 
 def test_gradients_finite_at_zero_covariance_and_float32():
@@ -93,18 +93,18 @@ def test_gradients_finite_at_zero_covariance_and_float32():
     cov = torch.zeros(3, 3, dtype=F64, requires_grad=True)
     mean = r.clone().requires_grad_(True)
     d = torch.tensor(500.0, dtype=F64, requires_grad=True)
-    thin_film_xyz_filtered(wo, mean, cov, 1.3, d, complex(2.0, 0.5)).sum().backward()
+    thin_film_xyz_filtered(wo, mean, cov, 1.3, d, complex(2.0, 0.5), sensitivity="exact").sum().backward()
     for t in (cov, mean, d):
         assert torch.isfinite(t.grad).all()
     assert cov.grad.abs().sum() > 0  # σ²_D enters linearly: the blur has a gradient at Σ = 0
-    out32 = thin_film_xyz_filtered(wo.float(), r.float(), 1e-3 * torch.eye(3), 1.3, 600.0, 1.5)
-    out64 = thin_film_xyz_filtered(wo, r, 1e-3 * torch.eye(3, dtype=F64), 1.3, 600.0, 1.5)
+    out32 = thin_film_xyz_filtered(wo.float(), r.float(), 1e-3 * torch.eye(3), 1.3, 600.0, 1.5, sensitivity="exact")
+    out64 = thin_film_xyz_filtered(wo, r, 1e-3 * torch.eye(3, dtype=F64), 1.3, 600.0, 1.5, sensitivity="exact")
     assert out32.dtype == torch.float32 and (out32.double() - out64).abs().max() < 1e-5
 
 
 def test_backscatter_and_grazing_finite():
     wo = torch.tensor([0.0, 0.0, 1.0], dtype=F64)
-    out = thin_film_xyz_filtered(wo, -wo, torch.zeros(3, 3, dtype=F64), 1.0, 300.0, 1.5)  # cos θ1 = 0, η2 = η1
+    out = thin_film_xyz_filtered(wo, -wo, torch.zeros(3, 3, dtype=F64), 1.0, 300.0, 1.5, sensitivity="exact")  # cos θ1 = 0, η2 = η1
     assert torch.isfinite(out).all()
 
 
@@ -141,5 +141,5 @@ def test_nan_propagates(arg):
     bad = args[arg].clone()
     bad[0] = nan
     args[arg] = bad
-    out = thin_film_xyz_filtered(args["wo"], args["light_mean"], args["light_cov"], 1.4, args["thickness"], 1.5)
+    out = thin_film_xyz_filtered(args["wo"], args["light_mean"], args["light_cov"], 1.4, args["thickness"], 1.5, sensitivity="exact")
     assert torch.isnan(out[0]).all() and torch.isfinite(out[1]).all()

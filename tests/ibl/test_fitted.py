@@ -53,10 +53,10 @@ def test_fitted_beats_kneiphof_and_original():
     a = torch.tensor([0.03, 0.2, 0.45, 0.9], dtype=F64)[None, :]
     d = 600.0
     ref = xyz_to_lab(thin_film_xyz_uniform(c, a, **FILM, nodes=48))
-    fit = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, **FILM)), ref)
+    fit = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, **FILM, sensitivity="exact")), ref)
     A, mu, cov = uniform_light_moments(c, a, nodes=48)
     wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1).expand(5, 4, 3)
-    kn = delta_e_2000(xyz_to_lab(thin_film_xyz_filtered(wo, mu, cov, **FILM)), ref)
+    kn = delta_e_2000(xyz_to_lab(thin_film_xyz_filtered(wo, mu, cov, **FILM, sensitivity="exact")), ref)
     orig = delta_e_2000(xyz_to_lab(thin_film_xyz_fourier(c.expand(5, 4), **FILM, terms=2, sensitivity="exact")), ref)
     assert fit.mean() < 0.5 and fit.max() < 2.0
     assert fit.mean() < 0.25 * kn.mean() and fit.mean() < 0.1 * orig.mean()
@@ -69,7 +69,7 @@ def test_fitted_generalises_to_other_films(base):
     a = torch.tensor([0.1, 0.4, 0.7], dtype=F64)
     for nf, d in ((1.6, 350.0), (2.0, 900.0)):
         ref = xyz_to_lab(thin_film_xyz_uniform(c, a, nf, d, base, nodes=48))
-        de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, nf, d, base)), ref)
+        de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, nf, d, base, sensitivity="exact")), ref)
         assert de.max() < 2.0
 
 
@@ -78,14 +78,14 @@ def test_gradients_and_validation():
     d = torch.tensor([650.0], dtype=F64, requires_grad=True)
     nf = torch.tensor(1.4, dtype=F64, requires_grad=True)
     c = torch.tensor([0.4], dtype=F64)
-    assert torch.autograd.gradcheck(lambda d, nf: thin_film_xyz_fitted(c, 0.3, nf, d, 1.5, table=lut), (d, nf))
-    xyz = thin_film_xyz_fitted(c, 0.3, nf, d, 1.5)
+    assert torch.autograd.gradcheck(lambda d, nf: thin_film_xyz_fitted(c, 0.3, nf, d, 1.5, table=lut, sensitivity="exact"), (d, nf))
+    xyz = thin_film_xyz_fitted(c, 0.3, nf, d, 1.5, sensitivity="exact")
     xyz.sum().backward()
     assert torch.isfinite(d.grad).all() and torch.isfinite(nf.grad)
     with pytest.raises(ValueError, match="table"):
-        thin_film_xyz_fitted(c, 0.3, 1.3, 600.0, 1.5, table="nope")
+        thin_film_xyz_fitted(c, 0.3, 1.3, 600.0, 1.5, table="nope", sensitivity="exact")
     with pytest.raises(ValueError, match="cos_theta_o"):
-        thin_film_xyz_fitted(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5)
+        thin_film_xyz_fitted(torch.tensor(1.5, dtype=F64), 0.3, 1.3, 600.0, 1.5, sensitivity="exact")
     with pytest.raises(ValueError, match="quantiles"):
         light_mixture(torch.tensor(0.5, dtype=F64), 0.3, quantiles=(0.5, 0.2))
 
@@ -95,7 +95,7 @@ def test_sensitivity_lut_mode_close_to_exact():
     c = torch.tensor([0.9, 0.5, 0.15], dtype=F64)
     a = torch.tensor([0.05, 0.3, 0.6], dtype=F64)
     d = torch.tensor([150.0, 600.0, 950.0], dtype=F64)
-    ex = xyz_to_lab(thin_film_xyz_fitted(c, a, 1.3, d, complex(2.0, 0.5)))
+    ex = xyz_to_lab(thin_film_xyz_fitted(c, a, 1.3, d, complex(2.0, 0.5), sensitivity="exact"))
     lut = xyz_to_lab(thin_film_xyz_fitted(c, a, 1.3, d, complex(2.0, 0.5), sensitivity="lut"))
     assert delta_e_2000(lut, ex).max() < 0.3
     with pytest.raises(ValueError, match="sensitivity"):
@@ -108,14 +108,14 @@ def test_film_batches_broadcast_against_scalar_lobe_arguments():
     from torchirid.ibl import thin_film_xyz_fitted
 
     d = torch.tensor([300.0, 450.0], dtype=torch.float64)
-    out = thin_film_xyz_fitted(0.8, 0.3, 1.33, d, 1.5)
+    out = thin_film_xyz_fitted(0.8, 0.3, 1.33, d, 1.5, sensitivity="exact")
     assert out.shape == (2, 3)
     for i in range(2):
-        assert torch.allclose(out[i], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[i], 1.5), rtol=1e-12, atol=0)
-    assert thin_film_xyz_fitted(0.8, 0.3, 1.33, d[:1], 1.5).shape == (1, 3)
+        assert torch.allclose(out[i], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[i], 1.5, sensitivity="exact"), rtol=1e-12, atol=0)
+    assert thin_film_xyz_fitted(0.8, 0.3, 1.33, d[:1], 1.5, sensitivity="exact").shape == (1, 3)
     sub = torch.tensor([1.5, 2.0 + 0.5j], dtype=torch.complex128)
-    both = thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], sub)
-    assert torch.allclose(both[1], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j), rtol=1e-12, atol=0)
+    both = thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], sub, sensitivity="exact")
+    assert torch.allclose(both[1], thin_film_xyz_fitted(0.8, 0.3, 1.33, d[0], 2.0 + 0.5j, sensitivity="exact"), rtol=1e-12, atol=0)
 
 
 def test_alpha_above_the_table_raises_instead_of_clamping():
@@ -125,6 +125,6 @@ def test_alpha_above_the_table_raises_instead_of_clamping():
 
     c = torch.tensor(0.8, dtype=torch.float64)
     with pytest.raises(ValueError, match="alpha must be <= 1"):
-        thin_film_xyz_fitted(c, 2.0, 1.3, 600.0, 1.5)
-    assert torch.isfinite(thin_film_xyz_fitted(c, 1.0, 1.3, 600.0, 1.5)).all()
+        thin_film_xyz_fitted(c, 2.0, 1.3, 600.0, 1.5, sensitivity="exact")
+    assert torch.isfinite(thin_film_xyz_fitted(c, 1.0, 1.3, 600.0, 1.5, sensitivity="exact")).all()
     assert torch.isfinite(thin_film_xyz_uniform(c, 2.0, 1.3, 600.0, 1.5, nodes=16)).all()

@@ -133,8 +133,8 @@ def test_fitted_height_correlated_matches_its_reference():
     a = torch.tensor([0.5, 1.0], dtype=F64)[None, :]
     film = (1.33, 300.0, 1.5)
     ref = xyz_to_lab(thin_film_xyz_uniform(c, a, *film, nodes=48, masking=HC))
-    de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film, masking=HC)), ref)
-    wrong = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film)), ref)
+    de = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film, masking=HC, sensitivity="exact")), ref)
+    wrong = delta_e_2000(xyz_to_lab(thin_film_xyz_fitted(c, a, *film, sensitivity="exact")), ref)
     assert de.max() < 1.0 and de.mean() < 0.6  # measured 0.84 / 0.55
     assert wrong.max() > 2 * de.max() and wrong.mean() > 2 * de.mean()  # measured 2.19 / 1.29
 
@@ -149,7 +149,7 @@ def test_masking_validation_and_table_mismatch():
              lambda m: light_mixture(c, 0.3, nodes=4, masking=m),
              lambda m: light_mixture_lut(theta_nodes=2, alpha_nodes=2, nodes=4, masking=m),
              lambda m: shipped_light_mixture_lut(masking=m),
-             lambda m: thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, masking=m)]
+             lambda m: thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, masking=m, sensitivity="exact")]
     for call in calls:
         with pytest.raises(ValueError, match="masking must be one of 'separable', 'height-correlated'"):
             call("smith-joint")
@@ -157,5 +157,5 @@ def test_masking_validation_and_table_mismatch():
     lut = light_mixture_lut(theta_nodes=2, alpha_nodes=2, nodes=4, masking=HC)
     assert lut.parameters["masking"] == HC
     with pytest.raises(ValueError, match="masking"):
-        thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut)  # a joint-G table, separable requested
-    assert torch.isfinite(thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut, masking=HC)).all()
+        thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut, sensitivity="exact")  # a joint-G table, separable requested
+    assert torch.isfinite(thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, table=lut, masking=HC, sensitivity="exact")).all()

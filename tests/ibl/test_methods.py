@@ -63,3 +63,25 @@ def test_the_fitted_rough_film_is_close_to_the_quadrature_reference():
 def test_bad_method_or_alpha_raise(kwargs, match):
     with pytest.raises(ValueError, match=match):
         thin_film_xyz(COS, 1.33, 300.0, 1.0, **kwargs)
+
+
+def test_sensitivity_has_one_default_and_the_tables_follow_the_quadrature():
+    """Every thin-film colour function defaults to ``sensitivity="lut"`` (the shipped tables), within
+    ΔE2000 0.01 of the quadrature (``"exact"``) on a sweep of films."""
+    import inspect
+
+    import torchirid.ibl as ibl
+    from torchirid.color import delta_e_2000, xyz_to_lab
+
+    defaults = {name: inspect.signature(getattr(ibl, name)).parameters["sensitivity"].default
+                for name in ibl.__all__ if callable(getattr(ibl, name))
+                and "sensitivity" in inspect.signature(getattr(ibl, name)).parameters}
+    assert len(defaults) >= 5 and set(defaults.values()) == {"lut"}, defaults
+    g = torch.Generator().manual_seed(3)
+    c = 0.2 + 0.8 * torch.rand(64, generator=g, dtype=torch.float64)
+    d = 50.0 + 1500.0 * torch.rand(64, generator=g, dtype=torch.float64)
+    for method in ("fourier", "fitted"):
+        kw = {} if method == "fourier" else {"alpha": 0.2}
+        lut = ibl.thin_film_xyz(c, 1.35, d, 1.5, method=method, **kw)
+        exact = ibl.thin_film_xyz(c, 1.35, d, 1.5, method=method, sensitivity="exact", **kw)
+        assert float(delta_e_2000(xyz_to_lab(lut), xyz_to_lab(exact)).max()) < 0.01, method

@@ -65,8 +65,8 @@ def test_constant_environment_against_uniform_ground_truth(constant_pre):
     phi = 0.37  # an azimuth off the texel grid
     s = torch.sin(th)[:, None].expand(4, 3)
     v = torch.stack([s * math.cos(phi), s * math.sin(phi), c], -1)
-    xyz = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz")
-    bb = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz", method="belcour_barla")
+    xyz = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz", sensitivity="exact")
+    bb = shade_thin_film_environment(constant_pre, Z, v, a, *FILM, output="xyz", method="belcour_barla", sensitivity="exact")
     A, mu, cov = uniform_light_moments(c, a)
     ref = thin_film_xyz_uniform(c, a, *FILM)
     # the split-sum albedo (shipped 64² DFG) against the converged lobe quadrature
@@ -77,7 +77,7 @@ def test_constant_environment_against_uniform_ground_truth(constant_pre):
     de_bb = delta_e_2000(_lab(bb / (2.0 * A[..., None])), _lab(ref))
     rot = torch.tensor([[math.cos(phi), -math.sin(phi), 0], [math.sin(phi), math.cos(phi), 0], [0, 0, 1]],
                        dtype=F64)
-    de_exact = delta_e_2000(_lab(thin_film_xyz_filtered(v, mu @ rot.T, rot @ cov @ rot.T, *FILM)), _lab(ref))
+    de_exact = delta_e_2000(_lab(thin_film_xyz_filtered(v, mu @ rot.T, rot @ cov @ rot.T, *FILM, sensitivity="exact")), _lab(ref))
     assert float(de.max()) < 11.0 and float(de.mean()) < 4.5
     assert float(de.mean()) < float(de_exact.mean()) < float(de_bb.mean())  # Kneiphof beats the original
     assert float(de[:, 1:].mean()) < 0.5 * float(de_bb[:, 1:].mean())  # α ≥ 0.25: the paper's claim
@@ -94,7 +94,7 @@ def test_no_film_reduces_to_fresnel_times_split_sum(sky_pre):
     assert float(v @ n) > 0
     alpha = float(sky_pre.alphas[k])
     ns = complex(0.2, 3.0)  # a conductor base
-    rgb = shade_thin_film_environment(sky_pre, n, v, alpha, 1.0, 600.0, ns)
+    rgb = shade_thin_film_environment(sky_pre, n, v, alpha, 1.0, 600.0, ns, sensitivity="exact")
     mean, _ = light_moments_to_mean_cov(sky_pre.moments[k, i, j])
     cos1 = math.sqrt(0.5 * (1.0 + float(v @ mean)))
     R = float(_fresnel_unpolarized(cos1, ns))
@@ -103,10 +103,10 @@ def test_no_film_reduces_to_fresnel_times_split_sum(sky_pre):
     expected = (A + B) * R * sky_pre.radiance[k, i, j] * white_rgb
     assert torch.allclose(rgb, expected, rtol=1e-10, atol=0)
     # thickness 0 under a real film: converges to the same Fresnel term as M grows
-    rgb0 = shade_thin_film_environment(sky_pre, n, v, alpha, 1.5, 0.0, ns, terms=60)
+    rgb0 = shade_thin_film_environment(sky_pre, n, v, alpha, 1.5, 0.0, ns, terms=60, sensitivity="exact")
     assert torch.allclose(rgb0, expected, rtol=1e-6, atol=0)
     # Belcour–Barla: the same with cos θ1 = ⟨n, v⟩
-    bb = shade_thin_film_environment(sky_pre, n, v, alpha, 1.0, 600.0, ns, method="belcour_barla")
+    bb = shade_thin_film_environment(sky_pre, n, v, alpha, 1.0, 600.0, ns, method="belcour_barla", sensitivity="exact")
     R_bb = float(_fresnel_unpolarized(float(v @ n), ns))
     assert torch.allclose(bb, expected * (R_bb / R), rtol=1e-10, atol=0)
 
@@ -139,7 +139,7 @@ def test_sun_highlight_follows_mirror_direction():
     mirror = _reflect(sun, Z)
     away = torch.nn.functional.normalize(mirror + torch.tensor([0.5, -0.4, 0.0], dtype=F64), dim=-1)
     v = torch.stack([mirror, away])
-    y = shade_thin_film_environment(pre, Z, v, 0.1, *FILM, output="xyz")[..., 1]
+    y = shade_thin_film_environment(pre, Z, v, 0.1, *FILM, output="xyz", sensitivity="exact")[..., 1]
     assert float(y[0]) > 20.0 * float(y[1]) > 0
 
 
@@ -147,20 +147,20 @@ def test_broadcasting_and_dtype(sky_pre):
     th = torch.tensor([0.2, 0.7, 1.1], dtype=F64)
     v = torch.stack([torch.sin(th), torch.zeros_like(th), torch.cos(th)], -1)[:, None, :]  # (3, 1, 3)
     d = torch.tensor([300.0, 600.0], dtype=F64)  # (2,)
-    out = shade_thin_film_environment(sky_pre, Z, v, 0.2, 1.3, d, complex(1.5, 0.0))
+    out = shade_thin_film_environment(sky_pre, Z, v, 0.2, 1.3, d, complex(1.5, 0.0), sensitivity="exact")
     assert out.shape == (3, 2, 3) and out.dtype == F64
-    one = shade_thin_film_environment(sky_pre, Z, v[2, 0], 0.2, 1.3, d[1], complex(1.5, 0.0))
+    one = shade_thin_film_environment(sky_pre, Z, v[2, 0], 0.2, 1.3, d[1], complex(1.5, 0.0), sensitivity="exact")
     assert torch.allclose(out[2, 1], one, rtol=1e-12, atol=0)
     # per-pixel normals and roughness
     n = torch.nn.functional.normalize(torch.tensor([[0.0, 0.0, 1.0], [0.2, 0.1, 1.0]], dtype=F64), dim=-1)
     a = torch.tensor([0.15, 0.25], dtype=F64)
-    per = shade_thin_film_environment(sky_pre, n, v[1, 0], a, 1.3, 600.0, 1.5)
+    per = shade_thin_film_environment(sky_pre, n, v[1, 0], a, 1.3, 600.0, 1.5, sensitivity="exact")
     assert per.shape == (2, 3)
-    assert torch.allclose(per[1], shade_thin_film_environment(sky_pre, n[1], v[1, 0], 0.25, 1.3, 600.0, 1.5))
+    assert torch.allclose(per[1], shade_thin_film_environment(sky_pre, n[1], v[1, 0], 0.25, 1.3, 600.0, 1.5, sensitivity="exact"))
     # float32 maps and inputs stay float32 and close to float64
     pre32 = prefilter_environment(synthetic_environment(32, 64, dtype=torch.float32), [0.1, 0.3],
                                   resolution=(8, 16))
-    o32 = shade_thin_film_environment(pre32, Z.float(), v.float(), 0.2, 1.3, d.float(), complex(1.5, 0.0))
+    o32 = shade_thin_film_environment(pre32, Z.float(), v.float(), 0.2, 1.3, d.float(), complex(1.5, 0.0), sensitivity="exact")
     assert o32.dtype == torch.float32 and bool(torch.isfinite(o32).all())
     assert torch.allclose(o32.double(), out, rtol=2e-3, atol=1e-4)
 
@@ -170,7 +170,7 @@ def test_gradients(sky_pre):
     d = torch.tensor(450.0, dtype=F64, requires_grad=True)
     a = torch.tensor(0.2, dtype=F64, requires_grad=True)
     assert torch.autograd.gradcheck(
-        lambda v, d, a: shade_thin_film_environment(sky_pre, Z, v, a, 1.3, d, complex(2.0, 0.5)),
+        lambda v, d, a: shade_thin_film_environment(sky_pre, Z, v, a, 1.3, d, complex(2.0, 0.5), sensitivity="exact"),
         (v, d, a), eps=1e-6, atol=1e-6)
 
 
@@ -201,7 +201,7 @@ def test_bad_input(sky_pre, kwargs, match):
 
 def test_belcour_barla_matches_fourier_at_mirror(constant_pre):
     v = torch.tensor([0.6, 0.0, 0.8], dtype=F64)
-    out = shade_thin_film_environment(constant_pre, Z, v, 0.25, *FILM, method="belcour_barla", output="xyz")
+    out = shade_thin_film_environment(constant_pre, Z, v, 0.25, *FILM, method="belcour_barla", output="xyz", sensitivity="exact")
     A, B = shipped_dfg_lut()(cos_theta_o=torch.tensor(0.8, dtype=F64), alpha=torch.tensor(0.25, dtype=F64)).tolist()
     ref = 2.0 * (A + B) * thin_film_xyz_fourier(torch.tensor(0.8, dtype=F64), *FILM, sensitivity="exact")  # same default terms
     assert torch.allclose(out, ref, rtol=1e-9, atol=0)
@@ -220,7 +220,7 @@ def test_nan_propagates(sky_pre, method, arg):
     bad[0] = nan
     args[arg] = bad
     out = shade_thin_film_environment(sky_pre, args["normal"], args["view"], args["alpha"], 1.3, args["thickness"],
-                                      1.5, method=method)
+                                      1.5, method=method, sensitivity="exact")
     assert torch.isnan(out[0]).all() and torch.isfinite(out[1]).all()
 
 
@@ -231,13 +231,13 @@ def test_fitted_method_is_the_table_times_the_split_sum(constant_pre):
     th = torch.tensor([10.0, 45.0, 70.0], dtype=F64) * (math.pi / 180)
     v = torch.stack([torch.sin(th), torch.zeros(3, dtype=F64), torch.cos(th)], -1)
     c, alpha = torch.cos(th), torch.tensor(0.25, dtype=F64)
-    out = shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method="fitted", output="xyz")
+    out = shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method="fitted", output="xyz", sensitivity="exact")
     A, B = shipped_dfg_lut()(cos_theta_o=c, alpha=alpha.expand(3)).unbind(-1)
-    expected = 2.0 * (A + B)[:, None] * thin_film_xyz_fitted(c, alpha, *FILM)
+    expected = 2.0 * (A + B)[:, None] * thin_film_xyz_fitted(c, alpha, *FILM, sensitivity="exact")
     assert torch.allclose(out, expected, rtol=1e-9, atol=0)
     ref = thin_film_xyz_uniform(c, alpha, *FILM)
     errors = {m: float(delta_e_2000(_lab(shade_thin_film_environment(constant_pre, Z, v, alpha, *FILM, method=m,
-                                                                     output="xyz") / (2.0 * (A + B))[:, None]),
+                                                                     output="xyz", sensitivity="exact") / (2.0 * (A + B))[:, None]),
                                     _lab(ref)).mean())
               for m in SHADING_METHODS}
     assert errors["fitted"] < 1.0 and errors["fitted"] < errors["kneiphof"] < errors["belcour_barla"], errors

@@ -120,10 +120,10 @@ def test_path_difference_moments_direct():
 def test_gaussian_path_consistency():
     c = torch.tensor([0.3, 0.9], dtype=F64)
     D = 2 * 1.3 * 600 * torch.sqrt(1 - (1 / 1.3) ** 2 * (1 - c * c))
-    a = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0)
+    a = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0, sensitivity="exact")
     b = thin_film_xyz_fourier(c, **FILM, sensitivity="exact")  # (the same default terms in both)
     assert (a - b).abs().max() < 1e-12
-    a2 = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0, terms=2)
+    a2 = thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=0.0, terms=2, sensitivity="exact")
     assert (a2 - thin_film_xyz_fourier(c, **FILM, terms=2, sensitivity="exact")).abs().max() < 1e-12
     with pytest.raises(ValueError, match="path_var"):
         thin_film_xyz_gaussian_path(c, **FILM, path_mean=D, path_var=-1.0)
@@ -138,7 +138,7 @@ def test_kneiphof_beats_original_at_high_roughness():
     orig = thin_film_xyz_fourier(c.expand(4, 3), **FILM, terms=2, sensitivity="exact")
     A, mu, cov = uniform_light_moments(c, a, nodes=48)
     wo = torch.stack([torch.sqrt(1 - c * c), torch.zeros_like(c), c], -1).expand(4, 3, 3)
-    kn = thin_film_xyz_filtered(wo, mu, cov, **FILM)
+    kn = thin_film_xyz_filtered(wo, mu, cov, **FILM, sensitivity="exact")
     assert delta_e_2000(xyz_to_lab(kn), ref).mean() < 0.5 * delta_e_2000(xyz_to_lab(orig), ref).mean()
 
 

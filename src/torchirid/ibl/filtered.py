@@ -69,7 +69,7 @@ def _vectors(x, name, dtype, device):
 def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
-                           sensitivity: str = "exact") -> torch.Tensor:
+                           sensitivity: str = "lut") -> torch.Tensor:
     r"""Thin-film XYZ averaged over a light-direction distribution (Kneiphof et al. 2019, eq. 20–29).
 
     See the module docstring for the chain eq. 20 → 29. For ``light_cov = 0`` and a unit
@@ -88,7 +88,8 @@ def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_subst
         terms: M ≥ 0, Fourier terms kept (default 4; the paper's is 2).
         observer, illuminant: the sensitivity (see :func:`~torchirid.ibl.fourier_sensitivity`).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
-        sensitivity: ``"exact"`` (default) or ``"lut"`` (``FILTERED_SENSITIVITY_MODES``).
+        sensitivity: ``"lut"`` (default: the shipped tables of Ŝ(D) and Ŝ(μ, σ²), interpolated) or
+            ``"exact"`` (quadrature: the reference the tables are tested against).
 
     Returns:
         ``(*, 3)`` XYZ (white Y = 1), real dtype of the inputs, differentiable w.r.t. every input.
@@ -184,7 +185,7 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivit
 def thin_film_xyz_gaussian_path(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
                                 n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                                 illuminant: str = "D65", polarization: str = "unpolarized",
-                                sensitivity: str = "exact") -> torch.Tensor:
+                                sensitivity: str = "lut") -> torch.Tensor:
     r"""Eq. 29 for a given Gaussian path difference D ~ N(μ_D, σ²_D), C*_m and φ₂* at ``cos_theta``.
 
     The last step of :func:`thin_film_xyz_filtered`, for callers that know μ_D and σ²_D by other

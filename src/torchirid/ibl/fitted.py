@@ -212,7 +212,7 @@ def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype 
 
 def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
                          terms: int = 4, observer: str = "CIE 1931 2", illuminant: str = "D65",
-                         polarization: str = "unpolarized", sensitivity: str = "exact",
+                         polarization: str = "unpolarized", sensitivity: str = "lut",
                          masking: str = "separable") -> torch.Tensor:
     r"""Thin-film XYZ over a GGX lobe under uniform light from the fitted mixture table.
 
@@ -223,13 +223,13 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         n_incident: real outer index η₁ (default 1).
         table: a :class:`~torchirid.lut.LUT` from :func:`light_mixture_lut` built with the same
             ``masking``; default the shipped one for ``masking``.
-        terms: M ≥ 0 Fourier terms per component (default 4). Measured against
-            :func:`~torchirid.ibl.thin_film_xyz_uniform` on 10,368 films × geometries
-            (``benchmarks/fitted_terms_error.py``): ΔE2000 max / p95 / median 15.4 / 2.08 / 0.17 at
-            M = 2, 11.3 / 0.71 / 0.089 at M = 4, 6.4 / 0.61 / 0.075 at M = 6 (the maxima: near-mirrors at
-            θo = 85°, where the series converges slowly); a base 1.5 + 2i, d = 171 nm, θo = 70°,
-            α = 0.056 errs by up to 3.7 at M = 2 and 0.45 at M = 4 (η₂ ∈ [1.2, 2.5]). Each term costs
-            one Ŝ evaluation per component: ≈ 1.2 ms per colour with the exact Ŝ, ≈ 2 µs with the table.
+        terms: M ≥ 0 Fourier terms per component (default 4). More terms approach
+            :func:`~torchirid.ibl.thin_film_xyz_uniform`, slowest for near-mirrors at grazing views;
+            each term costs one Ŝ evaluation per component. The error against the uniform-light
+            reference per M (``benchmarks/fitted_terms_error.py``) and the cost are in
+            docs/performance.md, "Thin-film colour on rough surfaces under uniform light: Kneiphof
+            Fig. 7"; at the default, a base 1.5 + 2i, d = 171 nm, θo = 70°, α = 0.056 stays within
+            ΔE2000 0.6 of the reference (tests/ibl/test_fitted_terms.py).
         observer, illuminant, polarization, sensitivity: as
             :func:`~torchirid.ibl.thin_film_xyz_filtered` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
             what a shader reads).

@@ -112,7 +112,7 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
 def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, view, alpha, n_film, thickness,
                                 n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 4,
                                 observer: str = "CIE 1931 2", polarization: str = "unpolarized",
-                                sensitivity: str = "exact", output: str = "rgb", dfg=None) -> torch.Tensor:
+                                sensitivity: str = "lut", output: str = "rgb", dfg=None) -> torch.Tensor:
     r"""Radiance reflected by a rough thin-film surface under a prefiltered environment (Kneiphof eq. 12).
 
     :math:`L_o = A(⟨n, ω_o⟩, α)\;\bar L(ω_r, α) ⊙ \mathrm{RGB}[\text{reflectance term}]`, ω_r =
@@ -134,14 +134,15 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
             ``"belcour_barla"`` (eq. 4 at the ideal reflection, cos θ₁ = ⟨n, ω_o⟩) or
             ``"fitted"`` (:func:`~torchirid.ibl.thin_film_xyz_fitted`: the light-mixture table
             fitted to *uniform* light — best under uniform or slowly varying light; under a sky
-            with a sun Kneiphof's moments carry the light's direction and do better: mean
-            ΔE2000 3.5 against 4.4 in the gallery's environment example) —
+            with a sun Kneiphof's moments carry the light's direction and do better: docs/performance.md,
+            "Thin-film colour on rough surfaces under uniform light", under an environment map) —
             :data:`SHADING_METHODS`.
         terms: Fourier terms M ≥ 0 (default 4; the paper's is 2).
         observer: colour-matching functions of the reflectance term (illuminant fixed to D65,
             the white of the sRGB primaries the map is in).
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
-        sensitivity: ``"exact"`` (default) or ``"lut"`` — how Ŝ(μ, σ²) / Ŝ(D) is evaluated.
+        sensitivity: ``"lut"`` (default) or ``"exact"`` — how Ŝ(μ, σ²) / Ŝ(D) is evaluated (the
+            shipped tables, or quadrature).
         output: ``"rgb"`` (default: linear sRGB radiance, the map's units) or ``"xyz"``.
         dfg: split-sum :class:`~torchirid.lut.LUT` from :func:`~torchirid.ibl.dfg_lut`; default
             :func:`~torchirid.ibl.shipped_dfg_lut`.
