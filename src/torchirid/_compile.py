@@ -4,7 +4,7 @@ Off by default: compiling costs seconds per kernel variant and needs a C++ compi
 time, which a library should not impose.  Switch it on for large grids (LUT builds, speed
 benchmarks) with :func:`set_compile` or the environment variable ``TORCHIRID_COMPILE=1``.
 The compiled kernels fuse the ~60 elementwise operations of Yeh's closed form into a few
-loops (about 4× faster on a 401 × 90 grid, see docs/performance.md) and agree with the
+loops (faster on large grids: docs/performance.md, "Compiled Bragg kernel") and agree with the
 eager kernels to ~1e-13 in float64.  If compilation fails, torchirid warns once and falls
 back to eager evaluation.
 """

@@ -1,11 +1,12 @@
 """Torch threads for small workloads: one thread below a work threshold.
 
-Measured on a 2-core machine (``benchmarks/threads.py``, docs/performance.md): for workloads of
-many small ops — one colour, one fitting step on an estimation-sized grid — two torch threads
-gain nothing on a quiet machine (1.0× the one-thread time) and cost 2.9–3.2× while one other
-process keeps a core busy: the ops that torch does parallelise then wait for a thread that the
-other process holds. Large grids gain from the second thread on a quiet machine (0.7–0.8×) and
-lose under load (1.8–3.5×), a choice only the user can make (``torch.set_num_threads``).
+Measured on a 2-core machine (``benchmarks/threads.py``; the figures in docs/performance.md,
+"Threads on a shared machine"): for workloads of many small ops — one colour, one fitting step
+on an estimation-sized grid — two torch threads gain nothing on a quiet machine and cost several
+times the one-thread time while one other process keeps a core busy: the ops that torch does
+parallelise then wait for a thread that the other process holds. Large grids gain from the
+second thread on a quiet machine and lose under load, a choice only the user can make
+(``torch.set_num_threads``).
 
 Policy: every table-producing function (:func:`torchirid._chunks.evaluate`) runs a batch whose
 work is below ``torchirid._threads.SMALL_WORK`` elements with :func:`get_small_work_threads` torch threads (1

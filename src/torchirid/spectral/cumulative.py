@@ -50,8 +50,7 @@ the landmarks overlapping the visible range.
 
 The package ships tables in ``torchirid/data/cmf_cumulative/`` (built by
 ``luts/build_cumulative_cmf.py``); :func:`shipped_cumulative_cmf_lut` loads them, checks their hash and
-metadata, and otherwise builds the table in memory (≈ 0.2 s once colour-science is
-imported; nothing is written).
+metadata, and otherwise builds the table in memory (nothing is written).
 """
 
 from __future__ import annotations

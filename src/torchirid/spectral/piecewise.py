@@ -31,8 +31,8 @@ box starts) and integrated against the cumulative table in one gather and one ba
 product: ~370 ops per call in all, run in inference mode when no gradient is wanted.
 With ``torchirid.options(compile=True)`` the two stages around the one host sync (the compact
 length) are two compiled kernels (landmarks + box layout; sub-boxes + table lookup, its final
-sum as one fused reduction): 1.1–1.4× faster than eager on Fourneau's Fig. 4 grid (s = 8), at
-a one-off compile time of ~20 s.
+sum as one fused reduction): worth it for repeated calls on large grids only, since a one-off
+compile precedes the first call (not yet measured in docs/performance.md).
 """
 
 from __future__ import annotations
