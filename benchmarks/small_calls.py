@@ -15,26 +15,36 @@ float64:
   (incident n1 | (n2 d2, n1 d1) × 20 | n1, the library's order): unpolarized against one ``coh_tmm`` call (the
   issue's yardstick), unpolarized against tmm's unpolarized answer (``coh_tmm`` for s and p: the
   same answer), and s against ``coh_tmm('s')``;
-* **Bragg colour**: one ``bragg_xyz`` colour (the spectral method, ~7 000 wavelengths), absolute.
+* **Bragg colour**: one ``bragg_xyz`` colour (the spectral method, ~7 000 wavelengths), absolute;
+* **larger calls** (absolute, to compare versions): what the small-call paths must not slow down.
 
 Every pair is checked for the same answer first (thin film to 1e-13, Bragg to 1e-12 of tmm).
 The op counts are torch operator calls per library call (``TorchDispatchMode``; reading a
 value back counts as one).
 
+Times are this process's CPU time by default (``--clock wall`` for elapsed time): on a shared
+machine the slices other processes take do not count, which keeps the rounds comparable.
+
 Run: ``.venv/bin/python benchmarks/small_calls.py`` (~1 min; ``--rounds`` to change the 15
-rounds). ``PYTHONPATH=<other checkout>/src`` measures another version of the library.
+rounds). ``PYTHONPATH=<other checkout>/src`` measures another version of the library;
+``--compare <other checkout>/src`` adds the larger calls timed against it in alternating child
+processes (paired rounds; ~1 min more).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 import statistics
 import sys
 import time
 
-import numpy as np
-import torch
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):  # one thread for NumPy (tmm) too
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
+import torch  # noqa: E402
 
 torch.set_num_threads(1)
 
@@ -83,11 +93,15 @@ def ops_per_call(fn) -> int:
     return count.ops
 
 
+CLOCK = {"cpu": time.process_time, "wall": time.perf_counter}
+clock = CLOCK["cpu"]
+
+
 def per_call(fn, calls):
-    t = time.perf_counter()
+    t = clock()
     for _ in range(calls):
         fn()
-    return (time.perf_counter() - t) / calls
+    return (clock() - t) / calls
 
 
 def calls_for(fn, seconds=0.04):
@@ -118,10 +132,23 @@ def paired(lib, ref, rounds):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--rounds", type=int, default=15)
+    parser.add_argument("--clock", choices=tuple(CLOCK), default="cpu",
+                        help="cpu: this process's CPU time (default: on a shared machine the time slices other "
+                             "processes take do not count); wall: elapsed time")
+    parser.add_argument("--compare", metavar="SRC",
+                        help="also time the larger calls against the library under SRC (e.g. an older commit's "
+                             "src/ from git archive), in alternating child processes")
+    parser.add_argument("--larger-json", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    global clock
+    clock = CLOCK[args.clock]
+    if args.larger_json:
+        _larger_json()
+        return
 
     print(f"torchirid from {ti.__file__}")
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} thread, float64, {args.rounds} paired rounds")
+    print(f"torch {torch.__version__}, {torch.get_num_threads()} thread, float64, {args.rounds} paired rounds, "
+          f"{args.clock} clock")
     print()
 
     # --- thin film against the bare Airy formula
@@ -189,9 +216,75 @@ def main():
         med, lo, hi, tl, tr = paired(lib, ref, args.rounds)
         print(f"| {name} | {ops_per_call(lib)} | {tl:.1f} | {tr:.1f} | {med:.2f}× [{lo:.2f}–{hi:.2f}] |")
         sys.stdout.flush()
-    n_col = calls_for(colour, 0.2)
-    times = [per_call(colour, n_col) for _ in range(max(3, args.rounds // 3))]
-    print(f"| one bragg_xyz colour (spectral) | {ops_per_call(colour)} | {statistics.median(times) * 1e6:.0f} | | |")
+    print(f"| one bragg_xyz colour (spectral), absolute below | {ops_per_call(colour)} | | | |")
+    print()
+    print("| larger call | library (µs), median [min–max] |")
+    print("|---|---:|")
+    for name, fn in larger_calls().items():
+        n = calls_for(fn, 0.1)
+        times = [per_call(fn, n) * 1e6 for _ in range(max(5, args.rounds // 2))]
+        print(f"| {name} | {statistics.median(times):.0f} [{min(times):.0f}–{max(times):.0f}] |")
+        sys.stdout.flush()
+    if args.compare:
+        compare(args.compare, args.rounds)
+
+
+def larger_calls():
+    """Larger calls, absolute: what the small-call paths must not slow down."""
+    lam = torch.linspace(380.0, 780.0, 401, dtype=F)
+    c90 = torch.cos(torch.linspace(0.0, 1.5, 90, dtype=F))[:, None]
+    lam81 = torch.linspace(400.0, 720.0, 81, dtype=F)
+    d64 = torch.linspace(200.0, 400.0, 64, dtype=F)[:, None]
+    one = torch.tensor(0.8, dtype=F)
+    return {
+        "one bragg_xyz colour (spectral)": lambda: ti.bragg_xyz(one, 1.0, 1.5, 125.0, 375.0, 20),
+        "Bragg, 401 wavelengths": lambda: ti.bragg_reflectance(lam, one, 1.0, 1.5, 125.0, 375.0, 20),
+        "Bragg, 401 × 90 grid": lambda: ti.bragg_reflectance(lam, c90, 1.0, 1.5, 125.0, 375.0, 20),
+        "thin film, 81 wavelengths × 64 thicknesses": lambda: ti.thin_film_reflectance(lam81, 0.9, 1.38, d64, 1.5),
+        "thin film, 401 × 90 grid": lambda: ti.thin_film_reflectance(lam, c90, 1.33, 300.0, 1.5),
+    }
+
+
+def _larger_json():
+    """(child process) the fastest of a few timings of each larger call, as JSON on stdout"""
+    import json
+
+    out = {}
+    for name, fn in larger_calls().items():
+        n = calls_for(fn, 0.05)
+        out[name] = min(per_call(fn, n) for _ in range(5)) * 1e6
+    print(json.dumps(out))
+
+
+def compare(other_src, rounds):
+    """Larger calls, this library against the one under ``other_src``: child processes alternating
+    in paired rounds (each the fastest of 5 timings per call), median ratio this / other."""
+    import json
+    import subprocess
+
+    def run(src):
+        env = dict(os.environ)
+        env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        cmd = [sys.executable, __file__, "--larger-json", "--clock", "cpu" if clock is time.process_time else "wall"]
+        return json.loads(subprocess.run(cmd, env=env, check=True, capture_output=True, text=True).stdout)
+
+    here = os.path.dirname(os.path.dirname(ti.__file__))
+    ratios, times = {}, {}
+    for k in range(max(3, rounds // 3)):
+        pair = (run(other_src), run(here)) if k % 2 == 0 else tuple(reversed((run(here), run(other_src))))
+        for name in pair[0]:
+            ratios.setdefault(name, []).append(pair[1][name] / pair[0][name])
+            times.setdefault(name, []).append((pair[0][name], pair[1][name]))
+    print()
+    print(f"Larger calls against {other_src}: child processes in {len(next(iter(ratios.values())))} paired rounds, "
+          "the fastest of 5 timings per call")
+    print()
+    print("| larger call | other (µs) | this (µs) | this / other, median [min–max] |")
+    print("|---|---:|---:|---:|")
+    for name, r in ratios.items():
+        other = statistics.median(t[0] for t in times[name])
+        this = statistics.median(t[1] for t in times[name])
+        print(f"| {name} | {other:.0f} | {this:.0f} | {statistics.median(r):.2f} [{min(r):.2f}–{max(r):.2f}] |")
 
 
 if __name__ == "__main__":

@@ -466,3 +466,31 @@ def test_host_equal_to_n1_takes_the_plain_path_and_keeps_gradients():
     # a host with its own shape broadcasts the batch as before
     assert ti.bragg_reflectance(lam, 1.0, 1.33, 1.5, 100.0, 150.0, 20, n_incident=torch.full((3, 1), 1.33,
                                 dtype=torch.float64)).shape == (3, 31)
+
+
+@pytest.mark.parametrize("host_mode", ["n1", "host", "tir"])
+@pytest.mark.parametrize("pol", ["s", "p", "unpolarized"])
+def test_one_point_calls_equal_the_batch(host_mode, pol):
+    """A one-point call (its own small-call path: s and p in one pass, one branch of Yeh's kernel,
+    the guards read back) gives the batch's value for that point."""
+    rng = np.random.default_rng(7)
+    P = _random_mirrors(rng, 60, host_mode)
+    P["c"][::6] = 0.0  # grazing points too
+    nh = None if P["nh"] is None else t64(P["nh"])
+    batch = ti.bragg_reflectance(t64(P["lam"]), t64(P["c"]), t64(P["n1"]), t64(P["n2"]), t64(P["d1"]),
+                                 t64(P["d2"]), torch.as_tensor(P["N"]), n_incident=nh, polarization=pol)
+    for i in range(60):
+        one = ti.bragg_reflectance(t64(P["lam"][i]), float(P["c"][i]), float(P["n1"][i]), float(P["n2"][i]),
+                                   float(P["d1"][i]), float(P["d2"][i]), int(P["N"][i]),
+                                   n_incident=None if nh is None else float(P["nh"][i]), polarization=pol)
+        assert abs(float(one) - float(batch[i])) <= 1e-13, i
+
+
+def test_nan_elsewhere_in_the_batch_does_not_hide_a_grazing_point():
+    # (the closed form chose its guarded branch from the batch's minimum q, which a NaN made NaN)
+    lam = t64(550.0)
+    for nh in (None, 1.2):
+        R = ti.bragg_reflectance(lam, t64([float("nan"), 0.0, 0.5]), 1.0, 1.5, 125.0, 375.0, 20, n_incident=nh)
+        alone = ti.bragg_reflectance(lam, t64([0.0, 0.5]), 1.0, 1.5, 125.0, 375.0, 20, n_incident=nh)
+        assert torch.isnan(R[0]) and float(R[1]) == 1.0
+        torch.testing.assert_close(R[1:], alone, rtol=1e-14, atol=0)

@@ -398,3 +398,21 @@ def test_gradient_where_the_film_index_equals_the_outer_one(polarization):
           - torchirid.thin_film_reflectance(wl, c, 1.0 - h, 300.0, 1.5, n_incident=1.0, polarization=polarization)
           ).sum() / (2 * h)
     assert torch.isfinite(g) and abs(float(g) - float(fd)) <= 1e-5 * abs(float(fd))
+
+
+@pytest.mark.parametrize("polarization", POLS)
+def test_one_point_calls_equal_the_batch(polarization):
+    """A one-point call (its small-call path: the guards read back, s and p on one axis) gives the
+    batch's value for that point, for real and absorbing films and substrates, grazing included."""
+    rng = np.random.default_rng(3)
+    n = 50
+    lam, c = rng.uniform(380, 780, n), rng.uniform(0, 1, n)
+    c[::7] = 0.0
+    nf = rng.uniform(1.0, 2.5, n) + 1j * rng.uniform(0, 0.3, n) * (np.arange(n) % 2)
+    d, ns, n0 = rng.uniform(0, 800, n), rng.uniform(1.0, 3.0, n) + 1j * rng.uniform(0, 3, n), rng.uniform(1.0, 1.8, n)
+    batch = torchirid.thin_film_reflectance(t64(lam), t64(c), tc128(nf), t64(d), tc128(ns), n_incident=t64(n0),
+                                            polarization=polarization)
+    for i in range(n):
+        one = torchirid.thin_film_reflectance(t64(lam[i]), float(c[i]), complex(nf[i]), float(d[i]), complex(ns[i]),
+                                              n_incident=float(n0[i]), polarization=polarization)
+        assert abs(float(one) - float(batch[i])) <= 1e-14, i

@@ -231,15 +231,15 @@ class _RealCell:
         raise AttributeError(name)
 
 
-def _admittance_factors(pol, q1, q2, n1, n2, nd=None):
-    """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p).
+def _admittance_factors(pol, q1, q2, n1, n2, nd=None, squares=None):
+    """(η1, η2, m1, m2) with η = q/m, m = 1 (s) or n² (p) (``squares``: n1², n2² if at hand).
 
     ``pol = ("s", "p")``: both on a new leading polarization axis (m = [1, n²], aligned to a batch
     of ``nd`` dims), so that every later op runs once for both; the s entries are the s values
     (q / 1 and x · 1 are exact)."""
     if pol == "s":
         return q1, q2, 1.0, 1.0  # Python constants: no tensor ops spent on multiplying by one
-    m1, m2 = n1 * n1, n2 * n2
+    m1, m2 = (n1 * n1, n2 * n2) if squares is None else squares
     if not isinstance(pol, str):
         one = torch.ones_like(m1)
         m1 = _with_s(m1, one, nd)
@@ -362,11 +362,11 @@ def _needs_grad(*ts):
     return torch.is_grad_enabled() and any(isinstance(t, torch.Tensor) and t.requires_grad for t in ts)
 
 
-def _layer_q(n, host, qh, s2, safe, propagating=False):
-    """q = n cos θ = √max(n² − s², 0) of a layer on the real path, exactly ``qh`` where ``n`` is the
-    host index (exact even where cos² θ underflows); ``safe``: a gradient may flow (√ guarded at 0);
-    ``propagating``: n² ≥ s² is known everywhere (no clamp)."""
-    x = n * n - s2
+def _layer_q(n, nsq, host, qh, s2, safe, propagating=False):
+    """q = n cos θ = √max(n² − s², 0) of a layer (``nsq = n * n``) on the real path, exactly ``qh``
+    where ``n`` is the host index (exact even where cos² θ underflows); ``safe``: a gradient may flow
+    (√ guarded at 0); ``propagating``: n² ≥ s² is known everywhere (no clamp)."""
+    x = nsq - s2
     # (n² − s² is never −0, so √max(x, 0) is safe_sqrt's value: 0 where x ≤ 0, NaN kept)
     q = _checks.safe_sqrt(x) if safe else torch.sqrt(x if propagating else x.clamp(min=0))
     if n.numel() == 1 and host.numel() == 1 and _checks.reads_cheaply(n):  # one index each: compare them here
@@ -388,12 +388,13 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False,
     """R on the real path; entries that are not lossless-propagating are garbage (masked later).
     ``propagating``: light is known to propagate in n1 and n2 everywhere (:func:`_propagating`)."""
     host = n1 if nh is None else nh
-    s2 = host * host * torch.rsub(c * c, 1)  # (1 − c², without torch's Python wrapper of __rsub__)
+    squares = n1 * n1, n2 * n2
+    s2 = (squares[0] if nh is None else nh * nh) * torch.rsub(c * c, 1)  # (rsub: 1 − c² without torch's Python wrapper)
     qh = host * c  # exact in the incident medium: R → 1 at grazing without a sqrt
     # a layer of exactly the host index gets qh itself (exact even where cos² θ underflows)
     safe = static or _needs_grad(lam, c, n1, n2, d1, d2, nh)
-    q1 = qh if nh is None else _layer_q(n1, nh, qh, s2, safe, propagating)
-    q2 = _layer_q(n2, host, qh, s2, safe, propagating)
+    q1 = qh if nh is None else _layer_q(n1, squares[0], nh, qh, s2, safe, propagating)
+    q2 = _layer_q(n2, squares[1], host, qh, s2, safe, propagating)
     cell = _RealCell(lam, q1, q2, d1, d2, need_cos=nh is not None, static=static)
     Nf = _cell_count(N, lam.dtype)
     if nh is None:
@@ -403,7 +404,7 @@ def _real_reflectance(lam, c, n1, n2, d1, d2, nh, N, polarization, static=False,
         groups = [pols] if len(pols) == 2 and not static and points <= _STACKED_POINTS else pols
         out = []
         for pol in groups:
-            eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2, nd)
+            eta1, eta2, m1, m2 = _admittance_factors(pol, q1, q2, n1, n2, nd, squares)
             inplace = not (safe or static)
             omx, opx = _one_minus_x(cell, eta1, eta2, m1, m2, inplace)
             eps = torch.minimum(omx, opx, out=omx) if inplace else torch.minimum(omx, opx)  # 1 - |cos KΛ|

@@ -78,7 +78,7 @@ def thin_film_reflectance(
 
 def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
     """:func:`thin_film_reflectance` on validated tensors (one block of the batch): the Airy sum
-    written out for one film, s and p on a trailing axis (the division form of Hirayama's recursion,
+    written out for one film, s and p on a leading axis (the division form of Hirayama's recursion,
     :func:`~torchirid.optics.transfer.recursion`, for L = 1, op for op)."""
     c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(lam.dtype)
@@ -94,11 +94,12 @@ def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
     # e^{2iφ}, φ = 2π q_f d / λ: only the decaying exponential (Im φ ≥ 0) is formed
     e2 = torch.exp((4j * math.pi) * qf * d / lam)
     pols = _checks.POLARIZATION_TERMS[polarization]
-    eta0 = _admittances(q0, n02, pols)
-    etaf = _admittances(qf, nf2, pols)
-    etas = _admittances(qs, ns2, pols)
+    nd = max(lam.ndim, c.ndim, nf.ndim, d.ndim, ns.ndim, n0.ndim)  # the batch's dims
+    eta0 = _admittances(q0, n02, pols, nd)
+    etaf = _admittances(qf, nf2, pols, nd)
+    etas = _admittances(qs, ns2, pols, nd)
     r01 = interface(eta0, etaf)
-    ge2 = interface(etaf, etas) * (e2[..., None] if len(pols) > 1 else e2)
+    ge2 = interface(etaf, etas) * e2
     den = 1 + r01 * ge2
     if not _checks.known_nonzero(den):
         # guard: with a critical film nudged, 0/0 remains only at grazing incidence, where a zero- or
@@ -109,18 +110,22 @@ def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
                             (r01 + ge2) / torch.where(degenerate, torch.ones_like(den), den))
     else:
         gamma = (r01 + ge2) / den
-    R = torch.view_as_real(gamma).square().sum(-1)  # |r|² per polarization
+    if gamma.numel() <= _checks.SMALL_CALL:  # |r|² per polarization: few ops on a few points
+        R = torch.view_as_real(gamma).square().sum(-1)
+    else:  # (a reduction over re, im is slow on a large batch)
+        R = gamma.real ** 2 + gamma.imag ** 2
     if len(pols) > 1:
-        R = R.sum(-1) * 0.5  # (the mean of the two, without mean's cost on a few elements)
+        R = R.sum(0) * 0.5  # (the mean of the two, without mean's cost on a few elements)
     return R.clamp(0, 1)  # |r|² ≤ 1 up to an ulp
 
 
-def _admittances(q, n2, pols):
-    """η = q (s) or q / n² (p) of one medium (``n2`` its squared index); both stacked on a new last
-    axis for ``pols = ("s", "p")``."""
+def _admittances(q, n2, pols, nd):
+    """η = q (s) or q / n² (p) of one medium (``n2`` its squared index); for ``pols = ("s", "p")``
+    both, stacked on a new leading axis and aligned to a batch of ``nd`` dims."""
     if pols == ("s",):
         return q
     p = q / n2
     if len(pols) == 1:
         return p
-    return torch.stack((q.expand(p.shape) if q.shape != p.shape else q, p), dim=-1)
+    eta = torch.stack((q.expand(p.shape) if q.shape != p.shape else q, p))
+    return eta if p.ndim == nd else eta.reshape(2, *([1] * (nd - p.ndim)), *p.shape)
