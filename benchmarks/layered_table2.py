@@ -22,7 +22,7 @@ as the SMAPE between two independent halves (each with half the paths; the SMAPE
 half against the full reference is about 1/√2 of that… see the "GT halves" column).
 SR sim.: ``montecarlo_brdf(single_reflection=True)`` with ``--sr-samples`` paths per pair.
 Model: :func:`torchirid.layered.single_reflection.single_reflection_brdf` (deterministic: one
-evaluation, no samples); Model-LUT: the same with ``lut=True``.
+evaluation, no samples); Model-LUT: the same with ``reflectance="lut"``.
 Eff = time_GT / (time × SMAPE) (paper Table 2).
 
 Usage::
@@ -155,8 +155,8 @@ def speed_table(repeats=7):
     rows = []
     for lut in (False, True):
         # first call in a fresh process state: includes every per-call table (τ, R) build
-        _, first = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut))
-        f, t = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut), repeats)
+        _, first = timed(lambda: single_reflection_brdf(lam, wi, wo, s, reflectance="lut" if lut else "exact"))
+        f, t = timed(lambda: single_reflection_brdf(lam, wi, wo, s, reflectance="lut" if lut else "exact"), repeats)
         rows.append((lut, tuple(f.shape), first, t))
     return rows
 
@@ -210,7 +210,7 @@ def main(argv=None):
             return montecarlo_brdf(lam, wi, wo, s, samples=samples, seed=seed, **kw)[0]
 
         model, t_model = timed(lambda: single_reflection_brdf(lam, wi, wo, s), 3)
-        model_lut, t_lut = timed(lambda: single_reflection_brdf(lam, wi, wo, s, lut=True), 3)
+        model_lut, t_lut = timed(lambda: single_reflection_brdf(lam, wi, wo, s, reflectance="lut"), 3)
         half = max(2, args.gt_samples // 2)
         ma, ta = timed(lambda: mc(half, 11, multiple_reflection=True))
         mb, tb = timed(lambda: mc(half, 12, multiple_reflection=True))

@@ -249,8 +249,8 @@ def test_single_reflection_brdf_chunked_equals_one_piece(lut):
     wo = wo / torch.linalg.vector_norm(wo, dim=-1, keepdim=True)
     lam = torch.linspace(400.0, 700.0, 16, dtype=F64)
     with ti.options(chunk_size=None):
-        ref = single_reflection_brdf(lam, wi, wo, s, lut=lut, transmissivity_angles=16, reflectance_angles=32)
-    got = _in_blocks(lambda: single_reflection_brdf(lam, wi, wo, s, lut=lut, transmissivity_angles=16,
+        ref = single_reflection_brdf(lam, wi, wo, s, reflectance="lut" if lut else "exact", transmissivity_angles=16, reflectance_angles=32)
+    got = _in_blocks(lambda: single_reflection_brdf(lam, wi, wo, s, reflectance="lut" if lut else "exact", transmissivity_angles=16,
                                                     reflectance_angles=32))
     assert got.shape == ref.shape == (9, 9, 16)
     torch.testing.assert_close(got, ref, rtol=0, atol=1e-14)

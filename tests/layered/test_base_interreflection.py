@@ -61,7 +61,7 @@ def test_base_term_scaled_by_series():
     base34 = single_reflection_brdf(LAM, WI, WO, s) - f_layers
     base = single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True) - f_layers
     torch.testing.assert_close(base, base34 / (1.0 - rho * rd), rtol=1e-12, atol=1e-15)
-    lut = single_reflection_brdf(LAM, WI, WO, s, lut=True, base_interreflection=True)
+    lut = single_reflection_brdf(LAM, WI, WO, s, reflectance="lut", base_interreflection=True)
     torch.testing.assert_close(lut, single_reflection_brdf(LAM, WI, WO, s, base_interreflection=True), rtol=2e-3, atol=1e-6)
 
 

@@ -114,7 +114,7 @@ def test_white_lambertian_closed_form():
     a, rho = 0.3, 0.8
     s = LayeredBragg([RoughBraggLayer(1.0, 1.0, 100.0, 100.0, 2, a)], base_albedo=rho)
     theta = torch.tensor([0.0, 0.5, 1.0, 1.4], dtype=F64)
-    got = _white_profile(s, theta, LAM, _brdf_kwargs(s, False, 19), (12, 8), (24, 16))
+    got = _white_profile(s, theta, LAM, _brdf_kwargs(s, "exact", 19), (12, 8), (24, 16))
 
     def g1(mu):
         tan2 = (1 - mu * mu) / (mu * mu)

@@ -104,7 +104,7 @@ def test_lut_variant_close_to_exact():
     wi, wo = _pairs()
     s = LayeredBragg([A, B], base_albedo=0.5)
     exact = single_reflection_brdf(LAM, wi, wo, s)
-    approx = single_reflection_brdf(LAM, wi, wo, s, lut=True)
+    approx = single_reflection_brdf(LAM, wi, wo, s, reflectance="lut")
     err = ((approx - exact).abs() / exact.abs().clamp_min(1e-3)).max()
     assert err < 2e-3
 

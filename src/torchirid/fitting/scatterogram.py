@@ -131,7 +131,7 @@ def match_scatterogram(
     ambiguity_de2000: float = 1.0,
     wavelength=None,
     projection: str = "equidistant",
-    lut: bool = False,
+    reflectance: str = "exact",
     n_incident: float = 1.0,
     base_albedo: float = 0.0,
     loss: str = "lab",
@@ -189,7 +189,8 @@ def match_scatterogram(
         wavelength: ``(W,)`` nm of the model's spectra (default 380–780 nm, 41 values).
         projection: the scatterogram's angular mapping (see
             :data:`~torchirid.layered.scatterograms.PROJECTIONS`).
-        lut: render the mirrors' reflectance from a per-call angle table.
+        reflectance: ``"exact"`` (default) or ``"lut"``: render the mirrors' reflectance from a
+            per-call angle table (faster).
         n_incident, base_albedo: the medium above the layer and the base (the jewel-beetle
             presets: air, black).
         loss: ``"lab"`` (mean ΔE*ab², default) or ``"de2000"`` (mean ΔE00).
@@ -308,7 +309,7 @@ def match_scatterogram(
 
     norm = float(peak)
     target_n = target.detach() / norm
-    prob = _Problem(target_n, mask, incs, lam, projection, lut, float(n_incident), float(base_albedo), bool(fit_n1),
+    prob = _Problem(target_n, mask, incs, lam, projection, reflectance, float(n_incident), float(base_albedo), bool(fit_n1),
                     float(n1), loss)
     space = _Space(ranges, bool(fit_n1))
     stages: dict = {"ranges": {k: (None if v is None else list(v)) for k, v in ranges.items()}}

@@ -76,9 +76,9 @@ _MAX_SWAPS = 2
 class _Problem:
     """Target, renderer and the parametrisation shared by the stages."""
 
-    def __init__(self, target, mask, incs, lam, projection, lut, n_incident, base_albedo, fit_n1, n1_fixed, loss):
+    def __init__(self, target, mask, incs, lam, projection, reflectance, n_incident, base_albedo, fit_n1, n1_fixed, loss):
         self.target, self.mask, self.incs, self.lam = target, mask, incs, lam
-        self.projection, self.lut, self.n_incident, self.base_albedo = projection, lut, n_incident, base_albedo
+        self.projection, self.reflectance, self.n_incident, self.base_albedo = projection, reflectance, n_incident, base_albedo
         self.fit_n1, self.n1_fixed, self.loss_name = fit_n1, n1_fixed, loss
         self.resolution = target.shape[-2]
         self.full_mask = mask.expand(target.shape[:-1])
@@ -112,7 +112,7 @@ class _Problem:
         self.evaluations += 1
         s = bragg_structure(n1, n2, period, delta, cells, alpha, n_incident=self.n_incident, base_albedo=self.base_albedo)
         return render_targets(s, self.incs, resolution=self.resolution, wavelength=self.lam,
-                              projection=self.projection, lut=self.lut)
+                              projection=self.projection, reflectance=self.reflectance)
 
     def loss(self, model, scale=None):
         return scatterogram_loss(model, self.target, self.full_mask, scale=scale, loss=self.loss_name)

@@ -63,7 +63,7 @@ def _check_incident(incident_deg) -> list:
 
 
 def render_targets(structure, incident_deg, *, resolution: int, wavelength=None, projection: str = "equidistant",
-                   lut: bool = False) -> torch.Tensor:
+                   reflectance: str = "exact") -> torch.Tensor:
     """The scatterograms of ``structure`` under each illumination of ``incident_deg`` stacked:
     ``(K, H, W, 3)`` XYZ (differentiable, see :func:`~torchirid.layered.scatterograms.scatterogram`).
 
@@ -71,7 +71,7 @@ def render_targets(structure, incident_deg, *, resolution: int, wavelength=None,
         structure: a :class:`~torchirid.layered.structure.LayeredBragg` (or one rough layer).
         incident_deg: one illumination — ``None`` (the white environment) or ``(θ, φ)`` in
             degrees (a narrow beam) — or a list of them (K).
-        resolution, wavelength, projection, lut: as
+        resolution, wavelength, projection, reflectance: as
             :func:`~torchirid.layered.scatterograms.scatterogram` (wavelength in nm).
 
     Example (a green jewel beetle under two beams, 12 × 12 pixels each):
@@ -84,7 +84,7 @@ def render_targets(structure, incident_deg, *, resolution: int, wavelength=None,
     """
     incs = _check_incident(incident_deg)
     return torch.stack([scatterogram(structure, incident_deg=inc, resolution=resolution, wavelength=wavelength,
-                                     projection=projection, lut=lut).xyz for inc in incs])
+                                     projection=projection, reflectance=reflectance).xyz for inc in incs])
 
 
 # ----------------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from the centre (1 on the rim) and φ its polar angle,
 Image axes: column → +x (φ = 0 to the right), row 0 at the top → +y up (φ = 90° at the top),
 so a beam from φ_i reflects specularly towards φ_i + 180°. The structure's BRDF is
 :func:`~torchirid.layered.single_reflection.single_reflection_brdf` (eq. 34), evaluated
-exactly (or from its reflectance table with ``lut=True``).
+exactly (or from its reflectance table with ``reflectance="lut"``).
 
 Differentiability: the image is a differentiable function of every tensor parameter of the
 layers (``n1, n2, d1, d2, alpha`` as 0-dim tensors with ``requires_grad``), of the incident
@@ -234,8 +234,8 @@ def _nodes(name, value) -> tuple[int, int]:
     return int(value[0]), int(value[1])
 
 
-def _brdf_kwargs(structure: LayeredBragg, lut: bool, transmissivity_angles) -> dict:
-    kw = {"lut": lut}
+def _brdf_kwargs(structure: LayeredBragg, reflectance: str, transmissivity_angles) -> dict:
+    kw = {"reflectance": reflectance}
     if transmissivity_angles is not None:
         kw["transmissivity_angles"] = transmissivity_angles
     elif len(structure.layers) == 1 and structure.base_albedo == 0:
@@ -377,7 +377,7 @@ def scatterogram(
     resolution: int = 256,
     wavelength=None,
     projection: str = "equidistant",
-    lut: bool = False,
+    reflectance: str = "exact",
     profile_angles: int | None = None,
     lobe_nodes: tuple[int, int] = LOBE_NODES,
     cosine_nodes: tuple[int, int] = COSINE_NODES,
@@ -397,8 +397,8 @@ def scatterogram(
         wavelength: ``(W,)`` increasing wavelengths in nm (default 380–780 nm, 5 nm steps);
             its dtype (or the layer tensors') sets the precision, float64 otherwise.
         projection: the angular mapping, one of :data:`PROJECTIONS` (see the module docstring).
-        lut: evaluate the mirrors' reflectance from a per-call angle table (faster, see
-            :func:`~torchirid.layered.single_reflection.single_reflection_brdf`).
+        reflectance: ``"exact"`` (default) or ``"lut"``: the mirrors' reflectance from a per-call
+            angle table (faster; see :func:`~torchirid.layered.single_reflection_brdf`).
         profile_angles: white environment only. The structures are isotropic, so the white
             image depends on θ_o alone: it is computed at ``profile_angles`` polar angles
             uniform on [0°, 90°] (default ``min(resolution + 1, 181)``: about two per pixel
@@ -430,8 +430,7 @@ def scatterogram(
     structure = _structure(structure)
     resolution = _checks.check_int(resolution, "resolution", 1)
     _check_projection(projection)
-    if not isinstance(lut, bool):
-        raise ValueError(f"lut must be a bool; got {lut!r}")
+    _checks.check_choice(reflectance, "reflectance", ("exact", "lut"))
     lobe_nodes = _nodes("lobe_nodes", lobe_nodes)
     cosine_nodes = _nodes("cosine_nodes", cosine_nodes)
     if profile_angles is None:
@@ -444,7 +443,7 @@ def scatterogram(
     dtype, device = _dtype_device(structure, wavelength, *(incident_deg or ()))
     lam = _wavelengths(wavelength, dtype, device)
     weights = xyz_weights(lam)  # validates the wavelengths: (W, 3), white Y = 1
-    kw = _brdf_kwargs(structure, lut, transmissivity_angles)
+    kw = _brdf_kwargs(structure, reflectance, transmissivity_angles)
     directions, mask = scatterogram_directions(resolution, projection=projection, dtype=dtype, device=device)
     wo = directions[mask]  # (K, 3)
 
@@ -477,7 +476,7 @@ def scatterogram(
         "incident_deg": params_incident,
         "projection": projection,
         "resolution": resolution,
-        "lut": lut,
+        "reflectance": reflectance,
         "wavelength_nm": [float(lam[0]), float(lam[-1]), int(lam.numel())],
         "base_albedo": float(structure.base_albedo),
         "layers": [layer.numbers() | {"n2": _json_index(layer.numbers()["n2"])} for layer in structure.layers],

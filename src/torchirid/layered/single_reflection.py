@@ -182,6 +182,10 @@ class _LayerTables:
         return self.layer.reflectance(self.lam, cos_theta.unsqueeze(-1))
 
 
+#: how a mirror's reflectance is evaluated (``reflectance=``): Yeh's closed form, or its angle table
+REFLECTANCE_MODES = ("exact", "lut")
+
+
 def _tables(structure, lam, transmissivity_angles, reflectance_angles, use_lut):
     return [_LayerTables(layer, lam, transmissivity_angles, reflectance_angles, use_lut) for layer in structure.layers]
 
@@ -195,7 +199,7 @@ def single_reflection_brdf(
     wo,
     structure,
     *,
-    lut: bool = False,
+    reflectance: str = "exact",
     transmissivity_angles: int = TRANSMISSIVITY_ANGLES,
     reflectance_angles: int = REFLECTANCE_ANGLES,
     base_interreflection: bool = False,
@@ -209,9 +213,10 @@ def single_reflection_brdf(
             ``(*, 3)`` in the surface frame (z = geometric normal, z ≥ 0), broadcasting
             together.
         wavelength: ``(W,)`` wavelengths in nm.
-        lut: ``False`` evaluates Yeh's reflectance exactly at every half-vector angle;
-            ``True`` interpolates it in a per-layer table over the angle
-            (:func:`reflectance_lut`, ``reflectance_angles`` nodes) — the paper's "Model-LUT".
+        reflectance: how each mirror's reflectance is evaluated: ``"exact"`` (default, Yeh's
+            closed form at every half-vector angle) or ``"lut"`` (interpolated in a per-layer
+            table over the angle, :func:`reflectance_lut` with ``reflectance_angles`` nodes — the
+            paper's "Model-LUT").
         transmissivity_angles: nodes of the per-layer 1-D tables of the integrated
             transmissivity τ(θ) (eq. 28), uniform in θ, built once per call.
         base_interreflection: ``False`` (default) is eq. 34 as published. ``True`` sums the
@@ -243,7 +248,8 @@ def single_reflection_brdf(
     wi, wo = torch.broadcast_tensors(wi, wo)
     if not isinstance(base_interreflection, bool):
         raise ValueError(f"base_interreflection must be a bool; got {base_interreflection!r}")
-    tables = _tables(structure, lam, transmissivity_angles, reflectance_angles, lut)
+    _checks.check_choice(reflectance, "reflectance", REFLECTANCE_MODES)
+    tables = _tables(structure, lam, transmissivity_angles, reflectance_angles, reflectance == "lut")
     rd = None
     if base_interreflection and structure.base_albedo > 0:
         rd = _base_return(structure, tables, lam)

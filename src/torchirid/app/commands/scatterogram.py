@@ -119,7 +119,7 @@ def run(args) -> int:
             structures.append((f"{row['label']}: Λ={row['period']:g} nm, N={row['cells']}", jewel_beetle(name)))
     lam = torch.linspace(wl_min, wl_max, wl_count, dtype=torch.float64)
     rows, labels = [], []
-    kw = dict(resolution=args.resolution, wavelength=lam, projection=args.projection, lut=args.lut)
+    kw = dict(resolution=args.resolution, wavelength=lam, projection=args.projection, reflectance="lut" if args.lut else "exact")
     lights = ([None] if args.white else []) + [(theta, phi) for theta, phi in beams]
     bar = _args.progress_bar(f"torchirid {NAME}", total=len(lights) * len(structures), unit="image", quiet=args.quiet)
     try:
