@@ -172,3 +172,20 @@ def test_geometry_blocks_follow_the_chunk_knob(function):
     torch.testing.assert_close(got, ref, rtol=1e-15, atol=1e-17)
     assert whole >= 400 * 32 * 3  # one piece: every geometry's quadrature directions at once
     assert block < whole / 4  # blocks of 64 geometries (2048 // 32 = 64, the least a block holds)
+
+
+def test_film_blocks_of_thin_film_xyz_uniform_follow_the_chunk_knob():
+    """The films' spectra on the cos θ1 grid are computed in blocks of films (films × bins × W ≤
+    torchirid.options(chunk_size=...), at least one film; None: all at once). Films are
+    independent: the same colours."""
+    from block_sizes import largest_tensor
+
+    d = torch.linspace(100.0, 700.0, 12, dtype=F64)
+    lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
+    call = lambda: thin_film_xyz_uniform(torch.tensor(0.7, dtype=F64), 0.2, 1.3, d, 1.5, bins=16, nodes=4,  # noqa: E731
+                                         wavelength=lam)
+    ref, whole = largest_tensor(call, None)
+    got, block = largest_tensor(call, 2 * 17 * 41)  # two films per block
+    torch.testing.assert_close(got, ref, rtol=1e-15, atol=1e-17)
+    assert whole >= 12 * 17 * 41  # one piece: every film's spectra on the grid
+    assert block < whole / 4

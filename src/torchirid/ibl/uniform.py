@@ -61,7 +61,7 @@ import math
 import torch
 
 from .. import _checks
-from .._chunks import evaluate as _chunk_evaluate
+from .._chunks import evaluate as _chunk_evaluate, get_chunk_size as _chunk_size
 from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import smith_g1_kernel, reflect
@@ -365,8 +365,10 @@ def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
     ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
     film_shape = _checks.broadcast_shapes(nf.shape, d.shape, ns.shape)
     nf, d, ns = (t.expand(film_shape).reshape(-1) for t in (nf, d, ns))
-    # XYZ[R](cos θ1) on the grid for every film, chunked to bound the (films, bins, W) spectra
-    per = max(1, (1 << 23) // (grid.numel() * lam.numel()))
+    # XYZ[R](cos θ1) on the grid for every film, in blocks of films that bound the (films, bins, W)
+    # spectra: films × bins × W ≤ the block size of torchirid._chunks (at least one film; None: all)
+    chunk = _chunk_size(device)
+    per = max(1, nf.numel()) if chunk is None else max(1, chunk // (grid.numel() * lam.numel()))
     rows = []
     for s in range(0, max(nf.numel(), 1), per):  # (once for an empty batch)
         sl = slice(s, s + per)
