@@ -314,3 +314,31 @@ def test_float32_finite_and_accurate():
         ref = transmission_filter(ti32.double().clamp(max=HALF_PI), td32.double().clamp(max=HALF_PI),
                                   torch.tensor(alpha, dtype=torch.float32).double())
         assert float((got.double() - ref).abs().max()) < 1e-5 * float(ref.max())
+
+
+def test_product_weight_rows_follow_the_chunk_knob(monkeypatch):
+    """The product-integration weights of the transmissivity table are evaluated in blocks of
+    rows (2·cells filter values per row) of torchirid.options(chunk_size=...), at least 64 rows;
+    None: all rows at once. Rows are independent: the same weights."""
+    import torchirid as ti
+    from torchirid.layered import filter as filter_module
+
+    rows = []
+    real = filter_module._filter
+
+    def spy(t, *args):
+        rows.append(t.shape[0])
+        return real(t, *args)
+
+    monkeypatch.setattr(filter_module, "_filter", spy)
+    c = torch.linspace(0.001, 1.0, 300, dtype=torch.float64)
+    alpha = torch.tensor(0.1, dtype=torch.float64)
+    results = {}
+    for chunk in (None, 64 * 128, 1):
+        rows.clear()
+        with ti.options(chunk_size=chunk):
+            results[chunk] = filter_module._hat_weights(torch.acos(c), alpha, 64, cos_i=c)
+        assert sum(rows) == 300
+        assert rows[0] == {None: 300, 64 * 128: 64, 1: 1}[chunk]  # (chunk_size 1: blocks of one row)
+    torch.testing.assert_close(results[64 * 128], results[None], rtol=0, atol=0)
+    torch.testing.assert_close(results[1], results[None], rtol=1e-15, atol=0)

@@ -111,7 +111,7 @@ import math
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _checks, _chunks
 from .._quadrature import gauss_legendre01
 
 __all__ = ["transmission_filter"]  # the 2-D table: layered.filter_lut
@@ -469,19 +469,25 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
     return torch.cos(theta), weight
 
 
-def _hat_weights(ti: torch.Tensor, alpha: torch.Tensor, cells: int, chunk: int = 32, cos_i=None) -> torch.Tensor:
+def _hat_weights(ti: torch.Tensor, alpha: torch.Tensor, cells: int, cos_i=None) -> torch.Tensor:
     r"""Product-integration weights :math:`W_{rj} = \int_0^{\pi/2} F_\alpha(\theta_{i,r},\theta_d)\,\phi_j(\theta_d)\,d\theta_d`
     for the hat functions φ_j of the uniform grid ``θ_j = j π/(2·cells)``, ``j = 0..cells``.
 
     ``Σ_j W_rj g(θ_j)`` integrates the piecewise-linear interpolant of ``g`` against F_α
     exactly up to the per-cell 2-point Gauss–Legendre rule (error ~ (h/α)⁴/4320 of F's
     scale, h = π/(2·cells)); the rows are rescaled to sum to G1 exactly. ``ti`` is 1-D (R,).
+    Rows are evaluated in blocks of the block size of :mod:`torchirid._chunks` (2·cells filter
+    values per row, at least ``MIN_BLOCK_POINTS`` rows; ``chunk_size=None``: all at once); rows
+    are independent.
     """
     dtype, device = ti.dtype, ti.device
     h = _HALF_PI / cells
     x, w = gauss_legendre01(2, dtype, device)
     grid = torch.linspace(0.0, _HALF_PI, cells + 1, dtype=dtype, device=device)
     nodes = (grid[:-1].unsqueeze(-1) + h * x).clamp(max=_HALF_PI)  # (cells, 2)
+    points = _chunks.get_chunk_size(device)
+    chunk = (max(1, ti.numel()) if points is None
+             else max(min(points, _chunks.MIN_BLOCK_POINTS), points // (2 * cells)))
     rows = []
     for start in range(0, ti.numel(), chunk):
         t = ti[start:start + chunk].reshape(-1, 1, 1)
