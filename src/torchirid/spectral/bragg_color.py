@@ -15,8 +15,8 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     and at most ``max_samples`` (262 144). How we know it converged: quadrupling the
     sampling moves no colour by more than ~0.03 ΔE2000 for the N ≤ 50, Λ ≤ 1 µm mirrors
     tested (``tests/spectral/test_bragg_color.py``, asserted ≤ 0.05).
-    Grazing angles converge slowest (fringes sharpen there): at 96 samples per fringe the
-    error reached 0.09–0.12 at θ = 89°, hence the default of 192.
+    Grazing angles converge slowest (fringes sharpen there): half the default sampling leaves
+    errors above that bound at θ = 89°, hence the default of 192.
 
 ``"sampled"`` — ``samples`` wavelengths uniform in λ over ``wavelength_range`` (the cheap
     fixed-sampling variants of the speed-against-error study; 1–5 nm grids alias the
@@ -34,7 +34,8 @@ Y = 1). Methods (one registry, :data:`BRAGG_XYZ_METHODS`):
     at this call's batch size, chosen from measured error/cost tables
     (:mod:`torchirid.spectral.auto`).
 
-Domains of validity (measured; docs/performance.md, ``benchmarks/bragg_color_domain.py``):
+Domains of validity (the measured errors per fringe count: docs/performance.md, "Bragg mirror
+colour: the method choice", ``benchmarks/bragg_color_domain.py``):
 
 * ``"spectral"``: every mirror (absorbing layers, any incident medium, total internal
   reflection); within ~0.03 ΔE2000 of 2× its sampling; it warns when ``max_samples`` caps it.
@@ -42,11 +43,12 @@ Domains of validity (measured; docs/performance.md, ``benchmarks/bragg_color_dom
   fringe for p95 ≤ 1), so large-N mirrors alias.
 * ``"piecewise"``, ``"envelope"``: lossless mirrors embedded in n1 without total internal
   reflection, with at least ``MIN_FRINGES`` = 8 fringes in the
-  range (:func:`~torchirid.spectral.sampling.fringe_count`): there p95 ΔE2000 ≤ 2.2 (envelope K = 64:
-  ≤ 2.4); below it (Λ ≲ 80 nm, or N ≈ 5) they are off by 7–30 and emit a RuntimeWarning.
+  range (:func:`~torchirid.spectral.sampling.fringe_count`): there their p95 error is a few
+  ΔE2000 at most; below it (short periods, or few cells) they are far off and emit a
+  RuntimeWarning (``tests/spectral/test_domain.py`` checks both sides).
   ``"envelope"`` is the library's fast default: on the speed-vs-error Pareto front at every Λ of
-  Fourneau's Fig. 4 grid, while the paper's landmark method ties sampled integration (K = 128)
-  at Λ = 244 nm on small batches (810 colours per call) on our hardware.
+  Fourneau's Fig. 4 grid, where the paper's landmark method is not everywhere (the front:
+  docs/performance.md).
 """
 
 from __future__ import annotations
