@@ -1,4 +1,4 @@
-"""Real time: small colour textures for shaders, fitted by autograd (issue 25).
+"""Real time: small colour textures for shaders, fitted by autograd.
 
 :func:`fit_texture` builds a texture of one material family — a thin film over (cos θ, d), a
 Bragg mirror over (cos θ, Λ, δ), a rough film under uniform light over (cos θ_o, α, d) — whose

@@ -1,4 +1,4 @@
-"""Scale-out beside the products: library calls distributed on Dask, no physics here (issue 24).
+"""Scale-out beside the products: library calls distributed on Dask, no physics here.
 
 :func:`build_table` evaluates any broadcasting library function over a grid of named axes in
 chunks — in this process, on an embedded ``LocalCluster`` or on any Dask scheduler — into a
