@@ -480,8 +480,8 @@ def check_range(value, name: str, *, low: float = 0.0, high: float = math.inf, c
     if not ok:
         sign = "<=" if closed else "<"
         upper = "" if high == math.inf else f" {sign} {high:g}"
-        units = f" {unit}" if unit else ""
-        raise ValueError(f"{name} must be a pair (low, high) with {low:g} {sign} low < high{upper}{units}; "
+        units = f" in {unit}" if unit else ""
+        raise ValueError(f"{name} must be a pair (low, high){units} with {low:g} {sign} low < high{upper}; "
                          f"got {value!r}")
     return a, b
 

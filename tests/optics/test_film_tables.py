@@ -166,7 +166,7 @@ def test_bad_inputs(teapot_lut):
         film_reflectance_lut(s, wavelengths=2.5)
     with pytest.raises(ValueError, match=r"not covered by the stack's materials.*\[250, 1450\]"):
         film_reflectance_lut(hirayama_stacks()["cylinder"], wavelength_range=(200.0, 700.0))
-    with pytest.raises(ValueError, match=r"wavelength_range must be a pair \(low, high\) with 1 <= low < high <= 1e\+06 nm"):
+    with pytest.raises(ValueError, match=r"wavelength_range must be a pair \(low, high\) in nm with 1 <= low < high <= 1e\+06"):
         film_reflectance_lut(s, wavelength_range=(700.0, 400.0))
     with pytest.raises(ValueError, match="stack must be a FilmStack"):
         film_reflectance_lut("teapot")

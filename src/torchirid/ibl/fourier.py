@@ -378,7 +378,7 @@ def prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = 
     passes near 0. Read it with :func:`lookup_prefiltered_sensitivity`.
 
     Accuracy: within 5e-4 of the exact eq. 18 on the default grid (max over channels of
-    |Ŝ_lut − Ŝ|; ``parameters["max_interp_error"]`` records the build's own measure on a fixed
+    ``|Ŝ_lut − Ŝ|``; ``parameters["max_interp_error"]`` records the build's own measure on a fixed
     3,000-point sample; tests/ibl/test_fourier.py asserts < 6e-4 on random points). The measured
     error of this layout, of finer grids and of the layouts it replaced, with the command that
     reproduces them: docs/performance.md, "Thin-film colour on rough surfaces under uniform
