@@ -28,7 +28,8 @@ import torch
 
 from torchirid.color.convert import spectrum_to_xyz, xyz_to_lab
 from torchirid.color.difference import delta_e_2000
-from torchirid.optics.film_stack import FilmStack, film_reflectance, hirayama_stacks
+from torchirid.optics.film_stack import FilmStack, film_reflectance
+from torchirid.presets import hirayama_stacks
 from torchirid.optics.film_tables import interpolation_error, film_reflectance_lut, lookup_film_reflectance
 
 ANGLES = (16, 64, 128, 512)

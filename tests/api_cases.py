@@ -152,7 +152,7 @@ CASES = {
     **{f"film_reflectance k_{k}": (ti.optics.film_reflectance, (lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), stack=_stack(), thicknesses=two([[300.0, 80.0]]))),
         ["cos_theta", "thicknesses"], i) for i, k in enumerate("rt")},
-    "rough_multilayer_reflectance": (ti.rough_multilayer_reflectance, lambda: dict(
+    "rough_multilayer_reflectance": (ti.optics.rough_multilayer_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), indices=two([[1.0, 1.4, 1.5]]), thicknesses=two([[300.0]]),
         sigma=two([20.0]), tau=two([300.0])), ["cos_theta", "indices", "thicknesses", "sigma", "tau"], None),
     "rough_multilayer_diffuse": (ti.optics.rough_multilayer_diffuse, lambda: dict(
@@ -290,7 +290,7 @@ ABSORBING_CASES = {
     "optics.he_directional_diffuse metal": (_sub("optics", "he_directional_diffuse"), lambda: dict(
         wavelength=WL, cos_theta_i=two([0.9]), cos_theta_o=two([0.8]), cos_phi=two([-0.5]), sigma=two([20.0]),
         tau=two([300.0]), n_substrate=two([complex(0.5, 2.0)])), ["cos_theta_i", "n_substrate"], None),
-    "rough_multilayer_reflectance absorbing": (ti.rough_multilayer_reflectance, lambda: dict(
+    "rough_multilayer_reflectance absorbing": (ti.optics.rough_multilayer_reflectance, lambda: dict(
         wavelength=WL, cos_theta=two([0.8]), indices=two([[complex(1.0, 0.0), complex(1.4, 0.0), complex(0.2, 3.0)]]),
         thicknesses=two([[300.0]]), sigma=two([20.0]), tau=two([300.0])), ["cos_theta", "indices", "sigma"], None),
 }

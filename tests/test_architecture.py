@@ -45,6 +45,8 @@ RANKS = {
     # products
     "ibl": 4, "estimation": 4, "export": 4,
     "fitting": 5,
+    # the papers' structures: built from optics, layered and estimation
+    "presets": 4.5,
     # scale-out above the products: distributes library calls (table builds, Monte Carlo, fits)
     "scale": 5.5,
     # real time: textures for shaders fitted to the products' exact colours
@@ -199,6 +201,8 @@ SHARED_KERNELS = {
     # Yeh's closed form on prepared tensors (no checks): the envelope colour evaluates it per node;
     # the mirror's arguments checked once and the unchecked reflectance (the spectral colour's blocks)
     "torchirid.optics.bragg": ("yeh_reflectance_kernel", "prepare_bragg_mirror", "bragg_reflectance_kernel"),
+    # Kobayashi's samples: synthetic_cube renders them by name; torchirid.presets publishes them
+    "torchirid.estimation.synthetic": ("SAMPLES",),
     # GGX D and Smith G1 on cosines, without the argument checks (inner loops of quadratures)
     "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel"),
 }

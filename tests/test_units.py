@@ -16,7 +16,7 @@ CALLS = {
     "thin_film_reflectance": lambda lam: torchirid.thin_film_reflectance(lam, C, 1.33, 300.0, 1.5),
     "bragg_reflectance": lambda lam: torchirid.bragg_reflectance(lam, C, 1.0, 1.5, 125.0, 375.0, 20),
     "multilayer": lambda lam: torchirid.multilayer(lam, C, torch.tensor([1.0, 1.5, 2.0]), torch.tensor([100.0])),
-    "rough_multilayer_reflectance": lambda lam: torchirid.rough_multilayer_reflectance(
+    "rough_multilayer_reflectance": lambda lam: torchirid.optics.rough_multilayer_reflectance(
         lam, C, torch.tensor([1.0, 1.5, 2.0]), torch.tensor([100.0]), 5.0, 300.0),
     "spectrum_to_xyz": lambda lam: torchirid.spectrum_to_xyz(torch.ones(2, dtype=F64), lam),
     "refractive_index": lambda lam: torchirid.refractive_index("Ag", lam),

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 r"""Recover the jewel-beetle Bragg layers from their scatterograms by autograd (Fourneau et al. 2024 §5).
 
-For each preset of :func:`torchirid.layered.presets.jewel_beetle` (Fourneau et al. 2024,
+For each preset of :func:`torchirid.presets.jewel_beetle` (Fourneau et al. 2024,
 Table 3): render the target — narrow D65 beams at several incidences (default 0°, 30°,
 60°, all at φ = 0; a beam images the lobe, so α is identified, and the hue's shift with
 incidence separates Λ from the mean index) at ``--resolution`` pixels and 41 wavelengths —
@@ -38,7 +38,7 @@ if os.path.join(ROOT, "src") not in sys.path:  # run from a checkout without ins
 from torchirid._io import atomic_write, json_ready  # noqa: E402
 from torchirid.color import delta_e_2000, xyz_to_lab  # noqa: E402
 from torchirid.fitting import match_scatterogram, render_targets  # noqa: E402
-from torchirid.layered.presets import JEWEL_BEETLE, JEWEL_BEETLE_ALPHA, JEWEL_BEETLE_NAMES, jewel_beetle  # noqa: E402
+from torchirid.presets import JEWEL_BEETLE, JEWEL_BEETLE_ALPHA, JEWEL_BEETLE_NAMES, jewel_beetle  # noqa: E402
 from torchirid.layered import scatterogram_directions  # noqa: E402
 
 F64 = torch.float64

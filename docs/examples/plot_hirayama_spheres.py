@@ -5,11 +5,11 @@ Spheres coated with multilayer films, smooth and rough (Hirayama et al. 2000, Fi
 Hirayama et al.'s Fig. 8: silicon and aluminium spheres coated with dielectric (n = 1.4,
 1000 nm) | silver or gold (5 nm) | dielectric (1000 nm) — complex indices from the tabulated
 metals — beside the bare spheres, on an ideally smooth surface (σ₀ = 0) and on rough ones
-(σ₀ = 25, 50 nm, τ = 300 nm). The stacks are :func:`torchirid.optics.hirayama_stacks`
+(σ₀ = 25, 50 nm, τ = 300 nm). The stacks are :func:`torchirid.presets.hirayama_stacks`
 (:class:`torchirid.optics.FilmStack`; indices by ``torchirid.optics.film_stack.stack_indices()``). Each pixel
 of an orthographic sphere is shaded spectrally (380–780 nm) in one batched call per stack:
 the smooth reflectance k_r (:func:`torchirid.optics.film_reflectance`, eq. 5), the coherent specular
-k_r of the rough surface (:func:`torchirid.rough_multilayer_reflectance`, eq. 9–10) and its
+k_r of the rough surface (:func:`torchirid.optics.rough_multilayer_reflectance`, eq. 9–10) and its
 directional-diffuse BRDF k_d (:func:`torchirid.optics.rough_multilayer_diffuse`, eq. 11–17), as in
 eq. 8: ``P(λ) = k_r (a + E_lamp) + π k_d cos θ_l`` under a distant light, a uniform
 environment a = 0.35 and the light's own mirror image (a disk of 3°). The light is D65 here
@@ -27,7 +27,8 @@ import matplotlib.pyplot as plt
 import torch
 
 import torchirid
-from torchirid.optics import FilmStack, hirayama_stacks
+from torchirid.optics import FilmStack
+from torchirid.presets import hirayama_stacks
 from torchirid.optics.film_stack import stack_indices
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
@@ -64,7 +65,7 @@ def shade(stack):
     """sRGB (σ, H, W, 3) and mean chroma (σ,) of a sphere of ``stack`` for each σ₀."""
     n, d = stack_indices(stack, wavelength), torch.tensor(stack.thicknesses, dtype=f32)   # (W, L+2), (L,)
     smooth = torchirid.optics.film_reflectance(wavelength, cv, stack)[0]                      # (P, W)
-    k_r = torchirid.rough_multilayer_reflectance(wavelength, cv, n, d, rough, tau)     # (S, P, W)
+    k_r = torchirid.optics.rough_multilayer_reflectance(wavelength, cv, n, d, rough, tau)     # (S, P, W)
     k_d = torchirid.optics.rough_multilayer_diffuse(wavelength, cl, cv, cp, n, d, rough, tau)
     spectrum = torch.cat([smooth[None], k_r]) * (ambient + lamp[:, None])
     spectrum[1:] += math.pi * k_d * cl                                                 # σ₀ > 0 only

@@ -14,7 +14,7 @@ import matplotlib.pyplot as plt
 import torch
 
 import torchirid
-from torchirid.layered.presets import JEWEL_BEETLE_NAMES, jewel_beetle
+from torchirid.presets import JEWEL_BEETLE_NAMES, jewel_beetle
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
 resolution = 16 if tiny else 128

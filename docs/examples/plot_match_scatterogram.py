@@ -9,7 +9,7 @@ roughness α — with :func:`torchirid.fitting.match_scatterogram` (a Λ grid, m
 on a CIELAB loss, N enumerated, then the period's harmonics refitted).
 
 There is no measured scatterogram in the repository, so the target is a synthetic measurement:
-the green preset (``torchirid.layered.presets.jewel_beetle``, Λ = 160 nm; α = 0.2 instead of
+the green preset (``torchirid.presets.jewel_beetle``, Λ = 160 nm; α = 0.2 instead of
 its 0.05, so that each lobe covers several pixels of a small image) rendered with
 :func:`torchirid.fitting.render_targets`, times 3 (the exposure, unknown to the fit) and 1 %
 Gaussian noise per pixel and channel; a photograph would be read with
@@ -31,7 +31,7 @@ import torchirid
 from torchirid.color import delta_e_2000, xyz_to_lab
 from torchirid.fitting import bragg_structure, match_scatterogram, render_targets
 from torchirid.layered import scatterogram_directions
-from torchirid.layered.presets import JEWEL_BEETLE, jewel_beetle
+from torchirid.presets import JEWEL_BEETLE, jewel_beetle
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
 f64 = torch.float64

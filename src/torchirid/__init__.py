@@ -20,6 +20,7 @@ subpackages, whose ``__all__`` is their whole public surface:
 - :mod:`torchirid.estimation` — film index and thickness from hyperspectral cubes;
 - :mod:`torchirid.fitting` — matching layered Bragg materials to scatterograms;
 - :mod:`torchirid.realtime` — textures and GLSL for shaders;
+- :mod:`torchirid.presets` — the papers' structures (jewel beetles, Hirayama's coatings, Kobayashi's films);
 - :mod:`torchirid.materials`, :mod:`torchirid.lut`, :mod:`torchirid.export`.
 
 Subpackages load on first use (``import torchirid`` alone imports none of them), and so do
@@ -51,6 +52,7 @@ __all__ = [
     "materials",
     "microfacet",
     "optics",
+    "presets",
     "realtime",
     "spectral",
     # reflectance
@@ -59,7 +61,6 @@ __all__ = [
     "ThinFilm",
     "bragg_reflectance",
     "multilayer",
-    "rough_multilayer_reflectance",
     "thin_film_reflectance",
     # colour
     "delta_e",
@@ -96,12 +97,12 @@ __all__ = [
 
 _SUBPACKAGES = frozenset(
     ("color", "estimation", "export", "fitting", "ibl", "layered", "lut", "materials", "microfacet", "optics",
-     "realtime", "spectral", "scale"))
+     "presets", "realtime", "spectral", "scale"))
 
 #: entry point → the subpackage that defines it
 _ENTRY_POINTS = {
     **dict.fromkeys(("BraggMirror", "Multilayer", "ThinFilm", "bragg_reflectance", "multilayer",
-                     "rough_multilayer_reflectance", "thin_film_reflectance"), "optics"),
+                     "thin_film_reflectance"), "optics"),
     **dict.fromkeys(("delta_e", "spectrum_to_xyz", "xyz_to_lab", "xyz_to_srgb"), "color"),
     "bragg_xyz": "spectral",
     **dict.fromkeys(("thin_film_xyz", "prefilter_environment", "read_environment", "shade_thin_film_environment"),
@@ -135,7 +136,7 @@ def __dir__():
 
 if TYPE_CHECKING:  # the names for static tools; at run time they load on first use
     from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, realtime
-    from . import spectral
+    from . import presets, spectral
     from .color import delta_e, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
     from .estimation import estimate_film, read_cube
     from .export import export_lut
@@ -146,5 +147,5 @@ if TYPE_CHECKING:  # the names for static tools; at run time they load on first 
     from .materials import refractive_index
     from .microfacet import MicrofacetBRDF
     from .optics import BraggMirror, Multilayer, ThinFilm, bragg_reflectance, multilayer
-    from .optics import rough_multilayer_reflectance, thin_film_reflectance
+    from .optics import thin_film_reflectance
     from .spectral import bragg_xyz

@@ -8,7 +8,8 @@ import torch
 
 from torchirid.app.commands.film_table import add_parser
 from torchirid.lut import LUT
-from torchirid.optics.film_stack import film_reflectance, hirayama_stacks
+from torchirid.optics.film_stack import film_reflectance
+from torchirid.presets import hirayama_stacks
 from torchirid.optics.film_tables import BUILDER
 
 

@@ -9,7 +9,7 @@ import torch
 
 from torchirid.app import cli, figures
 from torchirid.layered import scatterogram, scatterogram_srgb
-from torchirid.layered import jewel_beetle
+from torchirid.presets import jewel_beetle
 
 F64 = torch.float64
 LAM = torch.tensor([450.0, 550.0, 650.0], dtype=F64)

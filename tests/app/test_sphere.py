@@ -164,7 +164,7 @@ def test_cli_errors(tmp_path, capsys):
 
 def test_presets_are_built_lazily_and_match_hirayama_stacks():
     """FIG8_ROWS / TABLE1_OBJECTS are built on first access (they load database pages), from hirayama_stacks()."""
-    stacks = torchirid.optics.hirayama_stacks()
+    stacks = torchirid.presets.hirayama_stacks()
     rows = sp.fig8_rows()
     assert rows == sp.FIG8_ROWS and rows is not sp.fig8_rows()  # a new dict per call
     assert sp.FIG8_ROWS is sp.FIG8_ROWS  # the module attribute is built once

@@ -2,7 +2,8 @@
 import pytest
 import torch
 
-from torchirid.estimation import SAMPLES, synthetic_cube
+from torchirid.estimation import synthetic_cube
+from torchirid.presets import KOBAYASHI_SAMPLES as SAMPLES
 from torchirid.estimation.measurement import band_reflectance
 
 F64 = torch.float64

@@ -15,7 +15,7 @@ from torchirid.color import linear_srgb_to_xyz, xyz_to_lab
 from torchirid.fitting import read_scatterogram, write_scatterogram
 from torchirid.fitting.measured import _read_png, _write_png
 from torchirid.layered import scatterogram, scatterogram_directions
-from torchirid.layered import jewel_beetle
+from torchirid.presets import jewel_beetle
 
 F64 = torch.float64
 LAM = torch.linspace(380.0, 780.0, 41, dtype=F64)

@@ -17,7 +17,7 @@ from torchirid.fitting import (
     render_targets,
     scatterogram_loss,
 )
-from torchirid.layered import jewel_beetle
+from torchirid.presets import jewel_beetle
 
 F64 = torch.float64
 LAM = torch.linspace(380.0, 780.0, 41, dtype=F64)

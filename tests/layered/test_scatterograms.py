@@ -13,7 +13,7 @@ import torchirid as ti
 from torchirid import layered
 from torchirid.color import xyz_weights
 from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
-from torchirid.layered import jewel_beetle
+from torchirid.presets import jewel_beetle
 from torchirid.layered.scatterograms import _brdf_kwargs, _white_profile
 
 F64 = torch.float64

@@ -18,11 +18,11 @@ from oracles import HIRAYAMA_FIG8, HIRAYAMA_TABLE1, hirayama_stack, material_nk,
 from torchirid.optics.film_stack import (
     FilmStack,
     film_reflectance,
-    hirayama_stacks,
     smooth_directions,
     smooth_radiance,
     stack_indices,
 )
+from torchirid.presets import hirayama_stacks
 
 F64 = torch.float64
 WL = np.array([380.0, 432.1, 487.7, 550.0, 613.3, 700.0, 780.0])

@@ -16,7 +16,8 @@ import torch
 
 from oracles import HIRAYAMA_TABLE1, hirayama_stack, tmm_RT, tmm_RT_grid
 from torchirid.lut import LUT
-from torchirid.optics.film_stack import FilmStack, film_reflectance, hirayama_stacks
+from torchirid.optics.film_stack import FilmStack, film_reflectance
+from torchirid.presets import hirayama_stacks
 from torchirid.optics.film_tables import (
     BUILDER,
     STACK_NAMES,

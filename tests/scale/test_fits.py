@@ -76,7 +76,7 @@ def test_local_cluster_gives_the_in_process_records(cubes):
 
 def test_scatterogram_batch(tmp_path):
     from torchirid.fitting import render_targets, write_scatterogram
-    from torchirid.layered import jewel_beetle
+    from torchirid.presets import jewel_beetle
 
     lam = torch.linspace(380.0, 780.0, 41, dtype=F64)
     target = render_targets(jewel_beetle("green"), [(0.0, 0.0)], resolution=12, wavelength=lam)[0]

@@ -79,7 +79,7 @@ def test_cli_montecarlo_in_process_and_on_a_local_cluster(tmp_path, capsys):
     import numpy as np
 
     from torchirid.app.cli import main
-    from torchirid.layered import jewel_beetle
+    from torchirid.presets import jewel_beetle
 
     argv = ["montecarlo", "--preset", "red", "--incident", "20", "0", "--exit", "20", "180", "--exit", "40", "150",
             "--wavelengths", "450", "650", "3", "--samples", "64", "--blocks", "4", "--seed", "7", "--quiet"]

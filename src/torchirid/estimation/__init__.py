@@ -17,7 +17,7 @@ from .dispersion import INDEX_MODELS, fit_index_model, index_model
 from .estimate import FilmEstimate, estimate_film, film_metrics, model_cube, noise_level
 from .peaks import PeakResult, peak_method
 from .refine import RefineResult, refine_film
-from .synthetic import SAMPLES, FilmSample, SyntheticCube, synthetic_cube
+from .synthetic import FilmSample, SyntheticCube, synthetic_cube
 
 __all__ = [
     # cube files
@@ -40,7 +40,6 @@ __all__ = [
     "model_cube",
     "noise_level",
     # synthetic cubes of the paper's samples
-    "SAMPLES",
     "FilmSample",
     "SyntheticCube",
     "synthetic_cube",

@@ -14,7 +14,7 @@ a Gaussian read-noise floor of σ_g and a shot (photon) noise whose standard dev
 σ_g = σ_s = 0.01: 1 % of the peak from each source). The shot term is the Gaussian limit of a
 Poisson count with R_max ↦ 1/σ_s² photons.
 
-The three samples of the paper (:data:`SAMPLES`, §5.1, Table 1), all on PET (n = 1.64):
+The three samples of the paper (:data:`~torchirid.presets.KOBAYASHI_SAMPLES`, §5.1, Table 1), all on PET (n = 1.64):
 
 =============  ==========================================  =============
 name           film                                        thickness
@@ -40,7 +40,7 @@ from .. import _checks, _chunks
 from .dispersion import REFERENCE_WAVELENGTH, zns_index
 from .measurement import airy_terms, band_nodes
 
-__all__ = ["SAMPLES", "FilmSample", "SyntheticCube", "synthetic_cube"]
+__all__ = ["FilmSample", "SyntheticCube", "synthetic_cube"]
 
 DEFAULT_ANGLES = (10.0, 20.0, 30.0, 40.0, 50.0)  # degrees, §5.1
 _CPU = torch.device("cpu")
@@ -60,13 +60,14 @@ class FilmSample:
     """One of the paper's samples: film index (a number or a callable of λ in nm), d₀, substrate.
 
     Attributes:
-        name, label: the key in :data:`SAMPLES` and a title.
+        name, label: the key in :data:`~torchirid.presets.KOBAYASHI_SAMPLES` and a title.
         n_film: the film index, a number or a callable of λ (nm) → n.
         thickness: the mean thickness d₀ (nm); n_substrate: the substrate's real index (PET 1.64).
         paper: Kobayashi et al.'s Table-1 figures (empty for a sample of your own).
 
-    Example (a sample of :data:`SAMPLES`, and one of your own rendered by :func:`synthetic_cube`):
-        >>> s = SAMPLES["zns_500"]
+    Example (a sample of :data:`~torchirid.presets.KOBAYASHI_SAMPLES`, and one of your own rendered by :func:`synthetic_cube`):
+        >>> from torchirid.presets import KOBAYASHI_SAMPLES
+        >>> s = KOBAYASHI_SAMPLES["zns_500"]
         >>> s.thickness, s.n_substrate, round(s.n_reference, 3)  # nm; ZnS at 589.3 nm
         (500.0, 1.64, 2.367)
         >>> mine = FilmSample("sio2_300", "SiO2 300 nm", 1.46, 300.0)
@@ -185,10 +186,10 @@ def synthetic_cube(
     nodes: int = 8,
     dtype=torch.float64,
 ) -> SyntheticCube:
-    """Render a seeded noisy cube ``(H, W, A, B)`` of one of :data:`SAMPLES` (or a :class:`FilmSample`).
+    """Render a seeded noisy cube ``(H, W, A, B)`` of one of :data:`~torchirid.presets.KOBAYASHI_SAMPLES` (or a :class:`FilmSample`).
 
     Args:
-        sample: a key of :data:`SAMPLES` or a :class:`FilmSample`.
+        sample: a key of :data:`~torchirid.presets.KOBAYASHI_SAMPLES` or a :class:`FilmSample`.
         height, width: image size in pixels (≥ 1).
         angles_deg: incidence angles in degrees, in [0, 90).
         wavelength: ``(B,)`` band centres in nm; default 400–720 nm every 4 nm. The cube is

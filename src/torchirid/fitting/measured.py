@@ -154,7 +154,7 @@ class ScatterogramImage:
     Example (what :func:`read_scatterogram` returns, for a 16-pixel render written as a PNG):
         >>> import os, tempfile
         >>> from torchirid.layered import scatterogram
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)  # a 30° beam
         >>> with tempfile.TemporaryDirectory() as d:
         ...     img = read_scatterogram(write_scatterogram(os.path.join(d, "beetle.png"), s))
@@ -222,7 +222,7 @@ def read_scatterogram(path, *, projection: str = "equidistant", center=None, rad
     Example (a 16-pixel render written at half exposure, read back, and resampled onto 8 pixels):
         >>> import os, tempfile, torch
         >>> from torchirid.layered import scatterogram
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
         >>> with tempfile.TemporaryDirectory() as d:
         ...     path = write_scatterogram(os.path.join(d, "beetle.png"), s, exposure=0.5)  # 16-bit sRGB
@@ -365,7 +365,7 @@ def write_scatterogram(path, scatterogram_or_xyz, *, format: str | None = None, 
     to float32 rounding):
         >>> import os, tempfile, torch
         >>> from torchirid.layered import scatterogram
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> s = scatterogram(jewel_beetle("green"), incident_deg=(30.0, 0.0), resolution=16)
         >>> with tempfile.TemporaryDirectory() as d:
         ...     png = read_scatterogram(write_scatterogram(os.path.join(d, "beetle.png"), s, bits=8))

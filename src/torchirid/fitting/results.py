@@ -40,7 +40,7 @@ class ScatterogramAlternative:
 
     Example (the 2Λ refit of a quick fit to an 8-pixel render of a 160 nm layer; a short fit, for speed):
         >>> from torchirid.fitting import match_scatterogram, render_targets
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> t = render_targets(jewel_beetle("green"), [(20.0, 0.0)], resolution=8)  # Λ = 160 nm, N = 8
         >>> fit = match_scatterogram(t, incident_deg=[(20.0, 0.0)], n1=1.59, cells=(8,), period_range=None,
         ...                          init={"period": 164.0, "delta": 0.51, "dn": 0.08, "alpha": 0.05},
@@ -100,7 +100,7 @@ class ScatterogramFit:
 
     Example (a quick fit to an 8-pixel render of a 160 nm layer, from 164 nm, N known, no harmonics):
         >>> from torchirid.fitting import match_scatterogram, render_targets
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> t = render_targets(jewel_beetle("green"), [(20.0, 0.0)], resolution=8)  # Λ = 160 nm, N = 8
         >>> fit = match_scatterogram(2.5 * t, incident_deg=[(20.0, 0.0)], n1=1.59, cells=(8,), period_range=None,
         ...                          init={"period": 164.0, "delta": 0.51, "dn": 0.08, "alpha": 0.05},

@@ -2,7 +2,7 @@ r"""Scatterogram matching by autograd: recover a rough Bragg layer from its scat
 
 :func:`match_scatterogram` recovers the parameters of one rough Bragg layer — the period
 Λ (nm), δ (the fraction of Λ in the high-index layer, as in
-:mod:`~torchirid.layered.presets`), the index contrast n2 − n1 (n1 fixed, or fitted), the
+:mod:`~torchirid.presets`), the index contrast n2 − n1 (n1 fixed, or fitted), the
 number of cells N and the GGX roughness α — from a target scatterogram (one or several
 narrow-beam incidences and/or the white environment of
 :func:`~torchirid.layered.scatterograms.scatterogram`) whose exposure is unknown
@@ -215,7 +215,7 @@ def match_scatterogram(
 
     Example (a tiny 12-pixel image, from a start 6 nm away; no grid, N known):
         >>> from torchirid.fitting import match_scatterogram, render_targets
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> t = render_targets(jewel_beetle("green"), [(0.0, 0.0), (40.0, 0.0)], resolution=12,
         ...                    wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))
         >>> fit = match_scatterogram(2.5 * t, incident_deg=[(0.0, 0.0), (40.0, 0.0)], n1=1.59, cells=(8,),

@@ -76,7 +76,7 @@ def render_targets(structure, incident_deg, *, resolution: int, wavelength=None,
 
     Example (a green jewel beetle under two beams, 12 × 12 pixels each):
         >>> import torch
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> t = render_targets(jewel_beetle("green"), [(0.0, 0.0), (40.0, 0.0)], resolution=12,
         ...                    wavelength=torch.linspace(380.0, 780.0, 41, dtype=torch.float64))
         >>> tuple(t.shape), bool(t[..., 1].max() > 0)  # (K, H, W, XYZ)

@@ -21,17 +21,14 @@ from .scatterograms import (
 )
 from .structure import LayeredBragg, RoughBraggLayer
 from .transmission import integrated_transmissivity, transmissivity_lut
-from .presets import JEWEL_BEETLE_NAMES, jewel_beetle
 
 __all__ = [
     "FilterLUT",
-    "JEWEL_BEETLE_NAMES",
     "LayeredBragg",
     "PROJECTIONS",
     "RoughBraggLayer",
     "Scatterogram",
     "integrated_transmissivity",
-    "jewel_beetle",
     "montecarlo_brdf",
     "projection_radius",
     "reflectance_lut",

@@ -421,7 +421,7 @@ def scatterogram(
         ValueError: a bad argument, named (before any work).
 
     Example (the green jewel-beetle area, normal incidence: the specular peak is green):
-        >>> from torchirid.layered import jewel_beetle
+        >>> from torchirid.presets import jewel_beetle
         >>> sg = scatterogram(jewel_beetle("green"), incident_deg=(0.0, 0.0), resolution=9)
         >>> x, y, z = sg.xyz[4, 4].tolist()
         >>> [round(v, 2) for v in (x, y, z)], y > max(x, z)

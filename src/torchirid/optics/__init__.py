@@ -5,7 +5,7 @@ from .fresnel import fresnel_reflectance
 from .modules import BraggMirror, Multilayer, ThinFilm, raw_parameters
 from .transfer import multilayer
 from .thin_film import thin_film_reflectance
-from .film_stack import FilmStack, film_reflectance, hirayama_stacks
+from .film_stack import FilmStack, film_reflectance
 from .film_tables import film_reflectance_lut, lookup_film_reflectance
 from .he_torrance import he_directional_diffuse
 from .rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
@@ -23,7 +23,6 @@ __all__ = [
     "thin_film_reflectance",
     "FilmStack",
     "film_reflectance",
-    "hirayama_stacks",
     "film_reflectance_lut",
     "lookup_film_reflectance",
     "he_directional_diffuse",

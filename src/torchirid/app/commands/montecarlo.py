@@ -15,7 +15,7 @@ __all__ = ["NAME", "add_parser", "run"]
 
 def add_parser(subparsers):
     """Register ``montecarlo`` (``func=run``); returns its parser."""
-    from ...layered.presets import JEWEL_BEETLE_NAMES
+    from ...presets import JEWEL_BEETLE_NAMES
 
     p = _args.add_command_parser(
         subparsers,
@@ -72,7 +72,7 @@ def run(args) -> int:
 
     from ... import _checks
     from ..._io import write_json
-    from ...layered.presets import jewel_beetle
+    from ...presets import jewel_beetle
     from ...scale.montecarlo import montecarlo_brdf_blocks
 
     lo, hi, n = _args.parse_wavelengths(args.wavelengths)

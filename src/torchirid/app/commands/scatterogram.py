@@ -9,7 +9,7 @@ from pathlib import Path
 import torch
 
 from ...layered import PROJECTIONS, LayeredBragg, RoughBraggLayer, scatterogram
-from ...layered.presets import JEWEL_BEETLE, JEWEL_BEETLE_NAMES, jewel_beetle
+from ...presets import JEWEL_BEETLE, JEWEL_BEETLE_NAMES, jewel_beetle
 from .. import _args
 from ..figures import scatterograms
 

@@ -40,7 +40,7 @@ from ... import _checks
 from ..._cache import cached
 from ..._io import atomic_write, json_ready
 from ._format import figure_format
-from ...optics.film_stack import hirayama_stacks
+from ...presets import hirayama_stacks
 from ...optics.rough_surface import rough_multilayer_diffuse, rough_multilayer_reflectance
 from ..._version import __version__
 
@@ -61,7 +61,7 @@ __all__ = [
 ]
 
 def _hirayama(key: str) -> tuple:
-    """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.optics.film_stack.hirayama_stacks` entry."""
+    """(substrate, [(material, thickness nm), …]) of a :func:`torchirid.presets.hirayama_stacks` entry."""
     stack = hirayama_stacks()[key]
     return stack.n_substrate, [(m, float(t)) for m, t in stack.layers]
 

@@ -1,4 +1,4 @@
-"""torchirid.layered.presets (Fourneau et al. 2024 Table 3) and tensor parameters of RoughBraggLayer."""
+"""torchirid.presets (Fourneau et al. 2024 Table 3) and tensor parameters of RoughBraggLayer."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
-from torchirid.layered.presets import JEWEL_BEETLE_NAMES, jewel_beetle
+from torchirid.presets import JEWEL_BEETLE_NAMES, jewel_beetle
 
 # Table 3: n1, n2, Λ (nm), δ, N
 TABLE_3 = {"green": (1.59, 1.67, 160.0, 0.51, 8), "red": (1.60, 1.68, 190.0, 0.51, 8),
