@@ -36,7 +36,7 @@ from torchirid.ibl import thin_film_xyz_fitted, thin_film_xyz_filtered, thin_fil
 from torchirid.color import delta_e_2000, xyz_to_lab
 from torchirid.ibl import uniform_light_moments
 from torchirid.ibl.fitted import shipped_light_mixture_lut
-from torchirid.ibl.fourier import shipped_prefiltered_sensitivity_lut
+from torchirid.ibl.sensitivity import shipped_prefiltered_sensitivity_lut
 from torchirid.app.figures.thin_film_ibl import THIN_FILM_IBL_METHODS, save_thin_film_ibl_png, thin_film_ibl_comparison
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -50,8 +50,13 @@ def _sensitivity_accuracy() -> str:
 
     import numpy as np
 
-    from torchirid.ibl.fourier import (_carriers, prefiltered_sensitivity_lut, fourier_sensitivity_exact,
-                                       prefiltered_fourier_sensitivity, lookup_prefiltered_sensitivity)
+    from torchirid.ibl.sensitivity import (
+        _carriers,
+        prefiltered_sensitivity_lut,
+        fourier_sensitivity_exact,
+        prefiltered_fourier_sensitivity,
+        lookup_prefiltered_sensitivity,
+    )
     from torchirid.lut import LUT
 
     f64 = torch.float64

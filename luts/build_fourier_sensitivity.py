@@ -3,7 +3,7 @@ r"""(Re)build the Fourier-transformed spectral sensitivity tables Ŝ(D) that tor
 
 Ŝ_j(D) = ∫ S_j(ν) e^{−2πiνD} dν (Belcour & Barla 2017; Kneiphof et al. 2019, eq. 3), with
 S_j = illuminant × CMF normalised to white Y = 1, built by
-:func:`torchirid.ibl.fourier.fourier_sensitivity_lut` (D = 0 … 20,000 nm every 5 nm,
+:func:`torchirid.ibl.sensitivity.fourier_sensitivity_lut` (D = 0 … 20,000 nm every 5 nm,
 magnitude and unwrapped phase) and written atomically to
 ``src/torchirid/data/fourier_sensitivity/<slug>.npz``, where
 :func:`torchirid.ibl.fourier_sensitivity` finds them::
@@ -18,7 +18,7 @@ import os
 import sys
 from pathlib import Path
 
-from torchirid.ibl.fourier import (
+from torchirid.ibl.sensitivity import (
     FOURIER_SENSITIVITY_BUILDER,
     fourier_sensitivity_lut,
     fourier_sensitivity_path,

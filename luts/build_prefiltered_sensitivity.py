@@ -3,7 +3,7 @@ r"""(Re)build Kneiphof's 2-D prefiltered sensitivity tables Ŝ(μ_D, σ²_D) tha
 
 Ŝ_j(μ, σ²) = ∫ S_j(ν) e^{−2πiνμ − 2π²ν²σ²} dν (Kneiphof et al. 2019, eq. 18), the Fourier
 sensitivity of a Gaussian distribution of path differences, built by
-:func:`torchirid.ibl.fourier.prefiltered_sensitivity_lut` on the shipped grid
+:func:`torchirid.ibl.sensitivity.prefiltered_sensitivity_lut` on the shipped grid
 (``PREFILTERED_SHIPPED``: μ = 0 … 20,000 nm every 10 nm, 41 nodes in the warped σ axis up to
 σ = 1000 nm; demodulated real and imaginary parts), stored with float32 values (the float64
 build rounded: within 1e-7, far below the table's interpolation error, ~5e-4) and written
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import torch
 
-from torchirid.ibl.fourier import (
+from torchirid.ibl.sensitivity import (
     PREFILTERED_SENSITIVITY_BUILDER,
     PREFILTERED_SHIPPED,
     lookup_prefiltered_sensitivity,

@@ -232,9 +232,9 @@ SUBPACKAGE_CASES = {
         structure=_structure(), cos_theta=two([0.8]), wavelength=WL, transmissivity_angles=33),
         ["cos_theta"], None),
     "ibl.fourier_sensitivity": (_sub("ibl", "fourier_sensitivity"), lambda: dict(D=two(903.37)), ["D"], None),  # (off the table nodes)
-    "ibl.fourier.fourier_sensitivity_exact": (_sub("ibl", "fourier_sensitivity_exact"), lambda: dict(D=two(900.0)),
+    "ibl.sensitivity.fourier_sensitivity_exact": (_sub("ibl", "fourier_sensitivity_exact"), lambda: dict(D=two(900.0)),
                                       ["D"], None),
-    "ibl.fourier.prefiltered_fourier_sensitivity": (_sub("ibl", "prefiltered_fourier_sensitivity"), lambda: dict(
+    "ibl.sensitivity.prefiltered_fourier_sensitivity": (_sub("ibl", "prefiltered_fourier_sensitivity"), lambda: dict(
         mu=two(900.0), sigma2=two(50.0**2)), ["mu", "sigma2"], None),
     **{f"ibl.path_difference_moments {i}": (_sub("ibl", "path_difference_moments"), (lambda: dict(
         cos_theta_o=two(0.8), alpha=two(0.25), n_film=two(1.3), thickness=two(600.0), bins=64, nodes=8)),

@@ -4,14 +4,14 @@ Fourier colour, Kneiphof et al. 2019's prefiltering, and the fitted light-mixtur
 :func:`thin_film_xyz` is the family's one entry point (``method=`` a key of
 :data:`THIN_FILM_XYZ_METHODS`, each the suffix of a ``thin_film_xyz_<method>`` function)."""
 
-from .fourier import (
+from .fourier import thin_film_xyz_fourier
+from .sensitivity import (
     fourier_sensitivity_lut,
     prefiltered_sensitivity_lut,
     fourier_sensitivity,
     shipped_fourier_sensitivity_lut,
     lookup_prefiltered_sensitivity,
     shipped_prefiltered_sensitivity_lut,
-    thin_film_xyz_fourier,
 )
 from .dfg import dfg_lut, shipped_dfg_lut
 from .filtered import thin_film_xyz_filtered, thin_film_xyz_gaussian_path

@@ -31,7 +31,7 @@ every Fourier thin-film colour of :mod:`torchirid.ibl` — pass ``terms=2`` for 
           + e^{-imφ_2^*}\hat S(mμ_D, m^2σ_D^2)\right],
 
 with :math:`\hat S(μ, σ^2)` the Gaussian-prefiltered sensitivity of eq. 18, evaluated exactly by
-:func:`~torchirid.ibl.fourier.prefiltered_fourier_sensitivity` (no 2-D table, so no interpolation error).
+:func:`~torchirid.ibl.sensitivity.prefiltered_fourier_sensitivity` (no 2-D table, so no interpolation error).
 Choice: eq. 22 at the mean uses μ_⟨ωi,ωo⟩ of eq. 20 (the mean of the cosine, the same quantity
 eq. 25 expands about), not the cosine of the normalised mean direction; the two agree to
 second order in the spread and exactly for a delta light. Variances are carried as σ² (never
@@ -45,8 +45,13 @@ import math
 import torch
 
 from .. import _checks, _chunks
-from .fourier import (_check_names, _sensitivity_width, prefiltered_fourier_sensitivity,
-                      lookup_prefiltered_sensitivity, thin_film_fourier_terms)
+from .fourier import thin_film_fourier_terms
+from .sensitivity import (
+    _check_names,
+    _sensitivity_width,
+    prefiltered_fourier_sensitivity,
+    lookup_prefiltered_sensitivity,
+)
 
 #: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
 #: or ``"lut"`` (Kneiphof's 2-D table, bilinear: :func:`~torchirid.ibl.shipped_prefiltered_sensitivity_lut`).

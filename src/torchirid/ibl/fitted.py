@@ -43,7 +43,8 @@ import torch
 from .. import _checks, _chunks
 from ..lut import LUT
 from .filtered import _check_sensitivity, _series_xyz
-from .fourier import _check_names, _sensitivity_width, thin_film_fourier_terms
+from .fourier import thin_film_fourier_terms
+from .sensitivity import _check_names, _sensitivity_width
 from .uniform import _check_masking, cos_theta1_distribution
 from .._cache import cached
 

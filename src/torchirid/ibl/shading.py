@@ -54,7 +54,8 @@ from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from .dfg import shipped_dfg_lut
 from .filtered import _check_sensitivity, _vectors, thin_film_xyz_filtered
 from .fitted import thin_film_xyz_fitted
-from .fourier import _check_names, thin_film_xyz_fourier
+from .fourier import thin_film_xyz_fourier
+from .sensitivity import _check_names
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
 
 __all__ = ["shade_thin_film_environment", "SHADING_METHODS"]
