@@ -63,8 +63,8 @@ __all__ = [
     "lookup_prefiltered_sensitivity",
 ]
 
-#: ``builder`` string stored in the Ŝ tables (checked when a shipped file is loaded; it names the
-#: module the tables were first built in, where the builders are still importable).
+#: ``builder`` string stored in the Ŝ tables (checked when a shipped file is loaded): a label that
+#: names the module the tables were first built in, kept so that the shipped files stay valid.
 FOURIER_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:fourier_sensitivity_lut"
 PREFILTERED_SENSITIVITY_BUILDER = "torchirid.ibl.fourier:prefiltered_sensitivity_lut"
 #: How :func:`~torchirid.ibl.thin_film_xyz_fourier` evaluates Ŝ.
