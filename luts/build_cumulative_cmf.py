@@ -3,7 +3,7 @@ r"""(Re)build the cumulative colour-matching tables C̄(ω) that torchirid ships
 
 C̄(ω) = ∫_{ω_min}^{ω} c̄(ω') dω' (Fourneau et al. 2024, eq. 15–16), ω = 2π/λ in nm⁻¹, built
 by :func:`torchirid.spectral.cumulative.cumulative_cmf_lut` and written atomically
-(:meth:`torchirid.lut.LUT.save`) to ``src/torchirid/data/cmf_cumulative/<slug>.npz``, where
+(:meth:`torchirid.lut.LUT.write`) to ``src/torchirid/data/cmf_cumulative/<slug>.npz``, where
 :func:`torchirid.spectral.cumulative.shipped_cumulative_cmf_lut` finds them.
 
 Defaults build the shipped set: observers "CIE 1931 2" and "CIE 1964 10" × illuminants
@@ -62,10 +62,10 @@ def main(argv=None) -> int:
                       f"1e-6; nothing written", file=sys.stderr)
                 return 1
             path = args.out / Path(str(cumulative_cmf_path(observer, illuminant, tuple(args.range)))).name
-            lut.save(path)
-            os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public
+            lut.write(path)
+            os.chmod(path, 0o644)  # LUT.write's temporary file is private (0600); data files are public
             # read it back through the verifying loader (hash, builder, parameters)
-            back = LUT.load(path, builder=CUMULATIVE_CMF_BUILDER, parameters=lut.parameters)
+            back = LUT.read(path, builder=CUMULATIVE_CMF_BUILDER, parameters=lut.parameters)
             err = back.parameters["max_interp_error"]
             worst = max(worst, *err)
             x, y, z = back.values[-1].tolist()

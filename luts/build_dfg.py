@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     t = time.perf_counter()
     lut = dfg_lut(args.resolution, samples=args.samples).to(torch.float32)
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    lut.save(args.out)
+    lut.write(args.out)
     print(f"wrote {args.out} ({args.out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")
     return 0
 

@@ -52,9 +52,9 @@ def main(argv=None) -> int:
                       f"1e-5; nothing written", file=sys.stderr)
                 return 1
             path = args.out / Path(str(fourier_sensitivity_path(observer, illuminant))).name
-            lut.save(path)
-            os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public
-            back = LUT.load(path, builder=FOURIER_SENSITIVITY_BUILDER, parameters=lut.parameters)
+            lut.write(path)
+            os.chmod(path, 0o644)  # LUT.write's temporary file is private (0600); data files are public
+            back = LUT.read(path, builder=FOURIER_SENSITIVITY_BUILDER, parameters=lut.parameters)
             err = back.parameters["max_interp_error"]
             worst = max(worst, *err)
             print(f"{path.name}: {back.values.shape[0]} nodes, {path.stat().st_size / 1000:.1f} kB, "

@@ -43,7 +43,7 @@ def main(argv=None) -> int:
         t = time.perf_counter()
         lut = light_mixture_lut(**params, masking=masking)  # (validates the sizes: ValueError naming them)
         out.parent.mkdir(parents=True, exist_ok=True)
-        lut.save(out)
+        lut.write(out)
         print(f"wrote {out} ({out.stat().st_size / 1024:.0f} KiB, {time.perf_counter() - t:.1f} s): {lut}")
     return 0
 

@@ -75,9 +75,9 @@ def main(argv=None) -> int:
                 return 1
             stored = lut.to(torch.float32)
             path = args.out / Path(str(prefiltered_sensitivity_path(observer, illuminant))).name
-            stored.save(path)
-            os.chmod(path, 0o644)  # LUT.save's temporary file is private (0600); data files are public
-            back = LUT.load(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=lut.parameters)
+            stored.write(path)
+            os.chmod(path, 0o644)  # LUT.write's temporary file is private (0600); data files are public
+            back = LUT.read(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=lut.parameters)
             rounding = float((back.values.double() - lut.values).abs().max())
             print(f"{path.name}: {tuple(back.values.shape)} float32, {path.stat().st_size / 1e6:.2f} MB, "
                   f"max |interp - exact| {err:.3g}, float32 rounding: values {rounding:.2g}, "

@@ -22,7 +22,7 @@ Writes into src/torchirid/data/textures/ (float32 LUT files, ~10–100 KiB each)
 
 Each file's parameters hold the family, its ranges and its measured ΔE2000 (fitted and sampled,
 on 20 000 independent samples). Export one for a shader with
-``torchirid.export.export_lut(LUT.load(path), "bragg_n8", format="exr")``.
+``torchirid.export.export_lut(LUT.read(path), "bragg_n8", format="exr")``.
 """
 
 from __future__ import annotations
@@ -81,7 +81,7 @@ def main(argv=None) -> int:
                   parameters={**fit.lut.parameters, "errors_de2000": fit.errors, "iterations": args.iterations,
                               "samples": samples, "validation": validation},
                   units=fit.lut.units)
-        path = lut.save(args.out / f"{name}.npz")
+        path = lut.write(args.out / f"{name}.npz")
         e = fit.errors
         print(f"{path.name}: {fit.texels} texels, ΔE2000 fitted mean {e['fitted']['mean']:.2f} / p95 "
               f"{e['fitted']['p95']:.2f} / max {e['fitted']['max']:.2f} (sampled {e['sampled']['mean']:.2f} / "

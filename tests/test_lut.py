@@ -40,8 +40,8 @@ def _grid3():
 # ----------------------------------------------------------------------------- round trip
 def test_round_trip_exact(tmp_path):
     lut = _cmf_like()
-    path = lut.save(tmp_path / "cmf.npz")
-    back = LUT.load(path, builder="tests/test_lut.py:_cmf_like",
+    path = lut.write(tmp_path / "cmf.npz")
+    back = LUT.read(path, builder="tests/test_lut.py:_cmf_like",
                     parameters={"n": 41, "range": [380.0, 780.0]},
                     expect={"axes": ("omega",), "channels": (3,), "units": {"omega": "nm"}})
     assert torch.equal(back.values, lut.values) and back.values.dtype == F64
@@ -57,20 +57,20 @@ def test_round_trip_exact(tmp_path):
 @pytest.mark.parametrize("dtype", [torch.float16, torch.float32])
 def test_round_trip_other_dtypes(tmp_path, dtype):
     lut = _cmf_like().to(dtype)
-    back = LUT.load(lut.save(tmp_path / "x.npz"))
+    back = LUT.read(lut.write(tmp_path / "x.npz"))
     assert back.values.dtype == dtype and torch.equal(back.values, lut.values)
     assert back.hash == lut.hash != _cmf_like().hash  # the hash identifies the dtype too
 
 
 def test_load_dtype_conversion(tmp_path):
     lut = _cmf_like()
-    back = LUT.load(lut.save(tmp_path / "x.npz"), dtype=torch.float32)
+    back = LUT.read(lut.write(tmp_path / "x.npz"), dtype=torch.float32)
     assert back.dtype == torch.float32 and back.axes["omega"].dtype == torch.float32
     assert torch.allclose(back.values.double(), lut.values, rtol=1e-6)
 
 
 def test_saved_file_has_no_pickle(tmp_path):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     with np.load(path, allow_pickle=False) as z:
         assert sorted(z.files) == ["axis_0", "meta", "values"]
         for name in z.files:
@@ -84,7 +84,7 @@ def test_saved_file_has_no_pickle(tmp_path):
 
 def test_save_requires_npz_suffix(tmp_path):
     with pytest.raises(ValueError, match=r"\.npz"):
-        _cmf_like().save(tmp_path / "x.safetensors")
+        _cmf_like().write(tmp_path / "x.safetensors")
     assert not os.listdir(tmp_path)
 
 
@@ -98,34 +98,34 @@ def _failing_savez(*args, **kwargs):
 def test_atomic_write_failure_leaves_no_file(tmp_path, monkeypatch):
     monkeypatch.setattr(np, "savez", _failing_savez)
     with pytest.raises(OSError, match="simulated"):
-        _cmf_like().save(tmp_path / "x.npz")
+        _cmf_like().write(tmp_path / "x.npz")
     assert os.listdir(tmp_path) == []  # neither target nor temporary file
 
 
 def test_atomic_write_failure_keeps_existing_target(tmp_path, monkeypatch):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     before = path.read_bytes()
     monkeypatch.setattr(np, "savez", _failing_savez)
     other = LUT(torch.zeros(2, 3, dtype=F64), {"omega": _t([0.0, 1.0])}, builder="other")
     with pytest.raises(OSError, match="simulated"):
-        other.save(path)
+        other.write(path)
     assert path.read_bytes() == before
     assert os.listdir(tmp_path) == ["x.npz"]
     monkeypatch.undo()
-    assert LUT.load(path).hash == _cmf_like().hash
+    assert LUT.read(path).hash == _cmf_like().hash
 
 
 # ----------------------------------------------------------------------------- corruption
 def _assert_corrupt(path, match="corrupt"):
     with pytest.raises(ValueError) as info:
-        LUT.load(path)
+        LUT.read(path)
     msg = str(info.value)
     assert match in msg.lower() and str(path) in msg, msg
 
 
 def test_flipped_byte_in_values(tmp_path):
     lut = _cmf_like()
-    path = lut.save(tmp_path / "x.npz")
+    path = lut.write(tmp_path / "x.npz")
     raw = bytearray(path.read_bytes())
     at = raw.find(lut.values.numpy().tobytes())
     assert at > 0
@@ -152,7 +152,7 @@ def _meta_array(path, **edits):
 
 def test_tampered_values_hash_mismatch(tmp_path):
     lut = _cmf_like()
-    path = lut.save(tmp_path / "x.npz")
+    path = lut.write(tmp_path / "x.npz")
     vals = lut.values.numpy().copy()
     vals[3, 1] = np.nextafter(vals[3, 1], 2.0)  # one ulp
     _rewrite(path, values=vals)
@@ -161,28 +161,28 @@ def test_tampered_values_hash_mismatch(tmp_path):
 
 def test_tampered_axis_and_meta_hash_mismatch(tmp_path):
     lut = _cmf_like()
-    path = lut.save(tmp_path / "x.npz")
+    path = lut.write(tmp_path / "x.npz")
     _rewrite(path, axis_0=lut.axes["omega"].numpy() + 1.0)
     _assert_corrupt(path, match="content hash mismatch")
-    path = lut.save(tmp_path / "y.npz")
+    path = lut.write(tmp_path / "y.npz")
     _rewrite(path, meta=_meta_array(path, builder="someone else"))
     _assert_corrupt(path, match="content hash mismatch")
-    path = lut.save(tmp_path / "z.npz")
+    path = lut.write(tmp_path / "z.npz")
     _rewrite(path, meta=_meta_array(path, dtype="float32"))  # meta disagrees with arrays
     _assert_corrupt(path, match="corrupt")
 
 
 def test_future_format_version_refused(tmp_path):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     _rewrite(path, meta=_meta_array(path, format_version=FORMAT_VERSION + 1))
     with pytest.raises(ValueError, match="format_version") as info:
-        LUT.load(path)
+        LUT.read(path)
     assert str(path) in str(info.value) and str(FORMAT_VERSION + 1) in str(info.value)
 
 
 @pytest.mark.parametrize("kind", ["truncated", "garbage", "empty", "plain_npy", "foreign_npz"])
 def test_unreadable_files(tmp_path, kind):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     raw = path.read_bytes()
     if kind == "truncated":
         path.write_bytes(raw[: len(raw) // 2])
@@ -201,7 +201,7 @@ def test_unreadable_files(tmp_path, kind):
 
 def test_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError):
-        LUT.load(tmp_path / "nope.npz")
+        LUT.read(tmp_path / "nope.npz")
 
 
 # ----------------------------------------------------------------------------- expectations
@@ -219,17 +219,17 @@ def test_missing_file(tmp_path):
     ],
 )
 def test_mismatch_refused(tmp_path, kwargs, field):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     with pytest.raises(ValueError) as info:
-        LUT.load(path, **kwargs)
+        LUT.read(path, **kwargs)
     msg = str(info.value)
     assert field in msg and "expected" in msg and "found" in msg and str(path) in msg, msg
 
 
 def test_unknown_expect_key(tmp_path):
-    path = _cmf_like().save(tmp_path / "x.npz")
+    path = _cmf_like().write(tmp_path / "x.npz")
     with pytest.raises(ValueError, match="expect"):
-        LUT.load(path, expect={"axis": ("omega",)})
+        LUT.read(path, expect={"axis": ("omega",)})
 
 
 # ----------------------------------------------------------------------------- validation

@@ -135,13 +135,13 @@ def _build_env_hdr(d: Path) -> Path:
 
 
 def _build_lut(d: Path) -> Path:
-    return _lut().save(d / "table.npz")
+    return _lut().write(d / "table.npz")
 
 
 def _build_filter_lut(d: Path) -> Path:
     table = transmission_filter_lut(0.3, theta_i_step_deg=10.0, u_nodes=9, rtol=0.5, max_theta_i_nodes=20,
                                     max_u_nodes=20)
-    return table.save(d / "filter.npz")
+    return table.write(d / "filter.npz")
 
 
 def _build_export(fmt: str, target: int) -> Callable[[Path], Path]:
@@ -184,7 +184,7 @@ READERS: dict[str, Reader] = {
         "bandwidth-array": lambda p: _resave_npz(p, bandwidth_nm=np.arange(3.0)),
         "meta-not-json": lambda p: _resave_npz(p, meta=np.array("{oops")),
         "angles-range": lambda p: _resave_npz(p, angle_deg=np.array([10.0, 95.0])),
-        "a-lut": lambda p: _lut().save(p),
+        "a-lut": lambda p: _lut().write(p),
     }),
     "envi-header": Reader(_build_envi, read_cube, needs=("spectral",), other=_ZIP_BYTES, shapes={
         "wavelength-count": _envi_header_edit("wavelength = {", "wavelength = { 396 ,"),
@@ -211,12 +211,12 @@ READERS: dict[str, Reader] = {
         "too-many-rows": lambda p: p.write_bytes(_rgbe(4, 16).replace(b"-Y 4", b"-Y 9")),
         "huge-size": lambda p: p.write_bytes(_rgbe(4, 16).replace(b"-Y 4 +X 16", b"-Y 99999 +X 99999")),
     }),
-    "lut": Reader(_build_lut, LUT.load, shapes={
+    "lut": Reader(_build_lut, LUT.read, shapes={
         "a-cube": lambda p: write_npz(p, _CUBE, _WL, _ANG),
         "no-meta": lambda p: _resave_npz(p, meta=None),
     }),
-    "filter-lut": Reader(_build_filter_lut, FilterLUT.load, shapes={
-        "another-table": lambda p: _lut().save(p),
+    "filter-lut": Reader(_build_filter_lut, FilterLUT.read, shapes={
+        "another-table": lambda p: _lut().write(p),
     }),
     "export-raw-data": Reader(_build_export("raw", 0), _read_export, data_file=True,
                               shapes={"too-long": lambda p: p.write_bytes(p.read_bytes() + bytes(4))}),

@@ -17,7 +17,7 @@ from ._version import __version__
 FORMAT_VERSION = 1
 #: Out-of-range policies of :meth:`LUT.interp`.
 EXTRAPOLATE_MODES = ("clamp", "error", "linear")
-#: Keys accepted by the ``expect=`` argument of :meth:`LUT.load`.
+#: Keys accepted by the ``expect=`` argument of :meth:`LUT.read`.
 EXPECT_KEYS = ("axes", "channels", "units")
 
 _FORMAT_TAG = "torchirid.lut"

@@ -43,7 +43,7 @@ refuses a mismatch; it also refuses a file whose builder, parameters or axes dif
 what the caller expects.  Files are written atomically (a temporary file in the same
 directory, then :func:`os.replace`), so a crash never leaves a half-written table at the
 target path.  Only ``.npz`` is supported; a safetensors backend could be added behind the
-same :meth:`LUT.save` / :meth:`LUT.load` if a renderer ever needs it.
+same :meth:`LUT.write` / :meth:`LUT.read` if a renderer ever needs it.
 
 Example
 -------
@@ -106,7 +106,7 @@ class LUT:
             JSON round trip: tuples become lists).  Default ``{}``.
         units: dict ``axis name or "values" → unit string``, e.g. ``{"omega": "nm"}``.
         torchirid_version: version that built the table; default: the running version
-            (:meth:`load` passes the stored one).
+            (:meth:`read` passes the stored one).
 
     Raises:
         ValueError: naming the offending argument (axis not 1-D, not strictly increasing,
@@ -476,7 +476,7 @@ class LUT:
         return cached
 
     # ------------------------------------------------------------------ I/O
-    def save(self, path) -> Path:
+    def write(self, path) -> Path:
         """Write the LUT to ``path`` (suffix ``.npz``) atomically; returns the path.
 
         The file layout is described in the module docstring: plain numeric arrays only
@@ -492,7 +492,7 @@ class LUT:
             raise ValueError(f"LUT files must have the '.npz' suffix, got {str(path)!r}")
         if self.dtype not in _SAVABLE:
             raise ValueError(f"cannot save {_dtype_name(self.dtype)} values (no numpy dtype); "
-                             f"use lut.to(torch.float32).save(...)")
+                             f"use lut.to(torch.float32).write(...)")
         meta_bytes = _canonical_json(self.meta).encode("ascii")
         arrays = {"values": self._values.detach().to("cpu").contiguous().numpy()}
         for j, g in enumerate(self._axes.values()):
@@ -502,10 +502,10 @@ class LUT:
         return atomic_write(path, lambda f: np.savez(f, **arrays))
 
     @classmethod
-    def load(cls, path, *, builder: str | None = None, parameters: Mapping[str, Any] | None = None,
+    def read(cls, path, *, builder: str | None = None, parameters: Mapping[str, Any] | None = None,
              expect: Mapping[str, Any] | None = None, dtype: torch.dtype | None = None,
              device=None) -> "LUT":
-        """Read a LUT written by :meth:`save`, verify it, and check it is the expected one.
+        """Read a LUT written by :meth:`write`, verify it, and check it is the expected one.
 
         Args:
             path: the ``.npz`` file.

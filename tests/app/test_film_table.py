@@ -19,7 +19,7 @@ def test_cli_hook(tmp_path, capsys):
     args = parser.parse_args(["film-table", "--stack", "sphere", "--angles", "9", "--wavelengths", "400", "700",
                               "13", "--out", str(tmp_path), "--check"])
     assert args.func(args) == 0
-    lut = LUT.load(tmp_path / "sphere.npz", builder=BUILDER)
+    lut = LUT.read(tmp_path / "sphere.npz", builder=BUILDER)
     assert lut.values.shape == (9, 13, 2) and lut.dtype == torch.float32
     ref, _ = film_reflectance(lut.axes["wavelength"].double(), lut.axes["cos_theta"].double()[:, None],
                               hirayama_stacks()["sphere"])

@@ -245,8 +245,8 @@ def test_prefiltered_maps_round_trip_as_lut_and_exr(tmp_path):
     pre = prefilter_environment(env, torch.tensor([0.5, 0.1], dtype=torch.float64), resolution=4)
     lut = pre.to_lut(parameters={"env": "synthetic 16x32"})
     assert lut.axis_names == ("alpha", "theta", "phi") and lut.channel_shape == (12,)
-    path = lut.save(tmp_path / "pre.npz")
-    back = PrefilteredEnvironment.from_lut(LUT.load(path))
+    path = lut.write(tmp_path / "pre.npz")
+    back = PrefilteredEnvironment.from_lut(LUT.read(path))
     assert torch.equal(back.alphas, torch.tensor([0.1, 0.5], dtype=torch.float64))  # sorted by roughness
     assert torch.equal(back.radiance[1], pre.radiance[0]) and torch.equal(back.moments[0], pre.moments[1])
     assert torch.allclose(back.directions, pre.directions)

@@ -144,7 +144,7 @@ def test_shipped_prefiltered_table_is_a_fresh_build_in_float32():
 
     path = prefiltered_sensitivity_path()
     assert path.is_file(), f"missing shipped table {path}: run luts/build_prefiltered_sensitivity.py"
-    shipped = LUT.load(path, builder=PREFILTERED_SENSITIVITY_BUILDER)
+    shipped = LUT.read(path, builder=PREFILTERED_SENSITIVITY_BUILDER)
     fresh = prefiltered_sensitivity_lut()
     assert shipped.dtype == torch.float32 and shipped.parameters == fresh.parameters
     assert {k: fresh.parameters[k] for k in PREFILTERED_SHIPPED} == PREFILTERED_SHIPPED
@@ -164,7 +164,7 @@ def test_stale_or_corrupt_shipped_prefiltered_table_falls_back_to_a_build(tmp_pa
     from torchirid.ibl import sensitivity as fourier
 
     small = prefiltered_sensitivity_lut(d_max=500.0, sigma_max=100.0, sigma_nodes=3)  # not the shipped grid
-    small.save(tmp_path / "stale.npz")
+    small.write(tmp_path / "stale.npz")
     (tmp_path / "junk.npz").write_bytes(b"junk")
     monkeypatch.setattr(fourier, "prefiltered_sensitivity_lut", lambda o, i, **kw: small)  # (a fast "build")
     for name in ("stale", "junk"):

@@ -55,8 +55,8 @@ def test_lut_interpolation_error_below_1e3_of_peak(alpha):
 
 def test_lut_save_load_round_trip(tmp_path):
     lut = transmission_filter_lut(0.2)
-    path = lut.save(tmp_path / "filter.npz")
-    back = FilterLUT.load(path, alpha=0.2)
+    path = lut.write(tmp_path / "filter.npz")
+    back = FilterLUT.read(path, alpha=0.2)
     assert back.alpha == 0.2 and back.lut.hash == lut.lut.hash
     params = back.lut.parameters
     assert back.lut.builder == "torchirid.layered.filter.transmission_filter_lut"
@@ -65,7 +65,7 @@ def test_lut_save_load_round_trip(tmp_path):
     ti, td = t64([0.1, 0.8, 1.4]), t64([0.2, 0.8, 0.1])
     torch.testing.assert_close(back(ti, td), lut(ti, td), rtol=0, atol=0)
     with pytest.raises(ValueError, match="alpha"):
-        FilterLUT.load(path, alpha=0.3)
+        FilterLUT.read(path, alpha=0.3)
     other = LUT(torch.zeros(2, 2, dtype=F64), {"theta_i": t64([0, 1]), "u": t64([0, 1])}, builder="x")
     with pytest.raises(ValueError, match="built by"):
         FilterLUT(other)

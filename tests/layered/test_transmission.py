@@ -113,8 +113,8 @@ def test_lut_layout_values_and_round_trip(tmp_path):
     cm = 0.5 * (c[1:] + c[:-1])[::5]
     ref = integrated_transmissivity(lam, cm.unsqueeze(-1), layer, nodes=2048)
     assert float((lut(cm) - ref).abs().max()) < 2e-3
-    path = lut.save(tmp_path / "tau.npz")
-    back = LUT.load(path, builder="torchirid.layered.transmission.transmissivity_lut",
+    path = lut.write(tmp_path / "tau.npz")
+    back = LUT.read(path, builder="torchirid.layered.transmission.transmissivity_lut",
                     parameters={"cells": 10, "alpha": 0.1})
     assert back.hash == lut.hash
     torch.testing.assert_close(back(cm), lut(cm), rtol=0, atol=0)

@@ -125,8 +125,8 @@ def test_grazing_resonances_are_the_hard_part():
 
 
 def test_save_load_round_trip(tmp_path, teapot_lut):
-    p = teapot_lut.save(tmp_path / "teapot.npz")
-    back = LUT.load(p, builder=BUILDER)
+    p = teapot_lut.write(tmp_path / "teapot.npz")
+    back = LUT.read(p, builder=BUILDER)
     assert back.hash == teapot_lut.hash
     assert back.parameters["stack"]["materials"] == ["air", "dielectric A", "Ag", "dielectric A", "Al"]
     assert back.parameters["stack"]["thicknesses_nm"] == [1000.0, 5.0, 1000.0]

@@ -147,7 +147,7 @@ def test_shipped_file_matches_a_fresh_build(observer, illuminant):
     path = cumulative_cmf_path(observer, illuminant)
     assert path.is_file(), f"missing shipped table {path}: run luts/build_cumulative_cmf.py"
     assert path.stat().st_size < 300_000
-    shipped = LUT.load(path, builder=CUMULATIVE_CMF_BUILDER,
+    shipped = LUT.read(path, builder=CUMULATIVE_CMF_BUILDER,
                        parameters={"observer": observer, "illuminant": illuminant,
                                    "wavelength_range": [LO, HI]})
     fresh = cumulative_cmf_lut(observer, illuminant)
@@ -169,12 +169,12 @@ def test_tampered_file_is_refused(tmp_path):
     arrays["values"][1000, 1] += 1e-9  # one value nudged, metadata (and hash) untouched
     np.savez(dst, **arrays)
     with pytest.raises(ValueError, match="hash mismatch"):
-        LUT.load(dst, builder=CUMULATIVE_CMF_BUILDER)
+        LUT.read(dst, builder=CUMULATIVE_CMF_BUILDER)
 
 
 def test_stale_or_corrupt_shipped_file_falls_back_to_a_build(tmp_path, monkeypatch):
     other = cumulative_cmf_lut(nodes=50)  # not the automatic table: parameters differ
-    other.save(tmp_path / "cie_1931_2_d65_380_780nm.npz")
+    other.write(tmp_path / "cie_1931_2_d65_380_780nm.npz")
     (tmp_path / "cie_1931_2_d65_380_780nm.npz").with_name("cie_1931_2_e_380_780nm.npz").write_bytes(b"junk")
     monkeypatch.setattr(cm, "cumulative_cmf_path",
                         lambda o, i, r: tmp_path / (cm._slug(o, i, *r) + ".npz"))

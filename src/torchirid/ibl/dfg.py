@@ -95,7 +95,7 @@ def _shipped(dtype, device) -> LUT:
     path = importlib.resources.files("torchirid").joinpath(*_DFG_FILE)
     with importlib.resources.as_file(path) as p:
         if p.exists():
-            lut = LUT.load(p, builder=DFG_BUILDER)
+            lut = LUT.read(p, builder=DFG_BUILDER)
             if {k: lut.parameters.get(k) for k in DFG_SHIPPED} != DFG_SHIPPED:
                 raise ValueError(f"{p}: not the shipped DFG table ({lut.parameters})")
         else:  # a source tree without the data file: build it (≈ 2 s)

@@ -166,7 +166,7 @@ def light_mixture_path(masking: str = "separable"):
         >>> path = light_mixture_path()
         >>> path.name, light_mixture_path("height-correlated").name
         ('light_mixture.npz', 'light_mixture_height_correlated.npz')
-        >>> LUT.load(path).axis_names  # what shipped_light_mixture_lut reads
+        >>> LUT.read(path).axis_names  # what shipped_light_mixture_lut reads
         ('cos_theta_o', 'sqrt_alpha')
     """
     return importlib.resources.files("torchirid").joinpath(*_DATA[_check_masking(masking)])
@@ -183,7 +183,7 @@ def _shipped(masking, dtype, device) -> LUT:
     path = light_mixture_path(masking)
     with importlib.resources.as_file(path) as p:
         if p.exists():
-            lut = LUT.load(p, builder=LIGHT_MIXTURE_BUILDER, parameters=_SHIPPED)
+            lut = LUT.read(p, builder=LIGHT_MIXTURE_BUILDER, parameters=_SHIPPED)
             if _table_masking(lut) != masking:
                 raise ValueError(f"{p} holds a masking={_table_masking(lut)!r} table, not {masking!r}; "
                                  "rebuild it with luts/build_light_mixture.py")

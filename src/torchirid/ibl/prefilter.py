@@ -175,7 +175,7 @@ class PrefilteredEnvironment:
         """The maps as one :class:`~torchirid.lut.LUT`: axes ``alpha`` (A ≥ 2 levels), ``theta``
         and ``phi`` (radians, texel centres of the module convention), channels ``(12,)`` =
         R, G, B radiance then the nine moments (``MOMENT_CHANNELS``). Save it with
-        ``.save(path)``, export it for shaders with :func:`torchirid.export.export_lut`
+        ``.write(path)``, export it for shaders with :func:`torchirid.export.export_lut`
         (OpenEXR or raw float32 + JSON), read it back with :meth:`from_lut`.
         ``parameters``: extra JSON metadata (e.g. the environment's file name).
 

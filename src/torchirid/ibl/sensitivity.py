@@ -267,7 +267,7 @@ def fourier_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D6
         ('cie_1931_2_d65.npz', True)
         >>> fourier_sensitivity_path("CIE 1964 10", "E").name
         'cie_1964_10_e.npz'
-        >>> LUT.load(path).axis_names  # the path difference D, in nm
+        >>> LUT.read(path).axis_names  # the path difference D, in nm
         ('D',)
     """
     _check_names(observer, illuminant)
@@ -285,7 +285,7 @@ def _cached(observer, illuminant, dtype, device) -> LUT:
     if resource.is_file():
         try:
             with importlib.resources.as_file(resource) as path:
-                return LUT.load(path, builder=FOURIER_SENSITIVITY_BUILDER, parameters=expected,
+                return LUT.read(path, builder=FOURIER_SENSITIVITY_BUILDER, parameters=expected,
                                 expect={"axes": ("D",), "channels": (3, 2), "units": {"D": "nm"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead
             warnings.warn(f"fourier_sensitivity: ignoring the shipped table ({e}); building it in "
@@ -447,7 +447,7 @@ def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if resource.is_file():
         try:
             with importlib.resources.as_file(resource) as path:
-                return LUT.load(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=expected,
+                return LUT.read(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=expected,
                                 expect={"axes": ("mu", "w"), "channels": (3, 2), "units": {"mu": "nm"}},
                                 dtype=torch.float64)
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead

@@ -118,7 +118,7 @@ class FilterLUT:
         >>> bool((table(ti, td) - transmission_filter(ti, td, 0.2)).abs().max() < 0.01)
         True
         >>> with tempfile.TemporaryDirectory() as folder:
-        ...     back = FilterLUT.load(table.save(os.path.join(folder, "filter.npz")), alpha=0.2)
+        ...     back = FilterLUT.read(table.write(os.path.join(folder, "filter.npz")), alpha=0.2)
         >>> torch.equal(back(ti, td), table(ti, td))
         True
     """
@@ -165,17 +165,17 @@ class FilterLUT:
     def to(self, dtype: torch.dtype | None = None, device=None) -> "FilterLUT":
         return FilterLUT(self.lut.to(dtype=dtype, device=device))
 
-    def save(self, path) -> Path:
-        """Write the table (``.npz``, atomically) through :meth:`torchirid.lut.LUT.save`."""
-        return self.lut.save(path)
+    def write(self, path) -> Path:
+        """Write the table (``.npz``, atomically) through :meth:`torchirid.lut.LUT.write`."""
+        return self.lut.write(path)
 
     @classmethod
-    def load(cls, path, *, alpha: float | None = None, dtype: torch.dtype | None = None, device=None) -> "FilterLUT":
-        """Read a table written by :meth:`save`; with ``alpha`` given, refuse a table built
-        for another roughness. Errors as :meth:`torchirid.lut.LUT.load` (``FileNotFoundError``;
+    def read(cls, path, *, alpha: float | None = None, dtype: torch.dtype | None = None, device=None) -> "FilterLUT":
+        """Read a table written by :meth:`write`; with ``alpha`` given, refuse a table built
+        for another roughness. Errors as :meth:`torchirid.lut.LUT.read` (``FileNotFoundError``;
         ``ValueError`` naming the file for a damaged, foreign or mismatched table)."""
         params = None if alpha is None else {"alpha": float(alpha)}
-        lut = LUT.load(path, builder=_LUT_BUILDER, parameters=params, expect={"axes": ("theta_i", "u")},
+        lut = LUT.read(path, builder=_LUT_BUILDER, parameters=params, expect={"axes": ("theta_i", "u")},
                        dtype=dtype, device=device)
         try:
             return cls(lut)
@@ -204,8 +204,8 @@ def transmission_filter_lut(alpha: float, *, theta_i_step_deg: float = 0.25, u_n
         dtype: dtype of the stored table (built in float64).
 
     Returns:
-        :class:`FilterLUT`; ``lut(theta_i, theta_d)`` interpolates, ``lut.save(path)`` /
-        ``FilterLUT.load(path, alpha=...)`` round-trip through :class:`torchirid.lut.LUT`.
+        :class:`FilterLUT`; ``lut(theta_i, theta_d)`` interpolates, ``lut.write(path)`` /
+        ``FilterLUT.read(path, alpha=...)`` round-trip through :class:`torchirid.lut.LUT`.
         Metadata: builder ``torchirid.layered.filter.transmission_filter_lut``, parameters
         ``alpha``, ``resolution`` (base step, node counts), ``rtol``, ``estimated_rtol``.
 

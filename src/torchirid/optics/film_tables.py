@@ -152,7 +152,7 @@ def lookup_film_reflectance(lut: LUT, wavelength, cos_theta):
     r"""Bilinear lookup of k_r, k_t in a table from :func:`film_reflectance_lut` (Hirayama §5).
 
     Args:
-        lut: a table built by :func:`film_reflectance_lut` (or loaded with ``LUT.load``).
+        lut: a table built by :func:`film_reflectance_lut` (or loaded with ``LUT.read``).
         wavelength: nm, inside the table's wavelength range.  Shape ``(*)``.
         cos_theta: cosine of the incidence angle in [0, 1], broadcasting with ``wavelength``.
 

@@ -276,7 +276,7 @@ def shipped_texture(name: str) -> LUT:
     _checks.check_choice(name, "name", SHIPPED_TEXTURES)
     path = resources.files("torchirid") / "data" / "textures" / f"{name}.npz"
     with resources.as_file(path) as p:
-        return LUT.load(p, builder=f"luts/build_shader_textures.py {name}")
+        return LUT.read(p, builder=f"luts/build_shader_textures.py {name}")
 
 
 def glsl_source() -> str:

@@ -320,7 +320,7 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
     if resource.is_file():
         try:
             with importlib.resources.as_file(resource) as path:
-                return LUT.load(path, builder=CUMULATIVE_CMF_BUILDER, parameters=expected,
+                return LUT.read(path, builder=CUMULATIVE_CMF_BUILDER, parameters=expected,
                                 expect={"axes": ("omega",), "channels": (3,),
                                         "units": {"omega": "nm^-1"}})
         except ValueError as e:  # corrupt or stale: never use it, say so, build instead

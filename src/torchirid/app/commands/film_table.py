@@ -58,7 +58,7 @@ def run(args) -> int:
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        path = lut.save(out / f"{name}.npz")
+        path = lut.write(out / f"{name}.npz")
     except OSError as e:
         return _args.cannot_write(NAME, out, e)
     print(f"{stack.describe()}\n{lut!r}\nwrote {path}")
