@@ -14,10 +14,10 @@ air outside, CIE 1931 2°, D65, unpolarized, ``sensitivity="exact"`` (the defaul
 time column, ``"lut"``. Prints a markdown table (max / p95 / median ΔE2000 per base class and
 terms, and a rough time per colour: one run, µs per colour over the whole grid, the Ŝ table
 built beforehand) and the issue-21 case (base 1.5 + 2i, d = 171 nm, θo = 70°, α = 0.056).
-With ``--masking height-correlated`` both the table and the reference use the Smith-joint G,
+With ``--masking height_correlated`` both the table and the reference use the Smith-joint G,
 and it also prints how far that reference moves from the separable one.
 
-    PYTHONPATH=src python benchmarks/fitted_terms_error.py [--terms 2 3 4 6] [--masking height-correlated]
+    PYTHONPATH=src python benchmarks/fitted_terms_error.py [--terms 2 3 4 6] [--masking height_correlated]
     PYTHONPATH=src python benchmarks/fitted_terms_error.py --quick      # a coarser grid, ~20 s
 
 Takes ≈ 4–5 min on one core (exact Ŝ ≈ 1.2 ms per term and colour; the reference: 144 films ×
@@ -148,7 +148,7 @@ def run(theta, alpha, n_film, thickness, dielectric, conductor, terms, masking):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--terms", type=int, nargs="+", default=[2, 3, 4, 6])
-    ap.add_argument("--masking", default="separable", choices=("separable", "height-correlated"),
+    ap.add_argument("--masking", default="separable", choices=("separable", "height_correlated"),
                     help="the G of the table and of the reference (default: separable)")
     ap.add_argument("--quick", action="store_true", help="a coarser grid (~20 s)")
     args = ap.parse_args(argv)

@@ -1,7 +1,7 @@
 """Build the shipped light-mixture tables of torchirid.ibl.fitted (K = 5, 48 θo × 48 √α nodes).
 
     PYTHONPATH=src python luts/build_light_mixture.py                                   # both tables
-    PYTHONPATH=src python luts/build_light_mixture.py --masking height-correlated [--out PATH]
+    PYTHONPATH=src python luts/build_light_mixture.py --masking height_correlated [--out PATH]
     PYTHONPATH=src python luts/build_light_mixture.py --masking separable --theta-nodes 4 --alpha-nodes 4 --out t.npz
 
 Writes src/torchirid/data/thin_film_ibl/light_mixture.npz (separable Smith G) and

@@ -1,4 +1,4 @@
-"""The height-correlated (Smith-joint) masking option of the uniform-light reference and the fitted table.
+"""The height_correlated (Smith-joint) masking option of the uniform-light reference and the fitted table.
 
 Kneiphof et al. 2019 (§6) render with "a GGX normal distribution and Smith-Joint geometry term":
 G₂ = 1/(1 + Λ(ω_i) + Λ(ω_o)). Checked against a brute-force hemisphere quadrature that builds G₂
@@ -27,7 +27,7 @@ from torchirid.ibl.fitted import light_mixture_path
 from torchirid.microfacet import ggx_d, smith_g1, smith_lambda
 
 F64 = torch.float64
-HC = "height-correlated"
+HC = "height_correlated"
 
 
 def _brute(c, alpha, masking, n=400):
@@ -151,7 +151,7 @@ def test_masking_validation_and_table_mismatch():
              lambda m: shipped_light_mixture_lut(masking=m),
              lambda m: thin_film_xyz_fitted(c, 0.3, 1.3, 500.0, 1.5, masking=m, sensitivity="exact")]
     for call in calls:
-        with pytest.raises(ValueError, match="masking must be one of 'separable', 'height-correlated'"):
+        with pytest.raises(ValueError, match="masking must be one of 'separable', 'height_correlated'"):
             call("smith-joint")
     assert MASKING_MODES == ("separable", HC)
     lut = light_mixture_lut(theta_nodes=2, alpha_nodes=2, nodes=4, masking=HC)

@@ -29,7 +29,7 @@ def test_circles_geometry(projection):
     rho = layered.projection_radius(theta, projection)
     assert rho[0] == 0 and abs(float(rho[-1]) - 1.0) < 1e-15 and bool((rho.diff() > 0).all())
     torch.testing.assert_close(layered.scatterograms.projection_theta(rho, projection), theta, atol=1e-12, rtol=0)
-    expected = {"equidistant": 1 / 3, "orthographic": 0.5, "equal-area": math.sqrt(2) * math.sin(math.radians(15))}
+    expected = {"equidistant": 1 / 3, "orthographic": 0.5, "equal_area": math.sqrt(2) * math.sin(math.radians(15))}
     assert abs(float(rho[2]) - expected[projection]) < 1e-12
     # pixels whose centre lies on the 30° circle look at θ = 30°
     d, mask = layered.scatterogram_directions(201, projection=projection)

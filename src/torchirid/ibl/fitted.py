@@ -23,7 +23,7 @@ and base (dielectric or conductor) — 15 numbers per node for K = 5. The table 
 LUT container (axes ``cos_theta_o`` (nodes uniform in θo) and ``sqrt_alpha``; channels
 ``(K, 3)`` = (w, c̄, s²)) and interpolated multilinearly; the shipped ones are
 ``data/thin_film_ibl/light_mixture.npz`` (separable Smith G, the default) and
-``data/thin_film_ibl/light_mixture_height_correlated.npz`` (``masking="height-correlated"``:
+``data/thin_film_ibl/light_mixture_height_correlated.npz`` (``masking="height_correlated"``:
 Kneiphof's Smith-joint G, :math:`G_2 = 1/(1 + Λ(ω_i) + Λ(ω_o))`; see :mod:`torchirid.ibl.uniform`),
 both built by ``luts/build_light_mixture.py`` (140 KB each). Use the table of the G that
 the BRDF being matched uses: the two distributions of cos θ1 differ most at grazing and
@@ -60,7 +60,7 @@ DEFAULT_QUANTILES = (0.05, 0.3, 0.7, 0.95)
 _ALPHA_MIN = 1e-4  # the √α = 0 node is evaluated here (GGX needs α > 0; a mirror to ≲ 1e-5)
 _THETA_MAX_DEG = 89.5  # the θo = 90° node is evaluated here (a view above the horizon)
 _DATA = {"separable": ("data", "thin_film_ibl", "light_mixture.npz"),
-         "height-correlated": ("data", "thin_film_ibl", "light_mixture_height_correlated.npz")}
+         "height_correlated": ("data", "thin_film_ibl", "light_mixture_height_correlated.npz")}
 _SHIPPED = {"quantiles": list(DEFAULT_QUANTILES), "theta_nodes": 48, "alpha_nodes": 48,
             "bins": 2048, "nodes": 64}
 
@@ -91,7 +91,7 @@ def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int 
         cos_theta_o: cos θo in (0, 1]; alpha: GGX roughness > 0 (broadcast).
         quantiles: increasing cut points in (0, 1); K = len(quantiles) + 1 components.
         bins, nodes: resolution of ``cos_theta1_distribution()``.
-        masking: the lobe's G: ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
+        masking: the lobe's G: ``"separable"`` (default) or ``"height_correlated"`` (Kneiphof's
             Smith-joint G; ``uniform_lobe_quadrature()``).
 
     Returns:
@@ -159,12 +159,12 @@ def light_mixture_lut(*, quantiles=DEFAULT_QUANTILES, theta_nodes: int = 48, alp
 
 def light_mixture_path(masking: str = "separable"):
     """Path of the shipped table: ``src/torchirid/data/thin_film_ibl/light_mixture.npz`` (separable
-    Smith G) or ``light_mixture_height_correlated.npz`` (``masking="height-correlated"``).
+    Smith G) or ``light_mixture_height_correlated.npz`` (``masking="height_correlated"``).
 
     Example:
         >>> from torchirid.lut import LUT
         >>> path = light_mixture_path()
-        >>> path.name, light_mixture_path("height-correlated").name
+        >>> path.name, light_mixture_path("height_correlated").name
         ('light_mixture.npz', 'light_mixture_height_correlated.npz')
         >>> LUT.read(path).axis_names  # what shipped_light_mixture_lut reads
         ('cos_theta_o', 'sqrt_alpha')
@@ -195,7 +195,7 @@ def _shipped(masking, dtype, device) -> LUT:
 def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype = torch.float64,
                               device=None) -> LUT:
     """The shipped K = 5 mixture table (48 θo × 48 √α nodes) for ``masking`` (``"separable"``, the
-    default, or ``"height-correlated"``), cached per masking/dtype/device.
+    default, or ``"height_correlated"``), cached per masking/dtype/device.
 
     Example:
         >>> import torch
@@ -235,7 +235,7 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
             :func:`~torchirid.ibl.thin_film_xyz_filtered` (``sensitivity="lut"``: Kneiphof's 2-D Ŝ table,
             what a shader reads).
         masking: the lobe's G, ``"separable"`` (default; the library's microfacet BRDF and DFG
-            table) or ``"height-correlated"`` (Kneiphof's Smith-joint G) — module docstring.
+            table) or ``"height_correlated"`` (Kneiphof's Smith-joint G) — module docstring.
 
     Returns:
         ``(*, 3)`` XYZ of the reflectance term (white Y = 1); multiply by the albedo (DFG) for

@@ -40,7 +40,7 @@ Independent of Belcour–Barla's Fourier series, so it is a reference for it.
 * ``"separable"`` (default): :math:`G = G_1(ω_i)\,G_1(ω_o)`, the library's microfacet BRDF
   (:func:`~torchirid.microfacet.smith_g`, :func:`~torchirid.microfacet.microfacet_brdf`) and its
   DFG table (:func:`~torchirid.ibl.dfg_lut`), so the albedo here is that table's;
-* ``"height-correlated"``: Smith's height-correlated (Smith-joint) form
+* ``"height_correlated"``: Smith's height-correlated (Smith-joint) form
   :math:`G_2 = 1/(1 + Λ(ω_i) + Λ(ω_o))` (Heitz 2014, height-correlated masking and shadowing),
   the "Smith-Joint geometry term" of Kneiphof et al. 2019 (§6: their Unity HDRP BRDF). Computed
   as the equal :math:`G_1(ω_i)G_1(ω_o)/(G_1(ω_i) + G_1(ω_o) - G_1(ω_i)G_1(ω_o))` (no Λ = ∞ at
@@ -74,7 +74,7 @@ __all__ = [
 ]
 
 #: ``masking=`` values of the uniform-light functions and the fitted table (module docstring).
-MASKING_MODES = ("separable", "height-correlated")
+MASKING_MODES = ("separable", "height_correlated")
 
 
 def _check_masking(masking) -> str:
@@ -136,7 +136,7 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str
         cos_theta_o: cos θo in (0, 1]; ω_o = (sin θo, 0, cos θo), normal +z. Shape ``(*)``.
         alpha: GGX roughness > 0, broadcast with ``cos_theta_o``.
         nodes: Gauss–Legendre nodes in the polar variable (≥ 2); 2·nodes azimuths.
-        masking: the G of ρ̃: ``"separable"`` (default, G₁(ω_i)G₁(ω_o)) or ``"height-correlated"``
+        masking: the G of ρ̃: ``"separable"`` (default, G₁(ω_i)G₁(ω_o)) or ``"height_correlated"``
             (1/(1 + Λ(ω_i) + Λ(ω_o)), Kneiphof's Smith-joint G); module docstring.
 
     Returns:
@@ -284,7 +284,7 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
         n_film: real film index η₂ ≥ ``n_incident``; thickness: nm ≥ 0; both broadcast with ``(*G)``.
         n_incident: real outer index η₁.
         bins, nodes: resolution (see ``cos_theta1_distribution()``).
-        masking: ``"separable"`` (default) or ``"height-correlated"`` (see ``uniform_lobe_quadrature()``).
+        masking: ``"separable"`` (default) or ``"height_correlated"`` (see ``uniform_lobe_quadrature()``).
 
     Returns:
         ``(mean_D, var_D, mean_cos2, var_cos2)``, broadcast shape, nm / nm² / 1 / 1.
@@ -340,7 +340,7 @@ def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         polarization: ``"unpolarized"`` (default), ``"s"`` or ``"p"``.
         bins, nodes: cos θ1 grid cells and lobe quadrature nodes per axis.
         wavelength: ``(W,)`` nm for the spectral integration; default 360–830 nm at 1 nm.
-        masking: the lobe's G, ``"separable"`` (default) or ``"height-correlated"`` (Kneiphof's
+        masking: the lobe's G, ``"separable"`` (default) or ``"height_correlated"`` (Kneiphof's
             Smith-joint G; see ``uniform_lobe_quadrature()``).
 
     Returns:

@@ -23,7 +23,7 @@ from the centre (1 on the rim) and φ its polar angle,
 ==================  ==============================  ========================================
 ``"equidistant"``   θ / 90°  (default)              the 5/30/60/90° circles equally spaced
 ``"orthographic"``  sin θ                           the view of the hemisphere from above
-``"equal-area"``    √2 sin(θ / 2)                   pixel area ∝ solid angle (Lambert)
+``"equal_area"``    √2 sin(θ / 2)                   pixel area ∝ solid angle (Lambert)
 ==================  ==============================  ========================================
 
 Image axes: column → +x (φ = 0 to the right), row 0 at the top → +y up (φ = 90° at the top),
@@ -69,7 +69,7 @@ __all__ = [
 ]
 
 #: angular mappings of the hemisphere onto the unit disc (see the module docstring)
-PROJECTIONS = ("equidistant", "orthographic", "equal-area")
+PROJECTIONS = ("equidistant", "orthographic", "equal_area")
 #: default wavelength grid: 380–780 nm in 5 nm steps
 DEFAULT_WAVELENGTHS = (380.0, 780.0, 81)
 #: white environment, specular lobe of each layer: (Gauss–Legendre nodes in v, u₁ = 1 − (1 − v)⁴,

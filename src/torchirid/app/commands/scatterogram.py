@@ -82,7 +82,7 @@ def add_parser(subparsers):
     g.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "81"],
                    help="wavelength grid in nm: COUNT evenly spaced values from MIN to MAX inclusive")
     g.add_argument("--projection", choices=PROJECTIONS, default="equidistant",
-                   help="angular mapping: radius ∝ θ (equidistant), sin θ (orthographic) or sin(θ/2) (equal-area)")
+                   help="angular mapping: radius ∝ θ (equidistant), sin θ (orthographic) or sin(θ/2) (equal_area)")
     g.add_argument("--exposure", type=_exposure, default="auto", metavar="X",
                    help="display gain on XYZ, or 'auto' (each image's brightest pixel to Y = 1)")
     g.add_argument("--lut", action="store_true", help="tabulate the mirrors' reflectance over the angle (faster)")
