@@ -164,7 +164,7 @@ def speed_table(repeats=7):
 def pixel_samples(structure, frame, wo, lam, k, seed):
     """K light directions per pixel importance-sampled with the model's sampler (eq. 35, by
     reciprocity from the view direction), their pdf and the environment radiance · cos / pdf."""
-    from torchirid.layered.single_reflection import sample_single_reflection
+    from torchirid.layered.importance_sampling import sample_single_reflection
 
     g = torch.Generator().manual_seed(seed)
     P = wo.shape[0]

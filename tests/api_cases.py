@@ -223,12 +223,12 @@ SUBPACKAGE_CASES = {
         wi=two(unit(0.3, 0.0, 1.0)), m=two(unit(0.05, 0.05, 1.0))), ["wi", "m"], None),
     "microfacet.smith_lambda": (_sub("microfacet", "smith_lambda"), lambda: dict(
         cos_theta=two(0.4), alpha=two(0.2)), ["cos_theta", "alpha"], None),
-    "layered.single_reflection.coating_reflectance": (_sub("layered", "coating_reflectance"), lambda: dict(
+    "layered.tables.coating_reflectance": (_sub("layered", "coating_reflectance"), lambda: dict(
         cos_theta=two(0.6), n_incident=1.4), ["cos_theta"], None),  # (n_incident: one coating, a scalar)
     "layered.single_reflection_pdf": (_sub("layered", "single_reflection_pdf"), lambda: dict(
         structure=_structure(), wi=two(unit(0.3, 0.0, 1.0)), wo=two(unit(-0.2, 0.1, 1.0)), wavelength=WL,
         transmissivity_angles=33), ["wi", "wo"], None),
-    "layered.single_reflection.layer_reflection_probabilities": (_sub("layered", "layer_reflection_probabilities"), lambda: dict(
+    "layered.importance_sampling.layer_reflection_probabilities": (_sub("layered", "layer_reflection_probabilities"), lambda: dict(
         structure=_structure(), cos_theta=two([0.8]), wavelength=WL, transmissivity_angles=33),
         ["cos_theta"], None),
     "ibl.fourier_sensitivity": (_sub("ibl", "fourier_sensitivity"), lambda: dict(D=two(903.37)), ["D"], None),  # (off the table nodes)

@@ -401,7 +401,7 @@ def test_reflectance_functions_take_wavelength_then_geometry():
 
     for fn in (optics.bragg_reflectance, optics.thin_film_reflectance, optics.multilayer, optics.film_reflectance,
                optics.rough_multilayer_reflectance, optics.bragg_dispersion, optics.bragg_envelope,
-               layered.integrated_transmissivity, layered.single_reflection.layer_reflection_probabilities):
+               layered.integrated_transmissivity, layered.importance_sampling.layer_reflection_probabilities):
         assert list(inspect.signature(fn).parameters)[:2] == ["wavelength", "cos_theta"], fn.__name__
     for fn in (layered.single_reflection_brdf, layered.single_reflection_pdf, layered.montecarlo_brdf):
         assert list(inspect.signature(fn).parameters)[:4] == ["wavelength", "wi", "wo", "structure"], fn.__name__

@@ -9,7 +9,8 @@ import torch
 
 from torchirid.layered import LayeredBragg, RoughBraggLayer
 from torchirid.layered.montecarlo import montecarlo_brdf
-from torchirid.layered.single_reflection import base_return_fraction, single_reflection_brdf
+from torchirid.layered.base_interreflection import base_return_fraction
+from torchirid.layered.single_reflection import single_reflection_brdf
 
 F64 = torch.float64
 LAM = torch.tensor([420.0, 500.0, 560.0, 650.0, 720.0], dtype=F64)

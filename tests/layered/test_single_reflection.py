@@ -6,14 +6,13 @@ import pytest
 import torch
 
 from torchirid.layered import LayeredBragg, RoughBraggLayer
-from torchirid.layered.single_reflection import (
-    coating_reflectance,
+from torchirid.layered.tables import coating_reflectance, reflectance_lut
+from torchirid.layered.importance_sampling import (
     layer_reflection_probabilities,
-    reflectance_lut,
     sample_single_reflection,
-    single_reflection_brdf,
     single_reflection_pdf,
 )
+from torchirid.layered.single_reflection import single_reflection_brdf
 from torchirid.optics import bragg_reflectance
 
 F64 = torch.float64

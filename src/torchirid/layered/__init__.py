@@ -5,12 +5,9 @@ and the scatterogram forward model (§5, Fig. 9)."""
 from .filter import transmission_filter
 from .filter_lut import FilterLUT, transmission_filter_lut
 from .montecarlo import montecarlo_brdf
-from .single_reflection import (
-    reflectance_lut,
-    sample_single_reflection,
-    single_reflection_brdf,
-    single_reflection_pdf,
-)
+from .tables import reflectance_lut
+from .importance_sampling import sample_single_reflection, single_reflection_pdf
+from .single_reflection import single_reflection_brdf
 from .scatterograms import (
     PROJECTIONS,
     Scatterogram,

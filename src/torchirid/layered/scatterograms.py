@@ -56,7 +56,8 @@ from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import ggx_vndf_pdf, sample_ggx_vndf
 from . import _geometry
-from .single_reflection import coating_reflectance, refract_into_host, single_reflection_brdf
+from .tables import coating_reflectance, refract_into_host
+from .single_reflection import single_reflection_brdf
 from .structure import LayeredBragg, RoughBraggLayer
 
 __all__ = [
