@@ -5,8 +5,8 @@ import torch
 
 from torchirid.estimation import estimate_film, film_metrics, index_model, refine_film, synthetic_cube
 from torchirid.estimation.measurement import band_reflectance_fast
-from torchirid.estimation.refine import d_only_gauss_newton
-from torchirid.estimation.refine import _smooth_terms, model_terms
+from torchirid.estimation.gauss_newton import d_only_gauss_newton
+from torchirid.estimation.gauss_newton import _smooth_terms, model_terms
 from torchirid.estimation.residuals import residual_parts
 
 F64 = torch.float64
@@ -172,7 +172,7 @@ def test_hard_cases(sample, model, kw):
 
 
 def test_grid_scan_and_slope_scan_find_the_index():
-    from torchirid.estimation.refine import grid_scan, scan_index
+    from torchirid.estimation.gauss_newton import grid_scan, scan_index
 
     cube = synthetic_cube("zns_500", height=4, width=4, seed=0, gaussian_noise=0.0, shot_noise=0.0, polarization="s")
     Y = cube.clean.reshape(-1, 5, 81)
@@ -190,7 +190,7 @@ def test_grid_scan_and_slope_scan_find_the_index():
 def test_lm_jacobian_is_the_exact_jacobian_of_the_residual(model, theta, polarization):
     """The full Jacobian of an LM step (index parameters and every d) against torch.func.jacfwd
     of the residual r(θ, d) = band_reflectance_fast(terms(θ), d) − y, band-width term included."""
-    from torchirid.estimation.refine import lm_jacobian
+    from torchirid.estimation.gauss_newton import lm_jacobian
 
     lam = torch.arange(400.0, 721.0, 8.0, dtype=F64)
     c = torch.cos(torch.deg2rad(torch.tensor([10.0, 30.0, 50.0], dtype=F64)))

@@ -15,7 +15,7 @@ import pytest
 import torch
 
 from torchirid.estimation.measurement import band_reflectance_fast
-from torchirid.estimation.refine import model_terms
+from torchirid.estimation.gauss_newton import model_terms
 import torchirid
 from torchirid.estimation.residuals import (cube_sse, decimation, order_candidates, pixel_chunks, terms_size,
                                             thickness_grid)

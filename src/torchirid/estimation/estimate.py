@@ -5,10 +5,10 @@ r"""The whole estimate: peak method → index scan → global order test → joi
 1. ``peak_method()`` — Kobayashi et al. eq. 8–14: a robust n and a
    per-pixel d (eq. 14 over the admissible orders, scored on a decimated cube);
 2. on a seeded pixel sample (``sample``, 512), on a decimated cube (3 angles, every 3rd band):
-   :func:`~torchirid.estimation.refine.scan_index`, the best constant n within ±15 % of
+   :func:`~torchirid.estimation.gauss_newton.scan_index`, the best constant n within ±15 % of
    eq. 12's (eq. 12 is biased for a dispersive film: the paper's ZnS came out 2.674 for
    2.37), checked against an exhaustive (n, d) search on 128 pixels
-   (:func:`~torchirid.estimation.refine.grid_scan`) — when the peaks mislead (noise, films
+   (:func:`~torchirid.estimation.gauss_newton.grid_scan`) — when the peaks mislead (noise, films
    with no extremum in range), the search restarts from the grid's best n;
    for a dispersive model a second scan over (n(λ_mid), Cauchy slope B);
 3. on the same sample, the joint fit of the index model from the three global orders
@@ -69,7 +69,8 @@ from ._validation import (band_settings, cube_axes, real_index, sorted_angles, t
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
 from .measurement import band_reflectance_fast, band_terms
 from .peaks import peak_method
-from .refine import POLISH_ITERATIONS, d_only_gauss_newton, grid_scan, model_terms, refine_film, scan_index
+from .refine import refine_film
+from .gauss_newton import POLISH_ITERATIONS, d_only_gauss_newton, grid_scan, model_terms, scan_index
 from .residuals import THICKNESS_GRID_DIVISOR, cube_sse, decimation, order_candidates, thickness_grid
 
 __all__ = ["FilmEstimate",

@@ -379,7 +379,7 @@ def select_candidates(cube, candidates, terms):
     Args:
         cube: ``(P, A, B)`` band reflectance; candidates: ``(P, C)`` thicknesses (nm, NaN: none);
         terms: (a, b, e, k, h), each ``(pol, A, B)``, of ``band_terms()``
-            or :func:`~torchirid.estimation.refine.model_terms` (the misfit is
+            or :func:`~torchirid.estimation.gauss_newton.model_terms` (the misfit is
             :func:`~torchirid.estimation.residuals.cube_sse`).
 
     Example (two noise-free pixels of MgF₂ on PET, 380 and 420 nm thick, three orders each):

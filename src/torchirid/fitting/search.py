@@ -12,7 +12,7 @@ from ..color import xyz_to_lab
 
 from .targets import _lsq_scale, bragg_structure, render_targets, scatterogram_loss
 
-__all__: list[str] = []
+__all__ = []
 
 
 class _Space:

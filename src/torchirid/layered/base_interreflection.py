@@ -15,7 +15,7 @@ from ..optics.fresnel import fresnel_reflectance
 
 from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _check_structure, _tables, reflectance_lut
 
-__all__: list[str] = []
+__all__ = []
 
 #: quadrature of the base's return fraction R_d (``base_return_fraction``): Gauss–Legendre
 #: nodes in μ, in the radius of the VNDF disc, in the azimuth (per quarter), and the
