@@ -35,7 +35,8 @@ RANKS = {
     "_checks": 0.5, "_compile": 0.5, "_quadrature": 0.5, "_io": 0.5, "_lut_file": 0.5,
     "_threads": 0.6,  # the small-work thread policy (uses _checks.traceable)
     "_chunks": 0.75,  # block-wise evaluation (uses _checks.traceable, _threads)
-    "_options": 0.8,  # torchirid.options(): the switches of _checks, _chunks, _threads, _compile
+    "_options": 0.8,
+    "_shipped": 1.5,  # reading a shipped table or building it (uses lut.LUT)  # torchirid.options(): the switches of _checks, _chunks, _threads, _compile
     # tables, materials, colorimetry: no optics inside
     "lut": 1, "materials": 1, "color": 1,
     # exact optics and microfacets

@@ -44,7 +44,6 @@ from __future__ import annotations
 import importlib.resources
 import math
 import re
-import warnings
 
 import numpy as np
 import torch
@@ -52,6 +51,7 @@ import torch
 from .. import _checks
 from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
+from .._shipped import read_or_build
 from .._cache import cached
 
 __all__ = [
@@ -282,16 +282,10 @@ def _cached(observer, illuminant, dtype, device) -> LUT:
     resource = fourier_sensitivity_path(observer, illuminant)
     expected = {"observer": observer, "illuminant": illuminant, "d_max": _D_MAX, "step": _D_STEP,
                 "representation": _REPRESENTATION}
-    if resource.is_file():
-        try:
-            with importlib.resources.as_file(resource) as path:
-                return LUT.read(path, builder=FOURIER_SENSITIVITY_BUILDER, parameters=expected,
-                                expect={"axes": ("D",), "channels": (3, 2), "units": {"D": "nm"}})
-        except ValueError as e:  # corrupt or stale: never use it, say so, build instead
-            warnings.warn(f"fourier_sensitivity: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild it with luts/build_fourier_sensitivity.py)",
-                          RuntimeWarning, stacklevel=3)
-    return fourier_sensitivity_lut(observer, illuminant)
+    return read_or_build(resource, lambda: fourier_sensitivity_lut(observer, illuminant),
+                         what="fourier_sensitivity", script="luts/build_fourier_sensitivity.py",
+                         builder=FOURIER_SENSITIVITY_BUILDER, parameters=expected,
+                         expect={"axes": ("D",), "channels": (3, 2), "units": {"D": "nm"}})
 
 
 def shipped_fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,
@@ -444,17 +438,11 @@ def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     resource = prefiltered_sensitivity_path(observer, illuminant)
     expected = {"observer": observer, "illuminant": illuminant, **PREFILTERED_SHIPPED,
                 "representation": _PREFILTERED_REPRESENTATION, "warp_lambda": _WARP_LAMBDA}
-    if resource.is_file():
-        try:
-            with importlib.resources.as_file(resource) as path:
-                return LUT.read(path, builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=expected,
-                                expect={"axes": ("mu", "w"), "channels": (3, 2), "units": {"mu": "nm"}},
-                                dtype=torch.float64)
-        except ValueError as e:  # corrupt or stale: never use it, say so, build instead
-            warnings.warn(f"prefiltered_sensitivity: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild it with luts/build_prefiltered_sensitivity.py)",
-                          RuntimeWarning, stacklevel=3)
-    return prefiltered_sensitivity_lut(observer, illuminant, **PREFILTERED_SHIPPED)
+    return read_or_build(resource, lambda: prefiltered_sensitivity_lut(observer, illuminant, **PREFILTERED_SHIPPED),
+                         what="prefiltered_sensitivity", script="luts/build_prefiltered_sensitivity.py",
+                         builder=PREFILTERED_SENSITIVITY_BUILDER, parameters=expected,
+                         expect={"axes": ("mu", "w"), "channels": (3, 2), "units": {"mu": "nm"}},
+                         dtype=torch.float64)
 
 
 def shipped_prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: str = "D65", *,

@@ -58,7 +58,6 @@ from __future__ import annotations
 import importlib.resources
 import math
 import re
-import warnings
 
 import numpy as np
 import torch
@@ -66,6 +65,7 @@ import torch
 from .. import _checks
 from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
+from .._shipped import read_or_build
 from .._cache import cached
 
 __all__ = ["cumulative_cmf_lut", "shipped_cumulative_cmf_lut"]
@@ -317,17 +317,10 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
     resource = cumulative_cmf_path(observer, illuminant, (lo, hi))
     expected = {"observer": observer, "illuminant": illuminant, "wavelength_range": [lo, hi],
                 "grid": _GRID, "tolerance": CUMULATIVE_CMF_TOLERANCE}
-    if resource.is_file():
-        try:
-            with importlib.resources.as_file(resource) as path:
-                return LUT.read(path, builder=CUMULATIVE_CMF_BUILDER, parameters=expected,
-                                expect={"axes": ("omega",), "channels": (3,),
-                                        "units": {"omega": "nm^-1"}})
-        except ValueError as e:  # corrupt or stale: never use it, say so, build instead
-            warnings.warn(f"shipped_cumulative_cmf_lut: ignoring the shipped table ({e}); building it in "
-                          f"memory (rebuild the file with luts/build_cumulative_cmf.py)",
-                          RuntimeWarning, stacklevel=3)
-    return cumulative_cmf_lut(observer, illuminant, (lo, hi))
+    return read_or_build(resource, lambda: cumulative_cmf_lut(observer, illuminant, (lo, hi)),
+                         what="shipped_cumulative_cmf_lut", script="luts/build_cumulative_cmf.py",
+                         builder=CUMULATIVE_CMF_BUILDER, parameters=expected,
+                         expect={"axes": ("omega",), "channels": (3,), "units": {"omega": "nm^-1"}})
 
 
 @cached(maxsize=None)
