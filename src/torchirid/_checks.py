@@ -8,7 +8,6 @@ it passes the checks and propagates through the physics.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
 import numbers
@@ -25,7 +24,7 @@ _VALUE_CHECKS = {"enabled": True}
 def value_checks_enabled() -> bool:
     """Whether torchirid checks argument *values* (ranges, units, NaN-free counts).
 
-    Off under :func:`set_value_checks(False) <set_value_checks>` / :func:`value_checks`, and
+    Off under ``torchirid.options(value_checks=False)``, and
     automatically while ``torch.compile`` traces (``torch.compiler.is_compiling()``).
 
     >>> import torchirid
@@ -38,55 +37,9 @@ def value_checks_enabled() -> bool:
     return _VALUE_CHECKS["enabled"] and not torch.compiler.is_compiling()
 
 
-def set_value_checks(enabled: bool = True) -> None:
-    """Switch torchirid's argument-value checks on (default) or off, for the whole process.
-
-    The checks (wavelength in nm, cos θ in [0, 1], indices with Re n > 0 and κ ≥ 0, thicknesses
-    ≥ 0, integer cell counts, ...) read tensor values back to Python (``bool(t.any())``), which
-    ``torch.func.vmap`` cannot do and which breaks ``torch.compile(fullgraph=True)``. With the
-    checks off the kernels are free of that data-dependent control flow and run under both;
-    invalid values then give NaN or wrong numbers instead of a ValueError. Types, shapes,
-    option names and dtypes are still checked. Prefer the scoped :func:`value_checks`.
-
-    >>> import torch, torchirid
-    >>> f = torch.func.vmap(lambda d: torchirid.thin_film_reflectance(550.0, 1.0, 1.4, d, 1.5))
-    >>> with torchirid.options(value_checks=False):
-    ...     R = f(torch.tensor([100.0, 200.0], dtype=torch.float64))
-    >>> R.shape
-    torch.Size([2])
-    """
-    if not isinstance(enabled, bool):
-        raise ValueError(f"enabled must be True or False; got {enabled!r}")
-    _VALUE_CHECKS["enabled"] = enabled
-
-
-@contextlib.contextmanager
-def value_checks(enabled: bool = True):
-    """Context manager: argument-value checks on or off inside the block (:func:`set_value_checks`),
-    restored on exit.
-
-    >>> import torchirid
-    >>> try:
-    ...     torchirid.thin_film_reflectance(0.55, 1.0, 1.4, 100.0, 1.5)  # µm by mistake
-    ... except ValueError as error:
-    ...     print(str(error).split(";")[0])
-    wavelength must be in nm, between 1 and 1e+06 nm
-    >>> with torchirid.options(value_checks=False):  # no check: a number, but a wrong one
-    ...     R = torchirid.thin_film_reflectance(0.55, 1.0, 1.4, 100.0, 1.5)
-    """
-    if not isinstance(enabled, bool):
-        raise ValueError(f"enabled must be True or False; got {enabled!r}")
-    before = _VALUE_CHECKS["enabled"]
-    _VALUE_CHECKS["enabled"] = enabled
-    try:
-        yield
-    finally:
-        _VALUE_CHECKS["enabled"] = before
-
-
 def traceable() -> bool:
     """True when kernels must avoid data-dependent Python control flow: value checks off
-    (:func:`set_value_checks`) or ``torch.compile`` tracing. Guards that would branch on tensor
+    (``torchirid.options(value_checks=False)``) or ``torch.compile`` tracing. Guards that would branch on tensor
     values (``if bool(mask.any())``) then take their masked branch unconditionally."""
     return not value_checks_enabled()
 

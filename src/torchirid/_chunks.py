@@ -18,8 +18,8 @@ for Bragg): batches above :data:`CHECKPOINT_POINTS` are evaluated in blocks unde
 checkpointing, which keeps one block's graph alive at a time and recomputes it in the backward
 pass (about one more forward pass of time). Smaller batches with a gradient are evaluated at once.
 
-One knob: :func:`set_chunk_size` (process-wide; ``TORCHIRID_CHUNK_SIZE`` in the environment) or
-the :func:`chunk_size` context manager. ``None``/0 turns chunking off; the default, ``"auto"``,
+One knob: ``torchirid.options(chunk_size=...)`` (process-wide, or scoped as a ``with`` statement;
+``TORCHIRID_CHUNK_SIZE`` in the environment). ``None``/0 turns chunking off; the default, ``"auto"``,
 takes the block size from the inputs' device (``torchirid._chunks.default_chunk_size``: cache-sized blocks on
 the CPU, much larger ones on GPUs, where a block's cost is its kernel launches). Under ``torch.func``
 transforms or ``torch.compile`` (:func:`torchirid._checks.traceable`) the whole batch is
@@ -38,7 +38,7 @@ import torch
 
 from . import _checks, _threads
 
-__all__ = ["chunk_size", "default_chunk_size", "evaluate", "get_chunk_size", "set_chunk_size"]
+__all__ = ["default_chunk_size", "evaluate", "get_chunk_size"]
 
 #: default block size in points (measured: docs/performance.md, benchmarks/throughput.py). On
 #: 10⁷-point grids, paired against the 36k grid, blocks of 2¹⁵ points cost 0.97–1.14× the small
@@ -72,32 +72,6 @@ def _initial() -> int | str | None:
 _STATE = {"points": _initial()}
 
 
-def _check(points):
-    if points is None or points == AUTO:
-        return points
-    if isinstance(points, bool) or not isinstance(points, int) or points < 0:
-        raise ValueError(f"points must be an int >= 1 (points per block), 0 / None for no chunking, or 'auto' "
-                         f"(the default per device); got {points!r}")
-    return points or None
-
-
-def set_chunk_size(points: int | str | None = AUTO) -> None:
-    """Points per block of the chunked kernels; ``None`` or 0: no chunking.
-
-    ``"auto"`` (the default): ``torchirid._chunks.default_chunk_size`` of the inputs' device — 32768 points on
-    the CPU (cache-sized intermediates), 2²⁴ on accelerators. An int applies to every device. A
-    batch of up to twice the block size is evaluated in one piece.
-
-    >>> import torchirid
-    >>> torchirid._chunks.set_chunk_size(1 << 16); torchirid._chunks.get_chunk_size()
-    65536
-    >>> torchirid._chunks.set_chunk_size()  # back to the default: per device
-    >>> torchirid._chunks.get_chunk_size(), torchirid._chunks.get_chunk_size("cuda")
-    (32768, 16777216)
-    """
-    _STATE["points"] = _check(points)
-
-
 def default_chunk_size(device=None) -> int:
     """The block size used when none is set: :data:`DEFAULT_CHUNK_SIZE` on the CPU (and for
     ``device=None``), :data:`DEVICE_CHUNK_SIZE` on any other device type."""
@@ -114,29 +88,6 @@ def get_chunk_size(device=None) -> int | None:
     """
     points = _STATE["points"]
     return default_chunk_size(device) if points == AUTO else points
-
-
-@contextlib.contextmanager
-def chunk_size(points: int | str | None):
-    """Context manager: the block size inside the ``with`` block (:func:`set_chunk_size`).
-
-    >>> import torch, torchirid
-    >>> wavelength = torch.linspace(380.0, 780.0, 401, dtype=torch.float64)[:, None]  # nm
-    >>> cos_theta = torch.linspace(0.0, 1.0, 200, dtype=torch.float64)
-    >>> with torchirid.options(chunk_size=4096):  # 80 200 points in blocks of 4096
-    ...     R = torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20)
-    >>> torch.allclose(R, torchirid.bragg_reflectance(wavelength, cos_theta, 1.0, 1.5, 125.0, 375.0, 20), rtol=1e-13, atol=0)
-    True
-    >>> torchirid._chunks.get_chunk_size()  # restored on exit
-    32768
-    """
-    points = _check(points)
-    before = _STATE["points"]
-    _STATE["points"] = points
-    try:
-        yield
-    finally:
-        _STATE["points"] = before
 
 
 def _wants_grad(tensors) -> bool:

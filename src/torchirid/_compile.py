@@ -2,7 +2,7 @@
 
 Off by default: compiling costs seconds per kernel variant and needs a C++ compiler at run
 time, which a library should not impose.  Switch it on for large grids (LUT builds, speed
-benchmarks) with :func:`set_compile` or the environment variable ``TORCHIRID_COMPILE=1``.
+benchmarks) with ``torchirid.options(compile=True)`` or the environment variable ``TORCHIRID_COMPILE=1``.
 The compiled kernels fuse the ~60 elementwise operations of Yeh's closed form into a few
 loops (faster on large grids: docs/performance.md, "Compiled Bragg kernel") and agree with the
 eager kernels to ~1e-13 in float64.  If compilation fails, torchirid warns once and falls
@@ -17,7 +17,7 @@ import warnings
 
 import torch
 
-__all__ = ["set_compile", "compile_enabled"]
+__all__ = ["kernel"]
 
 #: inputs smaller than this many points always run eagerly (compiled launch overhead dominates)
 MIN_POINTS = 4096
@@ -25,33 +25,6 @@ MIN_POINTS = 4096
 _state = {"enabled": os.environ.get("TORCHIRID_COMPILE", "0").strip().lower() in ("1", "true", "yes", "on")}
 _compiled: dict[str, object] = {}
 _failed: set[str] = set()
-
-
-def set_compile(enabled: bool = True) -> None:
-    """Enable or disable ``torch.compile`` of torchirid's elementwise kernels (default: off).
-
-    Compiling costs seconds per kernel variant on first use (cached on disk) and needs a C++
-    compiler; values agree with the eager kernels to ~1e-13. Small calls stay eager. The
-    environment variable ``TORCHIRID_COMPILE=1`` switches it on at import.
-
-    >>> import torchirid
-    >>> torchirid._compile.set_compile(True); torchirid._compile.compile_enabled()
-    True
-    >>> torchirid._compile.set_compile(False)  # back to the default: eager kernels
-    """
-    if not isinstance(enabled, bool):
-        raise ValueError(f"enabled must be True or False; got {enabled!r}")
-    _state["enabled"] = enabled
-
-
-def compile_enabled() -> bool:
-    """Whether compiled kernels are in use (:func:`set_compile`, ``TORCHIRID_COMPILE``).
-
-    >>> import torchirid
-    >>> torchirid._compile.compile_enabled()  # off unless TORCHIRID_COMPILE=1 was set
-    False
-    """
-    return _state["enabled"]
 
 
 def kernel(name: str, eager, static, points: int):

@@ -9,7 +9,7 @@ second thread on a quiet machine and lose under load, a choice only the user can
 (``torch.set_num_threads``).
 
 Policy: every table-producing function (:func:`torchirid._chunks.evaluate`) runs a batch whose
-work is below ``torchirid._threads.SMALL_WORK`` elements with :func:`get_small_work_threads` torch threads (1
+work is below ``torchirid._threads.SMALL_WORK`` elements with ``torchirid.options("small_work_threads")`` torch threads (1
 by default), and restores the previous count after. Set ``None`` (or
 ``TORCHIRID_SMALL_WORK_THREADS=0``) to leave torch's setting alone. The thread count is
 process-wide in torch: while a small call runs, torch work of other Python threads also runs
@@ -26,7 +26,7 @@ import torch
 
 from . import _checks
 
-__all__ = ["get_small_work_threads", "set_small_work_threads", "limited", "limited_by"]
+__all__ = ["limited", "limited_by"]
 
 #: work (points × inner width) below which a call runs with the small-work thread count: torch's
 #: parallel grain, below which its elementwise ops run on one thread anyway
@@ -46,30 +46,6 @@ def _initial() -> int | None:
 
 _LOCK = threading.Lock()
 _STATE = {"threads": _initial(), "depth": 0, "saved": None}
-
-
-def set_small_work_threads(threads: int | None = 1) -> None:
-    """Torch threads for calls whose work is below ``torchirid._threads.SMALL_WORK`` elements (default 1);
-    ``None`` or 0: leave torch's thread count alone.
-
-    >>> import torchirid
-    >>> torchirid._threads.set_small_work_threads(None); torchirid._threads.get_small_work_threads() is None
-    True
-    >>> torchirid._threads.set_small_work_threads()  # back to the default: one thread
-    """
-    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 0):
-        raise ValueError(f"threads must be an int >= 1, or 0 / None to leave torch's setting; got {threads!r}")
-    _STATE["threads"] = threads or None
-
-
-def get_small_work_threads() -> int | None:
-    """The thread count for small calls (None: torch's setting is left alone).
-
-    >>> import torchirid
-    >>> torchirid._threads.get_small_work_threads()  # the default: small calls run on one thread
-    1
-    """
-    return _STATE["threads"]
 
 
 class limited:

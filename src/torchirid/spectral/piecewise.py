@@ -137,7 +137,7 @@ MIN_FRINGES = 8.0
 def _check_domain(mirror, method: str) -> None:
     """RuntimeWarning when some colours have fewer than ``MIN_FRINGES`` fringes in the range
     (the fringe average is then not what the CMFs see; measured ΔE2000 up to ~30). A value check:
-    off under ``set_value_checks(False)``, like the others (it reads the values back to the host)."""
+    off under ``torchirid.options(value_checks=False)``, like the others (it reads the values back to the host)."""
     if not _checks.value_checks_enabled():
         return
     lo, hi = mirror["range"]
