@@ -121,7 +121,7 @@ def main(argv=None):
             ("torchirid.bragg_reflectance", bragg, False, args.repeats),
             ("torchirid.bragg_reflectance float32",
              lambda: ti.bragg_reflectance(lam32, cos32, N1, N2, D1, D2, CELLS, polarization=pol), False, args.repeats),
-            ("torchirid.bragg_reflectance, set_compile(True)", bragg, True, args.repeats),
+            ("torchirid.bragg_reflectance, options(compile=True)", bragg, True, args.repeats),
         ]
 
     # The machine's speed drifts (shared cores): every round times every method once (a median
@@ -279,7 +279,7 @@ Reading the table:
   them into one pass.
 * `bragg_reflectance` uses Yeh's closed form in real arithmetic: its cost does not depend
   on the number of cells (second table), while the explicit stack grows linearly.
-* `set_compile(True)` fuses the ~60 elementwise operations of the closed form with
+* `options(compile=True)` fuses the ~60 elementwise operations of the closed form with
   `torch.compile` (inductor, C++); it is opt-in because compiling costs seconds per kernel
   variant (3–12 s on this machine, cached on disk afterwards) and needs a C++ compiler at
   run time. Values agree with the eager kernel to ~1e-13 (tested in tests/test_compile.py).

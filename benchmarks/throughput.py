@@ -12,7 +12,7 @@ outputs (multilayer returns two). Cost per point against the 36k grid's (sizes �
 process, paired rounds of the 36k grid (best of 5 calls) and the large grid (one call), the
 ratio of their ns/point per round, the median over ``--rounds`` — robust to the load of other
 processes, which single timings on this shared machine are not. Modes: ``chunked`` (the default evaluation), ``one piece``
-(``torchirid.options(chunk_size=None)``, with ``--unchunked``), ``compiled`` (``set_compile(True)``,
+(``torchirid.options(chunk_size=None)``, with ``--unchunked``), ``compiled`` (``torchirid.options(compile=True)``,
 chunked; Bragg only — the other kernels have no compiled path; with ``--compiled``), whose first
 call (the compile) is reported separately.
 
@@ -199,7 +199,7 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5,
                     help="paired rounds: cost per point against the 36k grid's (≥ 10⁶ points), tmm_fast (--peer)")
     ap.add_argument("--unchunked", action="store_true", help="also one-piece evaluation (not at 10⁸)")
-    ap.add_argument("--compiled", action="store_true", help="also set_compile(True) (Bragg)")
+    ap.add_argument("--compiled", action="store_true", help="also torchirid.options(compile=True) (Bragg)")
     ap.add_argument("--peer", action="store_true", help="tmm_fast speed ratio in paired rounds (≤ 10⁶ points)")
     ap.add_argument("--huge", action="store_true", help="also 10⁸ points (chunked only; ~1–2 min per kernel)")
     ap.add_argument("--kernels", default="bragg,thin_film,multilayer")

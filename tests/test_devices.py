@@ -182,7 +182,7 @@ def _hot_kernels(device, size):
 
 
 def test_hot_kernels_never_read_values_back_to_the_host():
-    """With value checks off (``set_value_checks(False)``: the per-call argument checks are the
+    """With value checks off (``torchirid.options(value_checks=False)``: the per-call argument checks are the
     only reads), the spectral kernels run on ``meta`` tensors: shapes and dtypes only, no values,
     so any ``.item()``, ``.tolist()``, host copy or data-dependent branch would raise."""
     meta = torch.device("meta")

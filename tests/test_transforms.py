@@ -1,7 +1,7 @@
 """The kernels under ``torch.func.vmap`` and ``torch.compile(fullgraph=True)`` (issue 22.7).
 
 Value checks read tensors back to Python, which vmap cannot do and which breaks a full graph.
-``torchirid.options(value_checks=False)`` (or ``set_value_checks``) turns them off, and torch.compile
+``torchirid.options(value_checks=False)`` turns them off, and torch.compile
 turns them off by itself while it traces; either way the kernels take their masked branches
 unconditionally. Reference: the same functions called eagerly on the whole batch."""
 
