@@ -12,9 +12,10 @@ NAME = "build-table"
 
 __all__ = ["NAME", "add_parser", "run"]
 
-#: the public functions a table can be built of (broadcasting, per-point)
-FUNCTIONS = ("bragg_reflectance", "bragg_xyz", "thin_film_reflectance", "thin_film_xyz_fourier",
-             "thin_film_xyz_fitted", "thin_film_xyz_uniform")
+#: the public functions a table can be built of (broadcasting, per-point) → the module that exports it
+FUNCTIONS = {"bragg_reflectance": "torchirid", "bragg_xyz": "torchirid", "thin_film_reflectance": "torchirid",
+             "thin_film_xyz_fourier": "torchirid.ibl", "thin_film_xyz_fitted": "torchirid.ibl",
+             "thin_film_xyz_uniform": "torchirid.ibl"}
 #: their trailing output shape
 CHANNELS = {"bragg_xyz": (3,), "thin_film_xyz_fourier": (3,), "thin_film_xyz_fitted": (3,),
             "thin_film_xyz_uniform": (3,)}
@@ -29,6 +30,42 @@ def _axis(text: str):
     start, stop = _args.number(parts[0]), _args.number(parts[1])
     count = _args.count(parts[2])
     return name, (start, stop, count)
+
+
+def _function(name: str):
+    """The library function ``name`` of :data:`FUNCTIONS`."""
+    import importlib
+
+    return getattr(importlib.import_module(FUNCTIONS[name]), name)
+
+
+def check_arguments(name: str, fn, axes, settings) -> None:
+    """ValueError naming what to do unless the --axis and --set names are exactly arguments of
+    ``fn`` and give every argument without a default (checked from the signature, before any call):
+    an unknown name lists the function's arguments (and the nearest one); missing ones are listed
+    with the ``--set NAME=VALUE`` / ``--axis`` forms that give them."""
+    import difflib
+    import inspect
+
+    params = inspect.signature(fn).parameters
+    positional = [p for p, a in params.items() if a.kind in (a.POSITIONAL_ONLY, a.POSITIONAL_OR_KEYWORD)]
+    options = [p for p, a in params.items() if a.kind == a.KEYWORD_ONLY]
+    takes_any = any(a.kind == a.VAR_KEYWORD for a in params.values())
+    signature = (f"{name} takes {', '.join(positional)} (each an --axis or a --set)"
+                 + (f" and the options {', '.join(options)} (--set)" if options else ""))
+    for option, names in (("--axis", axes), ("--set", settings)):
+        unknown = [n for n in names if n not in params]
+        if unknown and not takes_any:
+            near = difflib.get_close_matches(unknown[0], list(params), n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise ValueError(f"{option} {unknown[0]}: {name} has no argument {unknown[0]!r}{hint}; {signature}")
+    given = set(axes) | set(settings)
+    missing = [p for p, a in params.items() if a.default is a.empty
+               and a.kind in (a.POSITIONAL_ONLY, a.POSITIONAL_OR_KEYWORD, a.KEYWORD_ONLY) and p not in given]
+    if missing:
+        example = " ".join(f"--set {p}=VALUE" for p in missing)
+        raise ValueError(f"{name} needs a value for {', '.join(missing)}: give each as --set NAME=VALUE (a fixed "
+                         f"value, e.g. {example}) or as an axis --axis NAME=START:STOP:COUNT; {signature}")
 
 
 def add_parser(subparsers):
@@ -48,7 +85,7 @@ def add_parser(subparsers):
             "      --set n1=1.0 --set n2=1.5 --set d2=375 --set cells=20 --set method=envelope --out bragg.zarr"
         ),
     )
-    p.add_argument("function", choices=FUNCTIONS, help="the library function")
+    p.add_argument("function", choices=tuple(FUNCTIONS), help="the library function")
     p.add_argument("--axis", type=_axis, action="append", required=True, metavar="NAME=START:STOP:COUNT",
                    help="a table axis: COUNT values of argument NAME from START to STOP (repeat per axis)")
     p.add_argument("--set", type=_args.setting, action="append", default=[], metavar="NAME=VALUE",
@@ -68,23 +105,26 @@ def run(args) -> int:
     import numpy as np
     import torch
 
-    import torchirid
-
-    try:
-        from ...scale import build_table
-    except ImportError as e:
-        return _args.fail(NAME, f"needs the scale extra (dask, distributed, zarr): {e}", status=1)
     axes = {}
     for name, (start, stop, count) in args.axis:
         if name in axes:
             raise ValueError(f"--axis {name} given twice")
         axes[name] = np.linspace(start, stop, count)
     settings = dict(args.set)
+    both = sorted(set(axes) & set(settings))
+    if both:
+        raise ValueError(f"{both[0]} is both an --axis and a --set; give it once")
+    fn = _function(args.function)
+    check_arguments(args.function, fn, axes, settings)  # from the signature, before any computation
+    try:
+        from ...scale import build_table
+    except ImportError as e:
+        return _args.fail(NAME, f"needs the scale extra (dask, distributed, zarr): {e}", status=1)
     bar = _args.progress_bar(f"{NAME} {args.function}", unit="chunk", quiet=args.quiet)
     progress = _args.progress_callback(bar)
     dtype = torch.float32 if args.dtype == "float32" else torch.float64
     try:
-        result = build_table(getattr(torchirid, args.function), axes, args.out, chunks=args.chunks, kwargs=settings,
+        result = build_table(fn, axes, args.out, chunks=args.chunks, kwargs=settings,
                              channels=CHANNELS.get(args.function, ()), dtype=dtype, scheduler=args.scheduler,
                              workers=args.workers, progress=progress, timeout=args.timeout)
     except TypeError as e:  # an --axis or --set name the function does not take
