@@ -2,9 +2,10 @@
 the help formatter, the number parsers, the checks of names and grids, progress bars.
 
 One error style: a bad argument — an argparse error, or a ``ValueError`` raised by a command
-or by the library about an argument — prints exactly one line on stderr,
-``torchirid <subcommand>: error: <message>``, and ends with exit status 2 (no usage dump,
-no traceback). A file that cannot be written prints the same kind of line and exits 1.
+or by the library about an argument, an ``--out`` that cannot be written included — prints
+exactly one line on stderr, ``torchirid <subcommand>: error: <message>``, and ends with exit
+status 2 (no usage dump, no traceback). A write that fails after the checks (a full disk) prints
+the same kind of line and exits 1.
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ import sys
 from .. import _checks
 
 PROG = "torchirid"
-#: exit status of a bad argument (argparse's own), and of a failed write
+#: exit status of a bad argument (argparse's own; an --out that cannot be written too), and of
+#: a write that fails after the checks (a full disk) or an unreachable scheduler
 USAGE_ERROR = 2
 WRITE_ERROR = 1
 POLARIZATIONS = ("s", "p", "unpolarized")
@@ -33,6 +35,7 @@ __all__ = [
     "add_command_parser",
     "cannot_write",
     "check_name",
+    "check_out",
     "check_range",
     "count",
     "fail",
@@ -60,8 +63,34 @@ def fail(command: str, message, status: int = USAGE_ERROR) -> int:
 
 
 def cannot_write(command: str, directory, exc: OSError) -> int:
-    """The one-line error of a failed write; returns the exit status 1."""
-    return fail(command, f"cannot write to {directory}: {exc}", WRITE_ERROR)
+    """The one-line error of a write that failed after :func:`check_out` passed (a full disk, a
+    file name taken by a folder); returns the exit status 1."""
+    return fail(command, f"cannot write to --out {directory}: {exc}", WRITE_ERROR)
+
+
+def check_out(path, *, file: bool = False, option: str = "--out") -> None:
+    """ValueError naming ``option`` unless the outputs can be written at ``path``: a folder
+    (created later if missing) or, with ``file``, a file in a folder. Checked before any work —
+    a slow command does not compute for minutes and then fail to write — and without creating
+    anything: ``path`` (or the folder of a file) must be a folder or not exist yet, and its
+    nearest existing parent must be a folder this process may write into."""
+    given = os.fspath(path)
+    target = os.path.abspath(given)
+    if file:
+        if os.path.isdir(target):
+            raise ValueError(f"{option} {given}: is a folder; give a file name")
+        folder = os.path.dirname(target)
+    else:
+        folder = target
+    if os.path.lexists(folder) and not os.path.isdir(folder):
+        raise ValueError(f"{option} {given}: {folder} is a file, not a folder; choose another {option}")
+    existing = folder
+    while not os.path.lexists(existing):
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing):
+        raise ValueError(f"{option} {given}: cannot create a folder there, {existing} is a file; choose another {option}")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ValueError(f"{option} {given}: {existing} is not writable (permission denied); choose another {option}")
 
 
 class ArgumentParser(argparse.ArgumentParser):

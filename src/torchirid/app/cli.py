@@ -5,11 +5,12 @@ On the command line, wavelengths and thicknesses are in nm and incidence angles 
 :mod:`torchirid.app.commands` registered in :data:`COMMANDS`; its figures are in
 :mod:`torchirid.app.figures`.
 
-Errors: a bad argument — an argparse error, or a ``ValueError`` from the command or the
-library about an argument — prints exactly one line on stderr,
-``torchirid <subcommand>: error: <message>`` (no usage, no traceback), and ends with exit
-status 2: :func:`main` raises ``SystemExit(2)`` as argparse itself does. A file that cannot
-be written prints the same kind of line and returns 1.
+Errors: a bad argument — an argparse error, a ``ValueError`` from the command or the
+library about an argument, or an ``--out`` that cannot be written (checked before the command
+runs) — prints exactly one line on stderr, ``torchirid <subcommand>: error: <message>`` (no
+usage, no traceback), and ends with exit status 2: :func:`main` raises ``SystemExit(2)`` as
+argparse itself does. A write that fails after the checks (a full disk) or an unreachable
+scheduler prints the same kind of line and returns 1.
 """
 
 from __future__ import annotations
@@ -28,6 +29,9 @@ __all__ = ["COMMANDS", "build_parser", "main"]
 #: ``add_parser(subparsers)`` and ``run(args) -> int``.
 COMMANDS = (spectrum, gradients, scatterogram, film_table, render_sphere, thin_film, fit_film, build_table, fit_batch,
             montecarlo, explore)
+
+#: the subcommands whose ``--out`` is a file (the others write into an ``--out`` folder)
+FILE_OUTPUTS = frozenset({"fit-batch", "montecarlo"})
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -66,12 +70,18 @@ _APP_EXTRA = ("matplotlib", "tqdm")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``torchirid`` command; returns the exit status (0, or 1 for a failed
-    write) and raises ``SystemExit(2)`` for a bad argument, after its one-line message."""
+    """Entry point of the ``torchirid`` command; returns the exit status (0, or 1 for a write that
+    failed after the checks) and raises ``SystemExit(2)`` for a bad argument (an ``--out`` that
+    cannot be written included), after its one-line message."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:  # reported by the subcommand's parser, so that the line names the subcommand
         args.parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    if getattr(args, "out", None) is not None:  # every command that writes: before any work
+        try:
+            _args.check_out(args.out, file=args.command in FILE_OUTPUTS)
+        except ValueError as error:
+            raise SystemExit(_args.fail(args.command, error)) from None
     try:
         status = args.func(args)
     except ModuleNotFoundError as error:
