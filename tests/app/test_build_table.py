@@ -62,3 +62,38 @@ def test_an_ibl_function_builds(tmp_path, capsys):
                  "--set", "thickness=300", "--set", "n_substrate=1.5", "--out", str(tmp_path / "t.zarr"),
                  "--quiet"]) == 0
     assert "1 chunks computed" in capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ issue 35.4: the size of a grid, before any work
+HUGE = {
+    "build-table": (["bragg_xyz", "--axis", "cos_theta=0:1:1000", "--axis", "d1=50:250:1000", "--axis",
+                     "d2=100:400:1000", "--set", "n1=1", "--set", "n2=1.5", "--set", "cells=20"],
+                    ["1,000,000,000 points", "24.0 GB"]),
+    "spectrum": (["--angles", "100000", "--wavelengths", "380", "780", "100000"], ["10,000,000,000 points", "80.0 GB"]),
+    "film-table": (["--angles", "20000", "--wavelengths", "380", "780", "20000"], ["400,000,000 points", "3.2 GB"]),
+}
+
+
+@pytest.mark.parametrize("command", sorted(HUGE))
+def test_a_huge_grid_is_refused_with_its_size(tmp_path, capsys, command):
+    argv, sizes = HUGE[command]
+    with pytest.raises(SystemExit) as e:
+        main([command, *argv, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert e.value.code == 2, err
+    assert any(size in err for size in sizes[:-1]) and sizes[-1] in err, err  # the points and the bytes
+    assert "--yes" in err and ("smaller" in err or "fewer" in err), err  # how to go on
+    assert not (tmp_path / "o").exists()
+
+
+def test_yes_runs_a_large_grid_and_says_its_size(tmp_path, capsys, monkeypatch):
+    from torchirid.app import _args
+
+    monkeypatch.setattr(_args, "LARGE_POINTS", 4)  # "large" without computing anything large
+    argv = ["spectrum", "--angles", "3", "--wavelengths", "400", "700", "3", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit):
+        main(argv)
+    assert "9 points" in capsys.readouterr().err
+    assert main([*argv, "--yes"]) == 0
+    err = capsys.readouterr().err
+    assert "torchirid spectrum: the map 3 angles × 3 wavelengths of float64: 9 points, 72 bytes (--yes)" in err

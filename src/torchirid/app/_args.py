@@ -33,6 +33,8 @@ __all__ = [
     "USAGE_ERROR",
     "WRITE_ERROR",
     "add_command_parser",
+    "add_size_option",
+    "check_size",
     "cannot_write",
     "check_name",
     "check_out",
@@ -252,6 +254,42 @@ def check_name(name: str, option: str = "--name") -> None:
     """A file stem: not empty, no directory separator; ValueError otherwise."""
     if not name or os.sep in name or (os.altsep and os.altsep in name):
         raise ValueError(f"{option} must be a plain file stem, got {name!r}")
+
+
+# ----------------------------------------------------------------------------- sizes
+#: a grid larger than this (points, or bytes of output) runs only with --yes
+LARGE_POINTS = 10**8
+LARGE_BYTES = 1 << 30
+
+
+def human_bytes(n: float) -> str:
+    """``n`` bytes as ``'8.0 GB'`` (powers of 1000, as disks are sold)."""
+    for unit in ("bytes", "kB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
+        n /= 1000
+
+
+def add_size_option(parser: argparse.ArgumentParser) -> None:
+    """``--yes``: run a grid over :data:`LARGE_POINTS` points or :data:`LARGE_BYTES` of output."""
+    parser.add_argument("--yes", action="store_true",
+                        help=f"run even a grid of more than 10^{int(math.log10(LARGE_POINTS))} points or "
+                             f"{LARGE_BYTES >> 30} GiB of output (without it such a grid is refused, its size stated)")
+
+
+def check_size(command: str, what: str, points: int, nbytes: int, *, yes: bool, smaller: str, quiet: bool = False) -> None:
+    """Refuse (ValueError, before any work) a grid of more than :data:`LARGE_POINTS` points or
+    :data:`LARGE_BYTES` bytes unless ``yes`` (``--yes``); the message states the size and the ways
+    on (``smaller``: the options that shrink it, and --yes). With ``yes``, a large grid is announced
+    on stderr (unless ``quiet``)."""
+    if points <= LARGE_POINTS and nbytes <= LARGE_BYTES:
+        return
+    size = f"{what}: {points:,} points, {human_bytes(nbytes)}"
+    if not yes:
+        raise ValueError(f"{size} — more than {LARGE_POINTS:,} points or {LARGE_BYTES >> 30} GiB, which may take "
+                         f"long and fill memory or disk; {smaller}, or pass --yes to run it as asked")
+    if not quiet:
+        print(f"{PROG} {command}: {size} (--yes)", file=sys.stderr, flush=True)
 
 
 # ----------------------------------------------------------------------------- progress, outputs

@@ -5,6 +5,7 @@ scheduler (:func:`torchirid.scale.build_table`)."""
 from __future__ import annotations
 
 import argparse
+import math
 
 from .. import _args
 
@@ -94,6 +95,7 @@ def add_parser(subparsers):
     p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
     _args.add_scheduler_options(p, "chunk")
     p.add_argument("--out", required=True, metavar="STORE", help="the Zarr store (a directory)")
+    _args.add_size_option(p)
     _args.add_output_options(p, figures=False)
     p.set_defaults(func=run, parser=p)
     return p
@@ -105,17 +107,23 @@ def run(args) -> int:
     import numpy as np
     import torch
 
-    axes = {}
-    for name, (start, stop, count) in args.axis:
-        if name in axes:
+    counts = {}
+    for name, (_, _, count) in args.axis:
+        if name in counts:
             raise ValueError(f"--axis {name} given twice")
-        axes[name] = np.linspace(start, stop, count)
+        counts[name] = count
     settings = dict(args.set)
-    both = sorted(set(axes) & set(settings))
+    both = sorted(set(counts) & set(settings))
     if both:
         raise ValueError(f"{both[0]} is both an --axis and a --set; give it once")
     fn = _function(args.function)
-    check_arguments(args.function, fn, axes, settings)  # from the signature, before any computation
+    check_arguments(args.function, fn, counts, settings)  # from the signature, before any computation
+    channels = CHANNELS.get(args.function, ())
+    points = math.prod(counts.values())  # the size, before the axes are even allocated
+    _args.check_size(NAME, f"the table {' × '.join(map(str, [*counts.values(), *channels]))} of {args.dtype}",
+                     points, points * math.prod(channels) * (4 if args.dtype == "float32" else 8), yes=args.yes,
+                     quiet=args.quiet, smaller="use smaller axis COUNTs (or --dtype float32)")
+    axes = {name: np.linspace(start, stop, count) for name, (start, stop, count) in args.axis}
     try:
         from ...scale import build_table
     except ImportError as e:
@@ -125,7 +133,7 @@ def run(args) -> int:
     dtype = torch.float32 if args.dtype == "float32" else torch.float64
     try:
         result = build_table(fn, axes, args.out, chunks=args.chunks, kwargs=settings,
-                             channels=CHANNELS.get(args.function, ()), dtype=dtype, scheduler=args.scheduler,
+                             channels=channels, dtype=dtype, scheduler=args.scheduler,
                              workers=args.workers, progress=progress, timeout=args.timeout)
     except TypeError as e:  # an --axis or --set name the function does not take
         raise ValueError(f"{args.function}: {e}") from None

