@@ -104,10 +104,16 @@ class ArgumentParser(argparse.ArgumentParser):
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
-    """Show defaults and keep the hand-made line breaks of descriptions and epilogs."""
+    """Show defaults and keep the hand-made line breaks of descriptions and epilogs.
+
+    The default is appended as ``(default: X)`` except where it would mislead or repeat: a flag
+    (``store_true`` / ``store_false``: its help says in words what it does, and ``--no-white
+    (default: True)`` read as if the row were off), an option whose help already states its
+    default, and a default of None (the help says what happens then)."""
 
     def _get_help_string(self, action):
-        if action.default is None or action.default is argparse.SUPPRESS or not action.option_strings:
+        if (action.default is None or action.default is argparse.SUPPRESS or not action.option_strings
+                or action.nargs == 0 or "default" in (action.help or "").lower()):
             return action.help
         if isinstance(action.default, (list, tuple)):
             return f"{action.help} (default: {' '.join(map(str, action.default))})"

@@ -92,7 +92,8 @@ def add_parser(subparsers):
     p.add_argument("--set", type=_args.setting, action="append", default=[], metavar="NAME=VALUE",
                    help="a fixed argument (a number, list or string; repeat)")
     p.add_argument("--chunks", type=_args.count, default=64, help="nodes per chunk along every axis (default 64)")
-    p.add_argument("--dtype", choices=("float32", "float64"), default="float64")
+    p.add_argument("--dtype", choices=("float32", "float64"), default="float64",
+                   help="precision of the computation and of the stored values")
     _args.add_scheduler_options(p, "chunk")
     p.add_argument("--out", required=True, metavar="STORE", help="the Zarr store (a directory)")
     _args.add_size_option(p)

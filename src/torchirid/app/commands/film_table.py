@@ -34,7 +34,8 @@ def add_parser(subparsers):
     p.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "401"],
                    help="wavelength grid in nm: COUNT values from MIN to MAX inclusive")
     p.add_argument("--axis", choices=ANGLE_AXES, default="cos_theta", help="angle axis of the table")
-    p.add_argument("--polarization", choices=("unpolarized", "s", "p"), default="unpolarized")
+    p.add_argument("--polarization", choices=("unpolarized", "s", "p"), default="unpolarized",
+                   help="'unpolarized' is the mean of the s and p values")
     p.add_argument("--dtype", choices=("float32", "float64"), default="float32", help="stored precision")
     p.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--name", default=None, metavar="STEM", help="file stem (default: the stack name)")

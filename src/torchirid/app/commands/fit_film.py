@@ -63,15 +63,17 @@ def add_parser(subparsers):
                         "Kobayashi et al. measure the s wave through a polarizer: --polarization s)")
     p.add_argument("--bandwidth", type=_args.positive_length, default=None, metavar="NM",
                    help="band width in nm (default: from the file, else 4)")
-    p.add_argument("--passband", choices=("box", "gaussian"), default="box")
+    p.add_argument("--passband", choices=("box", "gaussian"), default="box",
+                   help="shape of each band's spectral response, --bandwidth wide")
     p.add_argument("--index-model", choices=("auto", "constant", "cauchy", "cauchy3"), default="auto",
                    help="film index model: auto (default) fits constant, cauchy and cauchy3 on a pixel sample and "
                         "keeps the least BIC; cauchy3 for a dispersive film such as ZnS")
-    p.add_argument("--thickness-range", type=_args.positive_length, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"))
+    p.add_argument("--thickness-range", type=_args.positive_length, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"),
+                   help="film thicknesses searched, in nm")
     p.add_argument("--smoothness", type=_args.nonnegative, default=0.0,
                    help="spatial smoothness weight (reflectance²/nm²)")
     p.add_argument("--threads", type=_args.count, default=None, help="torch threads (default: torch's)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=int, default=0, help="seed of the random pixel sample on which the index is searched")
     _args.add_output_options(p)
     p.set_defaults(func=run, parser=p)
     return p

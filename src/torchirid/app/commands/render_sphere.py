@@ -72,7 +72,7 @@ def add_parser(subparsers):
     p.add_argument("--lamp", default="FL10", help="CIE fluorescent illuminant (FL1..FL12, FL3.x)")
     p.add_argument("--ambient", type=_args.nonnegative, default=0.35,
                    help="uniform environment radiance relative to the light")
-    p.add_argument("--out", default=".", help="output directory (created if missing)")
+    p.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     p.add_argument("--name", default=None, help="file name stem (default: hirayama_<preset>)")
     _args.add_output_options(p)
     p.set_defaults(func=run, parser=p)

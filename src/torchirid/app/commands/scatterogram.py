@@ -74,7 +74,7 @@ def add_parser(subparsers):
     g.add_argument("--base-albedo", type=_args.number, default=0.0, metavar="RHO",
                    help="custom: Lambertian base albedo in [0, 1]")
     g = sp.add_argument_group("illumination")
-    g.add_argument("--no-white", dest="white", action="store_false", help="leave out the white-environment row")
+    g.add_argument("--no-white", dest="white", action="store_false", help="leave out the white-environment row (drawn first unless this is given)")
     g.add_argument("--beam", nargs=2, type=_args.number, action="append", metavar=("THETA", "PHI"),
                    help="add a narrow-beam row lit from (θ, φ) in degrees; repeatable (default: one beam at 0 0)")
     g = sp.add_argument_group("image and output")
