@@ -1,4 +1,4 @@
-"""torchirid.presets (Fourneau et al. 2024 Table 3) and tensor parameters of RoughBraggLayer."""
+"""torchirid.presets (Fourneau et al. 2024 Table 3 and Fig. 7) and tensor parameters of RoughBraggLayer."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from torchirid.layered import LayeredBragg, RoughBraggLayer, single_reflection_brdf
-from torchirid.presets import JEWEL_BEETLE_NAMES, jewel_beetle
+from torchirid.presets import JEWEL_BEETLE_NAMES, fourneau_fig7, jewel_beetle
 
 # Table 3: n1, n2, Λ (nm), δ, N
 TABLE_3 = {"green": (1.59, 1.67, 160.0, 0.51, 8), "red": (1.60, 1.68, 190.0, 0.51, 8),
@@ -29,6 +29,31 @@ def test_presets_names_and_errors():
     with pytest.raises(ValueError, match="'green', 'red', 'purple'"):
         jewel_beetle("blue")
     assert jewel_beetle("red", base_albedo=0.1, alpha=0.1).layers[0].alpha == 0.1
+    two = jewel_beetle("green", layers=2)
+    assert len(two.layers) == 2 and two.layers[0] == two.layers[1] == jewel_beetle("green").layers[0]
+    for bad in (0, 1.5, True):
+        with pytest.raises(ValueError, match="layers"):
+            jewel_beetle("green", layers=bad)
+
+
+def test_fig7_structures():
+    # Fourneau et al. 2024 Fig. 7: n2 = 1.5, N = 10; A d = 250 nm α = 0.1, B d = 494 nm α = 0.05,
+    # A′ = A under a coating of index 1.35
+    for name, (n1, d, alpha) in {"a": (1.0, 250.0, 0.1), "b": (1.0, 494.0, 0.05),
+                                 "a_coated": (1.35, 250.0, 0.1)}.items():
+        s = fourneau_fig7(name, layers=2, base_albedo=0.5)
+        assert len(s.layers) == 2 and s.base_albedo == 0.5 and s.coated == (n1 != 1.0)
+        (layer,) = set(s.layers)
+        assert (layer.n1, layer.n2, layer.d1, layer.d2, layer.cells, layer.alpha, layer.n_incident) == (
+            n1, 1.5, d, d, 10, alpha, n1)
+    s = fourneau_fig7("b")
+    assert len(s.layers) == 1 and s.base_albedo == 0.0
+    with pytest.raises(ValueError, match="'a', 'b', 'a_coated'"):
+        fourneau_fig7("c")
+    with pytest.raises(ValueError, match="layers"):
+        fourneau_fig7("a", layers=0)
+    with pytest.raises(ValueError, match="base_albedo"):
+        fourneau_fig7("a", base_albedo=1.5)
 
 
 def test_normal_incidence_hue_order():
