@@ -1,4 +1,4 @@
-"""Tests of torchirid.estimation.estimate's noise estimate, ``noise_level``, against closed forms.
+"""Tests of torchirid.estimation.noise's noise estimate, ``noise_level``, against closed forms.
 
 The 4th difference Δ⁴y = y₋₂ − 4y₋₁ + 6y₀ − 4y₁ + y₂ annihilates every cubic exactly, multiplies
 white noise of standard deviation σ by √(1 + 16 + 36 + 16 + 1) = √70, and the median absolute

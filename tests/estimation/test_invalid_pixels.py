@@ -67,12 +67,12 @@ def test_the_noise_warning_does_not_advise_auto_when_auto_was_used():
 
 
 def test_noise_advice_suggests_only_models_not_tried():
-    from torchirid.estimation.estimate import _noise_advice
+    from torchirid.estimation.noise import noise_advice
 
-    assert "index_model_name='auto'" in _noise_advice("constant", "constant") and "'cauchy3'" in _noise_advice(
+    assert "index_model_name='auto'" in noise_advice("constant", "constant") and "'cauchy3'" in noise_advice(
         "cauchy", "cauchy")
     for model, requested in (("cauchy3", "cauchy3"), ("constant", "auto"), ("cauchy3", "auto")):
-        text = _noise_advice(model, requested)
+        text = noise_advice(model, requested)
         assert "try index_model_name" not in text and "substrate index" in text
 
 

@@ -222,7 +222,7 @@ def test_lm_jacobian_is_the_exact_jacobian_of_the_residual(model, theta, polariz
 
 
 def test_noise_level_matches_the_added_noise():
-    from torchirid.estimation.estimate import noise_level
+    from torchirid.estimation.noise import noise_level
 
     for name in ("mgf2_400", "zns_500"):
         cube = synthetic_cube(name, height=12, width=12, seed=4, gaussian_noise=0.01, shot_noise=0.0, polarization="s")
