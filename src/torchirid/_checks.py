@@ -636,12 +636,13 @@ def check_choice(value, name: str, choices):
     return value
 
 
-def broadcast_shapes(*shapes) -> torch.Size:
+def broadcast_shapes(*shapes, names: Sequence[str] | None = None) -> torch.Size:
     """``torch.broadcast_shapes`` in plain Python.
 
     torch's version imports its symbolic-shape machinery (sympy) on first use, ~0.4 s once per
-    process — more than a whole small call costs. Raises RuntimeError on incompatible shapes
-    like torch does.
+    process — more than a whole small call costs. Shapes that do not broadcast raise RuntimeError
+    like torch does; with ``names`` (the arguments the shapes belong to), a ValueError naming the
+    two that clash and how to make a table over both (:func:`_broadcast_error`).
     """
     if shapes and all(s == shapes[0] for s in shapes):  # (one-point calls: every shape ())
         return torch.Size(shapes[0])
@@ -657,8 +658,30 @@ def broadcast_shapes(*shapes) -> torch.Size:
             if out[i] == 1:
                 out[i] = size
             else:
+                if names is not None:
+                    raise _broadcast_error(names, shapes)
                 raise RuntimeError(f"Shape mismatch: objects cannot be broadcast to a single shape: {[tuple(x) for x in shapes]}")
     return torch.Size(out)
+
+
+def _broadcast_error(names: Sequence[str], shapes) -> ValueError:
+    """The ValueError for arguments ``names`` whose ``shapes`` do not broadcast: the first two
+    that clash, and for two 1-D axes the ``[:, None]`` that makes a table over both."""
+    shapes = [tuple(int(n) for n in s) for s in shapes]
+    for j in range(1, len(shapes)):
+        for i in range(j):
+            try:
+                broadcast_shapes(shapes[i], shapes[j])
+            except RuntimeError:
+                a, b, sa, sb = names[i], names[j], shapes[i], shapes[j]
+                hint = ""
+                if len(sa) == 1 and len(sb) == 1:
+                    hint = (f"; for a table over both, give each its own axis: {a}[:, None] with {b} "
+                            f"(shape ({sa[0]}, {sb[0]})), or {a} with {b}[:, None] (shape ({sb[0]}, {sa[0]}))")
+                return ValueError(f"{a} (shape {sa}) and {b} (shape {sb}) do not broadcast together: "
+                                  f"trailing axes must be equal or 1{hint}")
+    return ValueError("the arguments do not broadcast together: " +
+                      ", ".join(f"{n} {s}" for n, s in zip(names, shapes)))
 
 
 def warn_caller(message: str, category=RuntimeWarning) -> None:
@@ -674,3 +697,196 @@ def warn_caller(message: str, category=RuntimeWarning) -> None:
         frame = frame.f_back
         level += 1
     warnings.warn(message, category, stacklevel=level)
+
+
+# --- declarative argument specs ---------------------------------------------------------------
+#
+# A public function states what each argument is, once, beside its signature:
+#
+#     @_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE,
+#                        thickness=_checks.THICKNESS, polarization=_checks.POLARIZATION)
+#     def f(wavelength, cos_theta, thickness, *, polarization="unpolarized"): ...
+#
+# and its body receives the converted, checked values under the same names (tensors of the
+# arguments' shared real dtype on their shared device). Kernels below it trust their inputs.
+
+
+class Arg:
+    """What one argument is: how it is converted and how its values are checked.
+
+    ``convert(value, name, dtype, device)`` returns the value the body receives. ``check(converted,
+    name)`` raises ValueError; a ``values`` check reads tensor values and runs only while
+    :func:`value_checks_enabled` (asked once per call), any other (a choice, a count) always runs.
+    ``tensor``: the argument takes part in the dtype/device resolution. ``optional``: None passes
+    through unconverted (``X | None``)."""
+
+    __slots__ = ("convert", "check", "values", "tensor", "optional")
+
+    def __init__(self, convert=None, check=None, *, values: bool = False, tensor: bool = False,
+                 optional: bool = False):
+        # (a values check is called unwrapped: the decorator asks value_checks_enabled once)
+        self.convert, self.check = convert, getattr(check, "__wrapped__", check) if values else check
+        self.values, self.tensor, self.optional = values, tensor, optional
+
+    def __or__(self, other):  # ``X | None``: the same argument, None allowed (and left as None)
+        if other is not None:
+            return NotImplemented
+        new = Arg(self.convert, None, tensor=self.tensor, optional=True)
+        new.check, new.values = self.check, self.values
+        return new
+
+
+def real(check=None) -> Arg:
+    """A real tensor (numbers, sequences, arrays, tensors), optionally value-checked by
+    ``check(t, name)``."""
+    return Arg(as_real, check, values=True, tensor=True)
+
+
+def positive(unit: str = "nm") -> Arg:
+    """A real tensor > 0 (``unit`` named in the message)."""
+    check = check_positive.__wrapped__
+    return real(lambda t, name: check(t, name, unit))
+
+
+def nonnegative(unit: str = "nm") -> Arg:
+    """A real tensor ≥ 0 (``unit`` named in the message)."""
+    check = check_nonnegative.__wrapped__
+    return real(lambda t, name: check(t, name, unit))
+
+
+def choice(options) -> Arg:
+    """One of ``options`` (strings; a sequence or a mapping's keys), unchanged."""
+    return Arg(None, lambda v, name: check_choice(v, name, options))
+
+
+def integer(minimum: int = 1) -> Arg:
+    """A Python int ≥ ``minimum`` (NumPy integers accepted; not a bool)."""
+    return Arg(lambda v, name, dtype, device: check_int(v, name, minimum))
+
+
+def instance(cls, what: str | None = None) -> Arg:
+    """An instance of ``cls`` (a class or a tuple of them), unchanged; ``what`` names it in the
+    message (default the class name)."""
+    what = what or (cls.__name__ if isinstance(cls, type) else " or ".join(c.__name__ for c in cls))
+
+    def check(v, name):
+        if not isinstance(v, cls):
+            raise ValueError(f"{name} must be a {what}; got {type(v).__name__}")
+
+    return Arg(None, check)
+
+
+def check_float_dtype(dtype, name: str = "dtype") -> None:
+    if dtype not in (torch.float16, torch.bfloat16, torch.float32, torch.float64):
+        raise ValueError(f"{name} must be a floating torch dtype (torch.float32, torch.float64, ...); got {dtype!r}")
+
+
+def pair(*, low: float = 0.0, high: float = math.inf, closed: bool = False, unit: str = "") -> Arg:
+    """A ``(low, high)`` pair of floats within the bounds (:func:`check_range`)."""
+    return Arg(lambda v, name, dtype, device: check_range(v, name, low=low, high=high, closed=closed, unit=unit))
+
+
+#: vacuum wavelength in nm, in [1 nm, 1 mm]
+WAVELENGTH = real(check_wavelength)
+#: cosine of an incidence angle, in [0, 1]
+COSINE = real(check_cosine)
+#: a cosine whose sign matters, in [-1, 1]
+SIGNED_COSINE = real(check_signed_cosine)
+#: a length in nm, ≥ 0 (film and layer thicknesses)
+THICKNESS = nonnegative("nm")
+#: a real tensor, no value check
+REAL = real()
+#: refractive index n + iκ: Re n > 0, κ ≥ 0
+INDEX = Arg(as_index, check_index, values=True, tensor=True)
+#: index of the incident medium: real (lossless), > 0
+INCIDENT_INDEX = Arg(as_index, check_real_index, values=True, tensor=True)
+#: number of Bragg cells: int64 tensor of integers ≥ 1 (sets the device, not the dtype)
+CELLS = Arg(lambda v, name, dtype, device: as_cells(v, device))
+#: "s", "p" or "unpolarized"
+POLARIZATION = choice(POLARIZATIONS)
+#: a floating torch dtype (of a table built from nothing)
+FLOAT_DTYPE = Arg(None, check_float_dtype)
+#: a ``(low, high)`` wavelength range in nm
+WAVELENGTH_RANGE = pair(low=MIN_WAVELENGTH_NM, high=MAX_WAVELENGTH_NM, closed=True, unit="nm")
+
+_MISSING = object()
+
+
+def arguments(*, broadcast: Sequence[str] | bool = (), **specs: Arg):
+    """Decorator: convert and check the named arguments of a public function once, before its body.
+
+    ``specs`` maps parameter names to :class:`Arg` (``WAVELENGTH``, ``INDEX``, ``choice(...)``,
+    ``X | None`` ...); unnamed parameters pass through. The tensor arguments' dtype and device are
+    resolved together (:func:`resolve_dtype_device`), then each named argument is converted and
+    checked in the order of ``specs``. ``broadcast``: names of arguments whose shapes must
+    broadcast together (``True``: every tensor argument); a mismatch is a ValueError naming them (not torch's bare RuntimeError).
+    A call that does not bind (missing or unknown arguments) raises Python's own TypeError.
+    The wrapped function keeps its signature and docstring."""
+    import inspect
+
+    def decorate(fn):
+        sig = inspect.signature(fn)
+        params = list(sig.parameters.values())
+        if any(p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD) for p in params):
+            raise TypeError(f"{fn.__qualname__}: arguments() needs named parameters only")
+        names_ = [p.name for p in params]
+        together = [n for n, a in specs.items() if a.tensor] if broadcast is True else list(broadcast)
+        unknown = (set(specs) | set(together)) - set(names_)
+        if unknown:
+            raise TypeError(f"{fn.__qualname__}: no parameter {sorted(unknown)}")
+        defaults = [p.default if p.default is not p.empty else _MISSING for p in params]
+        n_pos = sum(p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) for p in params)
+        kw_names = names_[n_pos:]
+        position = {n: i for i, n in enumerate(names_)}
+        steps = tuple((position[n], n, a) for n, a in specs.items())
+        tensors = tuple(position[n] for n, a in specs.items() if a.tensor)
+        shaped = tuple((position[n], n) for n in together)
+        shaped_names = tuple(together)
+        n_all = len(params)
+
+        @functools.wraps(fn)
+        def checked(*args, **kwargs):
+            n = len(args)
+            if n > n_pos:
+                return fn(*args, **kwargs)  # (Python's own TypeError)
+            values = list(args)
+            used = 0
+            for i in range(n, n_all):
+                v = kwargs.get(names_[i], _MISSING)
+                if v is _MISSING:
+                    v = defaults[i]
+                    if v is _MISSING:
+                        return fn(*args, **kwargs)  # a required argument is missing: Python's TypeError
+                else:
+                    used += 1
+                values.append(v)
+            if used != len(kwargs):
+                return fn(*args, **kwargs)  # an unknown or repeated keyword: Python's TypeError
+            dtype, device = resolve_dtype_device(*[values[i] for i in tensors])
+            read = value_checks_enabled()
+            for i, name, a in steps:
+                v = values[i]
+                if v is None and a.optional:
+                    continue
+                if a.convert is not None:
+                    v = a.convert(v, name, dtype, device)
+                    values[i] = v
+                if a.check is not None and (read or not a.values):
+                    a.check(v, name)
+            if shaped:
+                broadcast_shapes(*[_shape(values[i]) for i, _ in shaped], names=shaped_names)
+            return fn(*values[:n_pos], **dict(zip(kw_names, values[n_pos:])))
+
+        checked.__signature__ = sig
+        return checked
+
+    return decorate
+
+
+
+def _shape(v) -> tuple:
+    if isinstance(v, torch.Tensor):
+        return v.shape
+    if v is None or isinstance(v, numbers.Number):
+        return ()
+    return tuple(torch.as_tensor(v).shape)

@@ -38,7 +38,7 @@ import torch
 
 from .. import _checks
 from ..materials import material_range, refractive_index
-from .transfer import multilayer
+from .transfer import multilayer_kernel
 
 __all__ = [
     "FilmStack",
@@ -160,6 +160,8 @@ def stack_indices(stack: FilmStack, wavelength) -> torch.Tensor:
     return torch.stack([refractive_index(m, wavelength) for m in stack.materials], dim=-1)
 
 
+@_checks.arguments(stack=_checks.instance(FilmStack), wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE,
+                   thicknesses=_checks.THICKNESS | None, polarization=_checks.POLARIZATION)
 def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=None,
                      polarization: str = "unpolarized"):
     r"""Composite reflectance k_r and transmittance k_t of a smooth coated surface (eq. 5–6).
@@ -188,19 +190,15 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
         >>> round(float(kr), 6), float(kt)
         (0.26453, 0.0)
     """
-    if not isinstance(stack, FilmStack):
-        raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, thicknesses)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
+    lam = wavelength
     if thicknesses is None:
-        d = torch.as_tensor(stack.thicknesses, dtype=dtype, device=device)
+        d = torch.as_tensor(stack.thicknesses, dtype=lam.dtype, device=lam.device)
     else:
-        d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
+        d = thicknesses
         if d.ndim == 0 or d.shape[-1] != len(stack.layers):
             raise ValueError(f"thicknesses must have {len(stack.layers)} entries on its last axis (one per layer)")
     n = stack_indices(stack, lam)  # (*, N+2); ValueError here names the material and its range
-    k_r, T = multilayer(lam, cos_theta, n, d, polarization=polarization)
+    k_r, T = multilayer_kernel(lam, cos_theta, n, d, polarization)
     # an absorbing substrate keeps what enters it: nothing comes back out through it (eq. 6)
     opaque = n[..., -1].imag > 0
     return k_r, torch.where(opaque, torch.zeros_like(T), T)

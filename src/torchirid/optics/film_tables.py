@@ -75,6 +75,9 @@ def stack_parameters(stack: FilmStack) -> dict:
     }
 
 
+@_checks.arguments(stack=_checks.instance(FilmStack), angles=_checks.integer(2), wavelengths=_checks.integer(2),
+                   wavelength_range=_checks.WAVELENGTH_RANGE, angle_axis=_checks.choice(ANGLE_AXES),
+                   polarization=_checks.POLARIZATION, dtype=_checks.FLOAT_DTYPE)
 def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int = 81,
                       wavelength_range: tuple[float, float] = (380.0, 780.0),
                       angle_axis: str = "cos_theta", polarization: str = "unpolarized",
@@ -106,21 +109,14 @@ def film_reflectance_lut(stack: FilmStack, *, angles: int = 90, wavelengths: int
         >>> round(float(lut.values[-1, 2, 0]), 6)   # cos θ = 1, λ = 550 nm
         0.012362
     """
-    if not isinstance(stack, FilmStack):
-        raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
-    A = _checks.check_int(angles, "angles", 2)
-    W = _checks.check_int(wavelengths, "wavelengths", 2)
-    _checks.check_choice(angle_axis, "angle_axis", ANGLE_AXES)
-    _checks.check_polarization(polarization)
-    lo, hi = _checks.check_wavelength_range(wavelength_range)
+    A, W = angles, wavelengths
+    lo, hi = wavelength_range
     s_lo, s_hi = stack.wavelength_range()
     if lo < s_lo or hi > s_hi:
         raise ValueError(
             f"wavelength_range ({lo:g}, {hi:g}) nm is not covered by the stack's materials, "
             f"which are defined on [{s_lo:g}, {s_hi:g}] nm"
         )
-    if dtype not in (torch.float16, torch.bfloat16, torch.float32, torch.float64):
-        raise ValueError(f"dtype must be a floating dtype; got {dtype}")
     f64 = torch.float64
     lam = torch.linspace(lo, hi, W, dtype=f64)
     if angle_axis == "cos_theta":

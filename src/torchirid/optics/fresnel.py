@@ -136,6 +136,8 @@ def interface(eta_i: torch.Tensor, eta_j: torch.Tensor) -> torch.Tensor:
     return torch.where(same, torch.zeros_like(den), (eta_i - eta_j) / den)
 
 
+@_checks.arguments(cos_theta=_checks.COSINE, n_incident=_checks.INCIDENT_INDEX, n_substrate=_checks.INDEX,
+                   polarization=_checks.POLARIZATION, broadcast=True)
 def fresnel_reflectance(cos_theta, n_incident, n_substrate, *, polarization: str = "unpolarized") -> torch.Tensor:
     r"""Reflectance of a single smooth interface, :math:`R = |r|^2`.
 
@@ -153,22 +155,15 @@ def fresnel_reflectance(cos_theta, n_incident, n_substrate, *, polarization: str
         >>> round(float(torchirid.optics.fresnel_reflectance(torch.tensor(1.0, dtype=torch.float64), 1.0, 1.5)), 6)
         0.04
     """
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_incident, n_substrate)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    n0 = _checks.as_index(n_incident, "n_incident", dtype, device)
-    n1 = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    _checks.check_cosine(c)
-    _checks.check_real_index(n0, "n_incident")
-    _checks.check_index(n1, "n_substrate")
-    c = _checks.flush_grazing(c)
-    n0 = n0.real if n0.is_complex() else n0
+    c = _checks.flush_grazing(cos_theta)
+    n0 = n_incident.real if n_incident.is_complex() else n_incident
+    n1 = n_substrate
     s2 = n0 * n0 * (1 - c * c)
-    cdt = _checks.complex_dtype(dtype)
+    cdt = _checks.complex_dtype(c.dtype)
     q0 = (n0 * c).to(cdt)
     q1 = normal_wavenumber(n1, s2, n0, n0 * c)
     out = []
-    for pol in _checks.polarization_terms(polarization):
+    for pol in _checks.POLARIZATION_TERMS[polarization]:
         r = interface(admittance(q0, n0.to(cdt), pol), admittance(q1, n1.to(cdt), pol))
         out.append(r.real * r.real + r.imag * r.imag)
     R = out[0] if len(out) == 1 else 0.5 * (out[0] + out[1])

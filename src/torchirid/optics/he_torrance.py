@@ -30,7 +30,7 @@ _S_BIG = 30.0  # erfc(30) ≈ 1e-393 underflows: S = 1 to every digit beyond thi
 # ---------------------------------------------------------------------------------------
 
 
-def _check_cos_phi(t: torch.Tensor) -> None:
+def _check_cos_phi(t: torch.Tensor, name: str = "cos_phi") -> None:
     with torch.no_grad():
         if bool(((t < -1) | (t > 1)).any()):
             raise ValueError(
@@ -45,6 +45,13 @@ def _check_roughness(sigma: torch.Tensor, tau: torch.Tensor | None) -> None:
         _checks.check_positive(tau, "tau")
 
 
+#: the arguments of this module's public functions (the rough-surface ones use them too)
+SIGMA = _checks.nonnegative("nm")  # rms roughness σ₀
+TAU = _checks.positive("nm")  # autocorrelation length τ
+COS_PHI = _checks.real(_check_cos_phi)  # cosine of the azimuth between light and view, [-1, 1]
+N_MEDIUM = _checks.positive("")  # a real medium index > 0
+
+
 # ---------------------------------------------------------------------------------------
 # He–Torrance building blocks
 # ---------------------------------------------------------------------------------------
@@ -55,6 +62,8 @@ def _g(lam, q_in, q_out, sigma):
     return x * x
 
 
+@_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta_i=_checks.COSINE, cos_theta_o=_checks.COSINE,
+                   sigma=SIGMA, n_incident=N_MEDIUM)
 def roughness_factor(wavelength, cos_theta_i, cos_theta_o, sigma, *, n_incident=1.0) -> torch.Tensor:
     r"""He's roughness factor g (He et al. 1991, eq. 79) in a lossless medium of index n.
 
@@ -74,20 +83,10 @@ def roughness_factor(wavelength, cos_theta_i, cos_theta_o, sigma, *, n_incident=
         >>> round(float(roughness_factor(torch.tensor(550.0, dtype=torch.float64), 1.0, 1.0, 25.0)), 6)
         0.326268
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta_i, cos_theta_o, sigma, n_incident)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    ci = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
-    co = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    s = _checks.as_real(sigma, "sigma", dtype, device)
-    n = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_wavelength(lam)
-    _checks.check_cosine(ci, "cos_theta_i")
-    _checks.check_cosine(co, "cos_theta_o")
-    _checks.check_nonnegative(s, "sigma")
-    _checks.check_positive(n, "n_incident", unit="")
-    return _g(lam, n * ci, n * co, s)
+    return _g(wavelength, n_incident * cos_theta_i, n_incident * cos_theta_o, sigma)
 
 
+@_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE, sigma=SIGMA, n_incident=N_MEDIUM)
 def coherent_attenuation(wavelength, cos_theta, sigma, *, n_incident=1.0) -> torch.Tensor:
     r"""Power factor :math:`e^{-g}` of the coherent (specular) reflection (He eq. 31, Hirayama eq. 9).
 
@@ -109,10 +108,8 @@ def coherent_attenuation(wavelength, cos_theta, sigma, *, n_incident=1.0) -> tor
         >>> round(float(coherent_attenuation(torch.tensor(550.0, dtype=torch.float64), 1.0, 25.0)), 6)
         0.721612
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, sigma, n_incident)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)  # (validated under its own name here)
-    _checks.check_cosine(c)
-    return torch.exp(-roughness_factor(wavelength, c, c, sigma, n_incident=n_incident))
+    q = n_incident * cos_theta
+    return torch.exp(-_g(wavelength, q, q, sigma))
 
 
 def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch.Tensor:
@@ -130,6 +127,7 @@ def _shadowing(c: torch.Tensor, sigma: torch.Tensor, tau: torch.Tensor) -> torch
     return torch.where(smooth, torch.ones_like(S), S)
 
 
+@_checks.arguments(cos_theta=_checks.COSINE, sigma=SIGMA, tau=TAU)
 def he_shadowing(cos_theta, sigma, tau) -> torch.Tensor:
     r"""He's (Smith's) shadowing factor S(θ) of a Gaussian surface (He 1991, eq. 24–25).
 
@@ -155,14 +153,7 @@ def he_shadowing(cos_theta, sigma, tau) -> torch.Tensor:
         >>> round(float(he_shadowing(torch.tensor(math.cos(math.radians(80)), dtype=torch.float64), 50.0, 300.0)), 6)
         0.657189
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta, sigma, tau)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    s = _checks.as_real(sigma, "sigma", dtype, device)
-    t = _checks.as_real(tau, "tau", dtype, device)
-    _checks.check_cosine(c)
-    _check_roughness(s, t)
-    c, s, t = torch.broadcast_tensors(c, s, t)
-    return _shadowing(c, s, t)
+    return _shadowing(*torch.broadcast_tensors(cos_theta, sigma, tau))
 
 
 def _effective_roughness(ci, co, sigma, tau):
@@ -187,6 +178,7 @@ def _effective_roughness(ci, co, sigma, tau):
     return sigma / torch.sqrt(1 + x * x)
 
 
+@_checks.arguments(cos_theta_i=_checks.COSINE, cos_theta_o=_checks.COSINE, sigma=SIGMA, tau=TAU)
 def effective_roughness(cos_theta_i, cos_theta_o, sigma, tau) -> torch.Tensor:
     r"""He's effective roughness σ (He 1991, eq. 80–83): the rms height of the *lit and seen* part.
 
@@ -213,15 +205,7 @@ def effective_roughness(cos_theta_i, cos_theta_o, sigma, tau) -> torch.Tensor:
         >>> round(float(effective_roughness(c, c, 50.0, 300.0)), 4)
         30.0072
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta_i, cos_theta_o, sigma, tau)
-    ci = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
-    co = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    s = _checks.as_real(sigma, "sigma", dtype, device)
-    t = _checks.as_real(tau, "tau", dtype, device)
-    _checks.check_cosine(ci, "cos_theta_i")
-    _checks.check_cosine(co, "cos_theta_o")
-    _check_roughness(s, t)
-    return _effective_roughness(ci, co, s, t)
+    return _effective_roughness(cos_theta_i, cos_theta_o, sigma, tau)
 
 
 def _series_D(g: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
@@ -281,6 +265,8 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     return torch.where(grazing, torch.zeros_like(rho), rho)  # grazing: S = 0, no light scattered
 
 
+@_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta_i=_checks.COSINE, cos_theta_o=_checks.COSINE,
+                   cos_phi=COS_PHI, sigma=SIGMA, tau=TAU, n_substrate=_checks.INDEX, n_incident=N_MEDIUM)
 def he_directional_diffuse(
     wavelength, cos_theta_i, cos_theta_o, cos_phi, sigma, tau, n_substrate, *, n_incident=1.0, shadowing: bool = True
 ) -> torch.Tensor:
@@ -318,20 +304,4 @@ def he_directional_diffuse(
         >>> round(float(rho), 5)
         0.20217
     """
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta_i, cos_theta_o, cos_phi, sigma, tau, n_substrate, n_incident)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    cl = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
-    cv = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    cp = _checks.as_real(cos_phi, "cos_phi", dtype, device)
-    s = _checks.as_real(sigma, "sigma", dtype, device)
-    t = _checks.as_real(tau, "tau", dtype, device)
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    nm = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_wavelength(lam)
-    _checks.check_cosine(cl, "cos_theta_i")
-    _checks.check_cosine(cv, "cos_theta_o")
-    _check_cos_phi(cp)
-    _check_roughness(s, t)
-    _checks.check_index(ns, "n_substrate")
-    _checks.check_positive(nm, "n_incident", unit="")
-    return _he_dd(lam, nm, ns, cl, cv, cp, s, t, shadowing)
+    return _he_dd(wavelength, n_incident, n_substrate, cos_theta_i, cos_theta_o, cos_phi, sigma, tau, shadowing)

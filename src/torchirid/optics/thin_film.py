@@ -27,6 +27,9 @@ __all__ = ["thin_film_reflectance"]
 
 
 @_checks.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
+@_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE, n_film=_checks.INDEX,
+                   thickness=_checks.THICKNESS, n_substrate=_checks.INDEX, n_incident=_checks.INCIDENT_INDEX,
+                   polarization=_checks.POLARIZATION)
 def thin_film_reflectance(
     wavelength,
     cos_theta,
@@ -57,23 +60,13 @@ def thin_film_reflectance(
         >>> round(float(R), 6)
         0.07543
     """
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, n_film, thickness, n_substrate, n_incident)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    nf = _checks.as_index(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    n0 = _checks.as_index(n_incident, "n_incident", dtype, device)
-    _checks.check_wavelength(lam)
-    _checks.check_cosine(c)
-    _checks.check_nonnegative(d, "thickness")
-    _checks.check_index(nf, "n_film")
-    _checks.check_index(ns, "n_substrate")
-    _checks.check_real_index(n0, "n_incident")
-    batch = _checks.broadcast_shapes(lam.shape, c.shape, nf.shape, d.shape, ns.shape, n0.shape)
+    args = (wavelength, cos_theta, n_film, thickness, n_substrate, n_incident)
+    batch = _checks.broadcast_shapes(*(a.shape for a in args), names=_ARGUMENTS)
     # block by block over large batches when no gradient is wanted (torchirid._chunks)
-    return _chunks.evaluate(_thin_film_core, (lam, c, nf, d, ns, n0), batch, polarization=polarization)
+    return _chunks.evaluate(_thin_film_core, args, batch, polarization=polarization)
+
+
+_ARGUMENTS = ("wavelength", "cos_theta", "n_film", "thickness", "n_substrate", "n_incident")
 
 
 def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):

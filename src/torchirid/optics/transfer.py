@@ -142,6 +142,8 @@ def check_stack_shape(n: torch.Tensor, d: torch.Tensor) -> None:
         )
 
 
+@_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE, indices=_checks.INDEX,
+                   thicknesses=_checks.THICKNESS, polarization=_checks.POLARIZATION)
 def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str = "unpolarized"):
     r"""Reflectance and transmittance of a smooth multilayer film (Hirayama 2000, eq. 1–6).
 
@@ -171,18 +173,16 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
         >>> round(float(R), 12), round(float(T), 12)
         (0.0, 1.0)
     """
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(wavelength, cos_theta, indices, thicknesses)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    n = _checks.as_index(indices, "indices", dtype, device)
-    d = _checks.as_real(thicknesses, "thicknesses", dtype, device)
-    check_stack_shape(n, d)
-    _checks.check_wavelength(lam)
-    _checks.check_cosine(c)
-    _checks.check_nonnegative(d, "thicknesses")
-    _checks.check_index(n, "indices")
-    _checks.check_real_index(n[..., 0], "indices[..., 0] (incident medium)")
+    check_stack_shape(indices, thicknesses)
+    _checks.check_real_index(indices[..., 0], "indices[..., 0] (incident medium)")
+    _checks.broadcast_shapes(wavelength.shape, cos_theta.shape, indices.shape[:-1], thicknesses.shape[:-1],
+                             names=("wavelength", "cos_theta", "indices[..., 0]", "thicknesses[..., 0]"))
+    return multilayer_kernel(wavelength, cos_theta, indices, thicknesses, polarization)
+
+
+def multilayer_kernel(lam, c, n, d, polarization: str):
+    """:func:`multilayer` on checked tensors (same dtype and device, broadcastable, a valid stack):
+    block by block over large batches without a gradient (torchirid._chunks)."""
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
     # block by block over large batches (torchirid._chunks); n and d carry one trailing stack axis
     return _chunks.evaluate(_multilayer_core, (lam, c, n, d), batch, core=(0, 0, 1, 1),
