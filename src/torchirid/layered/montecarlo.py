@@ -59,11 +59,51 @@ As in :mod:`~torchirid.layered.transmission`, the mirror's transmittance is
 :math:`T_\lambda = 1 - R_\lambda` (exact for lossless layers; an absorbing ``n2`` is
 treated the same way there and here).
 
-The base scatters with cosine-weighted sampling (weight ρd). Upward light at the top
-escapes (``n1 = 1``) or is internally reflected by the coating with weight
-:math:`F(\theta)` (1 under total internal reflection); the transmitted part is already
-counted by next-event estimation. Russian roulette (survival ``min(1, max_λ β)``) starts
-after ``rr_depth`` events; ``max_depth`` truncates.
+**The Lambertian base.** Under the last layer, in the host, the base reflects the same
+radiance into every upward direction, whatever the downward light,
+
+.. math::
+
+    L_\uparrow(\boldsymbol\omega) = \frac{\rho_d}{\pi}\,E,\qquad
+    E = \int_{\Omega_\downarrow} L_\downarrow(\boldsymbol\omega')\,|\cos\theta'|\,d\omega'
+
+(a BRDF :math:`\rho_d/\pi`). A path that reaches it with throughput β (travelling down
+below the last layer) therefore
+
+1. adds the base's next-event term :math:`\beta\,\frac{\rho_d}{\pi}\prod_{k=1}^{L}\tau_k(\mathbf o')
+   \frac{T_c(\mathbf o)}{n_1^2}` — eq. 34's base term: straight out through every layer
+   (eq. 28) and the coating (a reflection on the way out is another path's vertex);
+2. continues upwards along a cosine-weighted direction, :math:`p(\boldsymbol\omega) =
+   \cos\theta/\pi`, with throughput :math:`\beta\,\frac{\rho_d}{\pi}\cos\theta/p =
+   \beta\rho_d` (the same for every direction and wavelength);
+3. meets the layers from below: a layer seen from below is the same rough layer with its
+   normal flipped (same host on both sides; a lossless mirror reflects the same from both
+   sides), so it transmits ballistically (τ) or reflects back down (eq. 17) onto the layers
+   below or the base, which sends it up again. At the top the path escapes (``n1 = 1``:
+   already counted by next-event estimation) or the coating reflects it down with weight
+   :math:`F(\theta', n_1\to 1)` (1 under total internal reflection; the transmitted part is
+   counted by next-event estimation).
+
+Summed over the bounces this is the base's geometric series :math:`B = \rho_d(E_0 + R_d B)`,
+with :math:`E_0` the irradiance that reaches the base straight from the light and
+:math:`R_d` the fraction of the base's upward light that the structure returns to it
+(``single_reflection_brdf(..., base_interreflection=True)`` sums this series in closed form);
+the estimator also has every path between the layers. A layer lit from a host
+``n_incident ≠ n1`` (the jewel-beetle presets: mirrors in air) is treated alike from below:
+the host is taken to be the same on both sides (the paper's assumption, §4.1 and §5).
+
+**Energy.** With lossless mirrors (:math:`T_\lambda = 1 - R_\lambda`) and :math:`\rho_d = 1`
+nothing is absorbed but by the microfacet model itself: a layer event keeps
+:math:`E_{\mathbf m}[R\,G_1(\mathbf o)] + G_1(\mathbf d)\,E_{\mathbf m}[T] \le 1` of the
+light, the loss :math:`A = 1 - G_1` of eq. 30 (no scattering between the microfacets of a
+layer): about 1 % per crossing of cosine-distributed light at α = 0.1, 0.08 % at α = 0.02.
+tests/layered/test_montecarlo.py integrates the estimate over ``wo`` (white furnace,
+:math:`\int f_r\cos\theta_o\,d\omega_o` by multiple importance sampling) and checks it
+against an analog walk that counts the light leaving the structure, and that it is 1 within
+its standard error at α = 0.02.
+
+Russian roulette (survival ``min(1, max_λ β)``) starts after ``rr_depth`` events;
+``max_depth`` truncates.
 
 ``single_reflection=True`` keeps only the paths with exactly one reflection: next-event
 estimation on the way down, transmission sampled as above, and any reflection ends the
