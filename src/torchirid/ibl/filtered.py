@@ -45,32 +45,36 @@ import math
 import torch
 
 from .. import _checks, _chunks
-from .fourier import thin_film_fourier_terms
-from .sensitivity import (
-    _check_names,
-    _sensitivity_width,
-    prefiltered_fourier_sensitivity,
-    lookup_prefiltered_sensitivity,
-)
+from .fourier import check_film_above_incident, fourier_terms
+from .sensitivity import FILM_COLOUR_ARGS, _exact_prefiltered, _sensitivity_width, prefiltered_kernel
 
 #: How eq. 29's Ŝ(μ, σ²) is evaluated: ``"exact"`` (quadrature over the spectrum, ≈ 3,760 nodes)
 #: or ``"lut"`` (Kneiphof's 2-D table, bilinear: :func:`~torchirid.ibl.shipped_prefiltered_sensitivity_lut`).
 FILTERED_SENSITIVITY_MODES = ("exact", "lut")
 
 
-def _check_sensitivity(sensitivity):
-    _checks.check_choice(sensitivity, "sensitivity", FILTERED_SENSITIVITY_MODES)
+#: the arguments of the filtered thin-film colours (their ``sensitivity`` choices are eq. 29's)
+_ARGS = {**FILM_COLOUR_ARGS, "sensitivity": _checks.choice(FILTERED_SENSITIVITY_MODES)}
 
 __all__ = ["thin_film_xyz_filtered", "thin_film_xyz_gaussian_path"]
 
 
-def _vectors(x, name, dtype, device):
-    t = _checks.as_real(x, name, dtype, device)
+def _check_vectors(t, name):
     if t.ndim == 0 or t.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (*, 3) (last axis = x, y, z); got {tuple(t.shape)}")
-    return t
 
 
+def _check_cov(t, name):
+    if t.ndim < 2 or tuple(t.shape[-2:]) != (3, 3):
+        raise ValueError(f"{name} must have shape (*, 3, 3); got {tuple(t.shape)}")
+
+
+#: direction-like vectors (*, 3); 3 × 3 covariances (*, 3, 3)
+VECTORS = _checks.Arg(_checks.as_real, _check_vectors, tensor=True)
+COVARIANCES = _checks.Arg(_checks.as_real, _check_cov, tensor=True)
+
+
+@_checks.arguments(wo=VECTORS, light_mean=VECTORS, light_cov=COVARIANCES, **_ARGS)
 def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",
@@ -108,23 +112,9 @@ def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_subst
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0562, 0.0533, 0.1243]
     """
-    _checks.check_int(terms, "terms", 0)
-    _check_names(observer, illuminant)
-    _check_sensitivity(sensitivity)
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(wo, light_mean, light_cov, n_film, thickness,
-                                                 n_substrate, n_incident)
-    w = _vectors(wo, "wo", dtype, device)
-    mu = _vectors(light_mean, "light_mean", dtype, device)
-    cov = _checks.as_real(light_cov, "light_cov", dtype, device)
-    if cov.ndim < 2 or tuple(cov.shape[-2:]) != (3, 3):
-        raise ValueError(f"light_cov must have shape (*, 3, 3); got {tuple(cov.shape)}")
-    nf = _checks.as_real(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_positive(nf, "n_film", "")
-    _checks.check_positive(n0, "n_incident", "")
-    _checks.check_nonnegative(d, "thickness")
+    w, mu, cov, nf, d, ns, n0 = wo, light_mean, light_cov, n_film, thickness, n_substrate, n_incident
+    dtype = w.dtype
+    check_film_above_incident(nf, n0)
     with torch.no_grad():
         wn = torch.linalg.vector_norm(w, dim=-1)
         if bool((wn <= 0).any()):
@@ -133,11 +123,11 @@ def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_subst
         if bool((mn > 1.0 + 1e3 * torch.finfo(dtype).eps).any()):
             raise ValueError(f"light_mean must have norm <= 1 (a mean of unit directions); got max "
                              f"{mn.max().item():g}")
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
     batch = _checks.broadcast_shapes(w.shape[:-1], mu.shape[:-1], cov.shape[:-2], nf.shape, d.shape, ns.shape,
-                                     n0.shape)
+                                     n0.shape, names=("wo[..., 0]", "light_mean[..., 0]", "light_cov[..., 0, 0]",
+                                                      "n_film", "thickness", "n_substrate", "n_incident"))
     # block by block over large batches (torchirid._chunks): per colour P × M sensitivity values
-    width = 2 * max(terms, 1) * _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
+    width = 2 * max(terms, 1) * _sensitivity_width(sensitivity, observer, illuminant, dtype, w.device)
     return _chunks.evaluate(_filtered_xyz, (w, mu, cov, nf, d, ns, n0), batch, core=(1, 1, 2, 0, 0, 0, 0),
                             out_core=1, width=width, terms=terms, observer=observer, illuminant=illuminant,
                             polarization=polarization, sensitivity=sensitivity)
@@ -154,7 +144,7 @@ def _filtered_xyz(w, mu, cov, nf, d, n_substrate, n0, *, terms, observer, illumi
     # eq. 22 at the mean: cos θ1* = ⟨h, ω_i⟩ (safe sqrt: backscatter μ = −1 is grazing, cos θ1 = 0)
     cos1 = _checks.safe_sqrt(0.5 * (1.0 + mean_c))
     # C0*, a* = r21 r23 = |a| e^{iφ2*}, K* of eq. 4 at the mean direction
-    C0, a, K, _ = thin_film_fourier_terms(cos1, nf, d, n_substrate, n_incident=n0, polarization=polarization)
+    C0, a, K, _ = fourier_terms(cos1, nf, d, n_substrate, n0, polarization)
     # eq. 25: μ_cosθ2 (= √(1 − η1²/η2² sin²θ1*), what thin_film_fourier_terms uses for D)
     k = (n0 * n0) / (2.0 * nf * nf)
     mean_c2 = _checks.safe_sqrt(1.0 + k * (mean_c - 1.0))  # > 0 unless η2 = η1 at grazing
@@ -171,15 +161,14 @@ def _filtered_xyz(w, mu, cov, nf, d, n_substrate, n0, *, terms, observer, illumi
 def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivity="exact"):
     """Eq. 29 from the series terms (polarization-leading C0, a, K) and D ~ N(mean_D, var_D)."""
     dtype, device = mean_D.dtype, mean_D.device
-    fn = prefiltered_fourier_sensitivity if sensitivity == "exact" else lookup_prefiltered_sensitivity
+    fn = prefiltered_kernel(sensitivity)
     # eq. 29: Ŝ(0) is the white; Ŝ(−mμ, m²σ²) = conj Ŝ(mμ, m²σ²) (the Gaussian damping is real)
     zero = torch.zeros((), dtype=dtype, device=device)
-    white = prefiltered_fourier_sensitivity(zero, zero, observer=observer, illuminant=illuminant).real
+    white = _exact_prefiltered(zero, zero, observer, illuminant).real
     xyz = C0.mean(0)[..., None] * white
     if terms:
         m = torch.arange(1, terms + 1, dtype=dtype, device=device)
-        S = fn(mean_D[..., None] * m, var_D[..., None] * (m * m), observer=observer,
-               illuminant=illuminant)  # (*, M, 3)
+        S = fn(mean_D[..., None] * m, var_D[..., None] * (m * m), observer, illuminant)  # (*, M, 3)
         am = torch.polar(a.abs()[..., None] ** m, torch.angle(a)[..., None] * m)  # (P, *, M)
         coef = (am * K[..., None]).mean(0)  # polarization average
         # C_m e^{imφ2} Ŝ(−mμ_D, ·) + c.c. = 2 Re[a^m K conj Ŝ(mμ_D, ·)]
@@ -187,6 +176,7 @@ def _series_xyz(C0, a, K, mean_D, var_D, terms, observer, illuminant, sensitivit
     return xyz
 
 
+@_checks.arguments(cos_theta=_checks.COSINE, path_mean=_checks.REAL, path_var=_checks.nonnegative("nm^2"), **_ARGS)
 def thin_film_xyz_gaussian_path(cos_theta, n_film, thickness, n_substrate, path_mean, path_var, *,
                                 n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                                 illuminant: str = "D65", polarization: str = "unpolarized",
@@ -217,18 +207,10 @@ def thin_film_xyz_gaussian_path(cos_theta, n_film, thickness, n_substrate, path_
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0483, 0.0839, 0.0644]
     """
-    _checks.check_int(terms, "terms", 0)
-    _check_names(observer, illuminant)
-    _check_sensitivity(sensitivity)
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, path_mean,
-                                                 path_var, n_incident)
-    mD = _checks.as_real(path_mean, "path_mean", dtype, device)
-    vD = _checks.as_real(path_var, "path_var", dtype, device)
-    _checks.check_nonnegative(vD, "path_var", "nm^2")
-    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident=n_incident,
-                                          polarization=polarization)
-    shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape)
+    check_film_above_incident(n_film, n_incident)
+    C0, a, K, D = fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident, polarization)
+    mD, vD = path_mean, path_var
+    shape = _checks.broadcast_shapes(D.shape, mD.shape, vD.shape, names=("cos_theta, n_film, ...", "path_mean", "path_var"))
     P = C0.shape[0]
     def ex(t):  # (P, *t_batch) → (P, *shape): singleton axes after P for the batch axes t lacks
         return t.reshape(P, *(1,) * (len(shape) - (t.dim() - 1)), *t.shape[1:]).expand(P, *shape)

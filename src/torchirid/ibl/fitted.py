@@ -42,10 +42,10 @@ import torch
 
 from .. import _checks, _chunks
 from ..lut import LUT
-from .filtered import _check_sensitivity, _series_xyz
-from .fourier import thin_film_fourier_terms
-from .sensitivity import _check_names, _sensitivity_width
-from .uniform import _check_masking, cos_theta1_distribution
+from .filtered import _ARGS, _series_xyz
+from .fourier import check_film_above_incident, fourier_terms
+from .sensitivity import _sensitivity_width
+from .uniform import MASKING_MODES, _check_masking, cos_theta1_distribution
 from .._cache import cached
 
 __all__ = [
@@ -211,6 +211,8 @@ def shipped_light_mixture_lut(*, masking: str = "separable", dtype: torch.dtype 
     return _shipped(masking, dtype, torch.device("cpu") if device is None else torch.device(device))
 
 
+@_checks.arguments(cos_theta_o=_checks.COSINE, alpha=_checks.nonnegative("(GGX roughness)"),
+                   masking=_checks.choice(MASKING_MODES), **_ARGS)
 def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0, table=None,
                          terms: int = 4, observer: str = "CIE 1931 2", illuminant: str = "D65",
                          polarization: str = "unpolarized", sensitivity: str = "lut",
@@ -247,26 +249,13 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         >>> [round(v, 4) for v in xyz.tolist()]  # reference (thin_film_xyz_uniform): [0.0647, 0.067, 0.1077]
         [0.0645, 0.0668, 0.1076]
     """
-    _checks.check_int(terms, "terms", 0)
-    _check_names(observer, illuminant)
-    _check_sensitivity(sensitivity)
-    _checks.check_polarization(polarization)
-    _check_masking(masking)
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, n_film, thickness, n_substrate, n_incident)
-    c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_cosine(c, "cos_theta_o")
-    _checks.check_nonnegative(a, "alpha", "(GGX roughness)")
+    c, a, nf, d, n0, ns = cos_theta_o, alpha, n_film, thickness, n_incident, n_substrate
+    dtype, device = c.dtype, c.device
     with torch.no_grad():  # the table covers α ≤ 1: refuse rather than clamp (thin_film_xyz_uniform takes any α)
         if _checks.value_checks_enabled() and bool((a > 1).any()):
             raise ValueError(f"alpha must be <= 1 (GGX roughness covered by the fitted table); got max "
                              f"{a.max().item():g} — use thin_film_xyz_uniform for rougher surfaces")
-    nf = _checks.as_real(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_positive(nf, "n_film", "")
-    _checks.check_positive(n0, "n_incident", "")
-    _checks.check_nonnegative(d, "thickness")
+    check_film_above_incident(nf, n0)
     if table is None:
         table = shipped_light_mixture_lut(masking=masking, dtype=dtype, device=device)
     elif not isinstance(table, LUT) or table.builder != LIGHT_MIXTURE_BUILDER:
@@ -278,8 +267,7 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
         table = table.to(dtype=dtype, device=device)
     # the mixture axis K goes in front below: the lobe arguments carry the film's batch axes first
     # (else K meets the film axes: a scalar cos θo with a batch of thicknesses did not broadcast)
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape, names=_ARGUMENTS)
     # block by block over large batches (torchirid._chunks): per colour, K components × P × M
     # sensitivity values (× the quadrature's nodes with sensitivity="exact")
     K = table.values.shape[-2]
@@ -288,6 +276,9 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
                             width=K * 2 * max(terms, 1) * nodes, grad_inputs=(table.values,), table=table,
                             terms=terms, observer=observer, illuminant=illuminant, polarization=polarization,
                             sensitivity=sensitivity)
+
+
+_ARGUMENTS = ("cos_theta_o", "alpha", "n_film", "thickness", "n_incident", "n_substrate")
 
 
 def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, polarization, sensitivity):
@@ -304,7 +295,7 @@ def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, pola
     c2 = torch.sqrt((1.0 - k * (1.0 - c1 * c1)).clamp_min(torch.finfo(dtype).tiny))
     slope = k * c1 / c2
     scale = 2.0 * nf * d
-    C0, amp, K, _ = thin_film_fourier_terms(c1, nf, d, ns, n_incident=n0, polarization=polarization)
+    C0, amp, K, _ = fourier_terms(c1, nf, d, ns, n0, polarization)
     shape = C0.shape[1:]
     xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
                       terms, observer, illuminant, sensitivity)  # (K, *, 3)

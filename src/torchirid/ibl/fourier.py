@@ -27,13 +27,7 @@ import torch
 
 from .. import _checks, _chunks
 from ..optics.fresnel import admittance, interface, normal_wavenumber
-from .sensitivity import (
-    SENSITIVITY_MODES,
-    _check_names,
-    _sensitivity_width,
-    fourier_sensitivity,
-    fourier_sensitivity_exact,
-)
+from .sensitivity import FILM_COLOUR_ARGS, _sensitivity_width, sensitivity_kernel
 
 __all__ = ["thin_film_xyz_fourier"]
 
@@ -43,6 +37,18 @@ __all__ = ["thin_film_xyz_fourier"]
 # ---------------------------------------------------------------------------------------
 
 
+_FILM = {k: FILM_COLOUR_ARGS[k] for k in ("n_film", "thickness", "n_substrate", "n_incident", "polarization")}
+
+
+def check_film_above_incident(n_film, n_incident) -> None:
+    """ValueError unless the (checked) real film index is ≥ the outer one: below it the wave in the
+    film can be evanescent (TIR), and Belcour–Barla's series in the phase does not hold."""
+    if _checks.value_checks_enabled() and bool((n_film < n_incident).any()):
+        raise ValueError("n_film must be a real index >= n_incident (Belcour–Barla's series needs a "
+                         "propagating wave in the film)")
+
+
+@_checks.arguments(cos_theta=_checks.COSINE, **_FILM)
 def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0,
                             polarization: str = "unpolarized"):
     r"""The eq. 4 series of a film for wavelength-independent indices.
@@ -68,28 +74,20 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_inci
         >>> torch.allclose(R, torchirid.thin_film_reflectance(lam, c, 1.33, 300.0, complex(2.0, 0.5)))
         True
     """
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    nf = _checks.as_real(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_cosine(c)
-    _checks.check_nonnegative(d, "thickness")
-    _checks.check_index(ns, "n_substrate")
-    _checks.check_positive(n0, "n_incident", "")
-    _checks.check_positive(nf, "n_film", "")
-    if _checks.value_checks_enabled() and bool((nf < n0).any()):  # a film below the outer index can be evanescent (TIR): not a Fourier series in Φ
-        raise ValueError("n_film must be a real index >= n_incident (Belcour–Barla's series needs a "
-                         "propagating wave in the film)")
+    check_film_above_incident(n_film, n_incident)
+    return fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident, polarization)
+
+
+def fourier_terms(c, nf, d, ns, n0, polarization):
+    """:func:`thin_film_fourier_terms` on checked tensors (the kernel the colour functions call)."""
+    dtype = c.dtype
     c = _checks.flush_grazing(c)
     cdt = _checks.complex_dtype(dtype)
     s2 = n0 * n0 * (1 - c * c)
     qf_real = torch.sqrt((nf * nf - s2).clamp_min(0.0))  # n_f >= n_0: real, > 0 unless n_f = n_0 at grazing
     q0, qf = (n0 * c).to(cdt), qf_real.to(cdt)
     qs = normal_wavenumber(ns.to(cdt), s2, n0.to(cdt), q0)
-    pols = _checks.polarization_terms(polarization)
+    pols = _checks.POLARIZATION_TERMS[polarization]
     C0s, As, Ks = [], [], []
     for pol in pols:
         e0, ef, es = (admittance(q, n.to(cdt), pol) for q, n in ((q0, n0), (qf, nf), (qs, ns)))
@@ -114,6 +112,7 @@ def thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, *, n_inci
     return st(C0s), st(As), st(Ks), D
 
 
+@_checks.arguments(cos_theta=_checks.COSINE, **FILM_COLOUR_ARGS)
 def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incident=1.0, terms: int = 4,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", sensitivity: str = "lut") -> torch.Tensor:
@@ -150,16 +149,10 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0516, 0.0675, 0.0417]
     """
-    _checks.check_int(terms, "terms", 0)
-    _checks.check_choice(sensitivity, "sensitivity", SENSITIVITY_MODES)
-    _check_names(observer, illuminant)
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n_film, thickness, n_substrate, n_incident)
-    args = (_checks.as_real(cos_theta, "cos_theta", dtype, device), _checks.as_real(n_film, "n_film", dtype, device),
-            _checks.as_real(thickness, "thickness", dtype, device),
-            _checks.as_index(n_substrate, "n_substrate", dtype, device),
-            _checks.as_real(n_incident, "n_incident", dtype, device))
-    batch = _checks.broadcast_shapes(*(t.shape for t in args))
+    check_film_above_incident(n_film, n_incident)
+    args = (cos_theta, n_film, thickness, n_substrate, n_incident)
+    batch = _checks.broadcast_shapes(*(t.shape for t in args), names=_ARGUMENTS)
+    dtype, device = cos_theta.dtype, cos_theta.device
     # block by block over large batches (torchirid._chunks); per colour the Ŝ evaluations hold
     # P·M sensitivity values per colour, each _sensitivity_width() wide
     per_colour = 2 * max(terms, 1) * _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
@@ -167,17 +160,19 @@ def thin_film_xyz_fourier(cos_theta, n_film, thickness, n_substrate, *, n_incide
                             illuminant=illuminant, polarization=polarization, sensitivity=sensitivity)
 
 
+_ARGUMENTS = ("cos_theta", "n_film", "thickness", "n_substrate", "n_incident")
+
+
 def _fourier_xyz(cos_theta, n_film, thickness, n_substrate, n_incident, *, terms, observer, illuminant, polarization,
                  sensitivity):
     """The body of :func:`thin_film_xyz_fourier` on one block of colours."""
-    C0, a, K, D = thin_film_fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident=n_incident,
-                                          polarization=polarization)
-    fn = fourier_sensitivity if sensitivity == "lut" else fourier_sensitivity_exact
-    white = fn(torch.zeros((), dtype=D.dtype, device=D.device), observer=observer, illuminant=illuminant).real
+    C0, a, K, D = fourier_terms(cos_theta, n_film, thickness, n_substrate, n_incident, polarization)
+    fn = sensitivity_kernel(sensitivity)
+    white = fn(torch.zeros((), dtype=D.dtype, device=D.device), observer, illuminant).real
     xyz = C0.mean(0)[..., None] * white
     if terms:
         m = torch.arange(1, terms + 1, dtype=D.dtype, device=D.device)
-        S = fn(D[..., None] * m, observer=observer, illuminant=illuminant)  # (*, M, 3)
+        S = fn(D[..., None] * m, observer, illuminant)  # (*, M, 3)
         # a^m as |a|^m e^{imφ2} (no repeated complex products; |a|^m underflows harmlessly to 0)
         am = torch.polar(a.abs()[..., None] ** m, torch.angle(a)[..., None] * m)  # (P, *, M)
         coef = (am * K[..., None]).mean(0)  # polarization average

@@ -130,6 +130,28 @@ def _check_names(observer, illuminant):
     check_illuminant(illuminant)
 
 
+#: the colour-matching arguments of every function here and of the thin-film colours built on them
+OBSERVER = _checks.Arg(None, check_observer)
+ILLUMINANT = _checks.Arg(None, check_illuminant)
+#: the arguments every thin-film colour function shares (``@_checks.arguments(..., **FILM_COLOUR_ARGS)``):
+#: a real film above the outer index on a substrate n + iκ, and the series' options
+FILM_COLOUR_ARGS = dict(
+    n_film=_checks.positive(""), thickness=_checks.THICKNESS, n_substrate=_checks.INDEX,
+    n_incident=_checks.positive(""), terms=_checks.integer(0), observer=OBSERVER, illuminant=ILLUMINANT,
+    polarization=_checks.POLARIZATION, sensitivity=_checks.choice(SENSITIVITY_MODES),
+)
+
+
+def sensitivity_kernel(sensitivity: str):
+    """Ŝ(D) on checked tensors, from the shipped table (``"lut"``) or by quadrature (``"exact"``):
+    ``fn(D, observer, illuminant) -> complex (*, 3)`` (what the colour kernels call per block)."""
+    return _lut_sensitivity if sensitivity == "lut" else _exact_sensitivity
+
+
+def _lut_sensitivity(D, observer, illuminant):
+    return _from_lut(_cached(observer, illuminant, D.dtype, D.device), D)
+
+@_checks.arguments(D=_checks.REAL, observer=OBSERVER, illuminant=ILLUMINANT)
 def fourier_sensitivity_exact(D, *, observer: str = "CIE 1931 2", illuminant: str = "D65") -> torch.Tensor:
     r"""Ŝ(D) by quadrature (reference; O(3,760) work per value), complex ``(*, 3)``.
 
@@ -149,10 +171,12 @@ def fourier_sensitivity_exact(D, *, observer: str = "CIE 1931 2", illuminant: st
         >>> round(s[0, 1].real.item(), 12), round(abs(s[1, 1]).item(), 4)
         (1.0, 0.7013)
     """
-    _check_names(observer, illuminant)
-    dtype, device = _checks.resolve_dtype_device(D)
-    d = _checks.as_real(D, "D", dtype, device)
-    nu, w = _quadrature(observer, illuminant, dtype, device)
+    return _exact_sensitivity(D, observer, illuminant)
+
+
+def _exact_sensitivity(d, observer, illuminant):
+    """:func:`fourier_sensitivity_exact` on a checked tensor."""
+    nu, w = _quadrature(observer, illuminant, d.dtype, d.device)
     infinite = d.isinf()
     d = torch.where(infinite, torch.zeros_like(d), d)  # cos(±∞) is NaN; the limit is 0 (below)
     phase = (-_TWO_PI) * d[..., None] * nu
@@ -160,6 +184,7 @@ def fourier_sensitivity_exact(D, *, observer: str = "CIE 1931 2", illuminant: st
     return torch.where(infinite[..., None], torch.zeros_like(s), s)
 
 
+@_checks.arguments(mu=_checks.REAL, sigma2=_checks.nonnegative("nm^2"), observer=OBSERVER, illuminant=ILLUMINANT)
 def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
                                     illuminant: str = "D65") -> torch.Tensor:
     r"""Kneiphof's eq. 18: :math:`\hat S(μ, σ^2) = E_{D\sim N(μ,σ^2)}[\hat S(D)]`, exactly.
@@ -181,12 +206,22 @@ def prefiltered_fourier_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
         >>> round(abs(s[1]).item(), 4)  # |Ŝ_Y(1000)| = 0.7013 damped by the blur
         0.3742
     """
-    _check_names(observer, illuminant)
-    dtype, device = _checks.resolve_dtype_device(mu, sigma2)
-    m = _checks.as_real(mu, "mu", dtype, device)
-    s2 = _checks.as_real(sigma2, "sigma2", dtype, device)
-    _checks.check_nonnegative(s2, "sigma2", "nm^2")
-    nu, w = _quadrature(observer, illuminant, dtype, device)
+    return _exact_prefiltered(mu, sigma2, observer, illuminant)
+
+
+def prefiltered_kernel(sensitivity: str):
+    """Ŝ(μ, σ²) on checked tensors, by quadrature (``"exact"``) or from the shipped 2-D table
+    (``"lut"``): ``fn(mu, sigma2, observer, illuminant) -> complex (*, 3)``."""
+    return _exact_prefiltered if sensitivity == "exact" else _lut_prefiltered
+
+
+def _lut_prefiltered(m, s2, observer, illuminant):
+    return _from_prefiltered_lut(_prefiltered_cached(observer, illuminant, m.dtype, m.device), m, s2)
+
+
+def _exact_prefiltered(m, s2, observer, illuminant):
+    """:func:`prefiltered_fourier_sensitivity` on checked tensors."""
+    nu, w = _quadrature(observer, illuminant, m.dtype, m.device)
     infinite = m.isinf()
     m = torch.where(infinite, torch.zeros_like(m), m)  # the limit μ → ±∞ is 0, as in fourier_sensitivity_exact
     phase = (-_TWO_PI) * m[..., None] * nu
@@ -304,6 +339,7 @@ def shipped_fourier_sensitivity_lut(observer: str = "CIE 1931 2", illuminant: st
     return _cached(observer, illuminant, dtype, torch.device(device) if device is not None else torch.device("cpu"))
 
 
+@_checks.arguments(D=_checks.REAL, observer=OBSERVER, illuminant=ILLUMINANT)
 def fourier_sensitivity(D, *, observer: str = "CIE 1931 2", illuminant: str = "D65") -> torch.Tensor:
     r"""Ŝ(D) from the table (linear in magnitude and unwrapped phase), complex ``(*, 3)``.
 
@@ -315,10 +351,7 @@ def fourier_sensitivity(D, *, observer: str = "CIE 1931 2", illuminant: str = "D
         >>> round(abs(fourier_sensitivity(torch.tensor(1000.0, dtype=torch.float64))[1]).item(), 4)
         0.7013
     """
-    _check_names(observer, illuminant)
-    dtype, device = _checks.resolve_dtype_device(D)
-    d = _checks.as_real(D, "D", dtype, device)
-    return _from_lut(shipped_fourier_sensitivity_lut(observer, illuminant, dtype=dtype, device=device), d)
+    return _lut_sensitivity(D, observer, illuminant)
 
 
 _PREFILTERED_REPRESENTATION = "demodulated_real_imag"
@@ -467,6 +500,8 @@ def shipped_prefiltered_sensitivity_lut(observer: str = "CIE 1931 2", illuminant
                                torch.device(device) if device is not None else torch.device("cpu"))
 
 
+@_checks.arguments(mu=_checks.REAL, sigma2=_checks.nonnegative("nm^2"), observer=OBSERVER, illuminant=ILLUMINANT,
+                   lut=_checks.instance(LUT, "LUT from prefiltered_sensitivity_lut") | None)
 def lookup_prefiltered_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
                                         illuminant: str = "D65", lut: LUT | None = None) -> torch.Tensor:
     r"""Ŝ(μ, σ²) read from Kneiphof's 2-D table (:func:`shipped_prefiltered_sensitivity_lut`, or ``lut`` from
@@ -482,13 +517,11 @@ def lookup_prefiltered_sensitivity(mu, sigma2, *, observer: str = "CIE 1931 2",
         >>> round(abs(s[1]).item(), 4)
         0.3742
     """
-    dtype, device = _checks.resolve_dtype_device(mu, sigma2)
-    m = _checks.as_real(mu, "mu", dtype, device)
-    s2 = _checks.as_real(sigma2, "sigma2", dtype, device)
-    _checks.check_nonnegative(s2, "sigma2", "nm^2")
+    m, s2 = mu, sigma2
+    dtype, device = m.dtype, m.device
     if lut is None:
-        lut = shipped_prefiltered_sensitivity_lut(observer, illuminant, dtype=dtype, device=device)
-    elif not isinstance(lut, LUT) or lut.builder != PREFILTERED_SENSITIVITY_BUILDER \
+        lut = _prefiltered_cached(observer, illuminant, dtype, device)
+    elif lut.builder != PREFILTERED_SENSITIVITY_BUILDER \
             or lut.parameters.get("representation") != _PREFILTERED_REPRESENTATION:
         raise ValueError("lut must be a table from prefiltered_sensitivity_lut")
     else:

@@ -52,10 +52,9 @@ import torch
 from .. import _checks
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from .dfg import shipped_dfg_lut
-from .filtered import _check_sensitivity, _vectors, thin_film_xyz_filtered
+from .filtered import _ARGS, VECTORS, thin_film_xyz_filtered
 from .fitted import thin_film_xyz_fitted
 from .fourier import thin_film_xyz_fourier
-from .sensitivity import _check_names
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
 
 __all__ = ["shade_thin_film_environment", "SHADING_METHODS"]
@@ -111,6 +110,10 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
     return torch.lerp(plane(k0), plane(k1), tk)
 
 
+@_checks.arguments(prefiltered=_checks.instance(PrefilteredEnvironment, "PrefilteredEnvironment (from prefilter_environment)"),
+                   method=_checks.choice(SHADING_METHODS), output=_checks.choice(SHADING_OUTPUTS),
+                   normal=VECTORS, view=VECTORS, alpha=_checks.REAL,
+                   **{k: a for k, a in _ARGS.items() if k != "illuminant"})
 def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, view, alpha, n_film, thickness,
                                 n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 4,
                                 observer: str = "CIE 1931 2", polarization: str = "unpolarized",
@@ -164,20 +167,8 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
         >>> [round(c, 3) for c in rgb.tolist()]
         [0.054, 0.054, 0.09]
     """
-    if not isinstance(prefiltered, PrefilteredEnvironment):
-        raise ValueError(f"prefiltered must be a PrefilteredEnvironment (from prefilter_environment); "
-                         f"got {type(prefiltered).__name__}")
-    _checks.check_choice(method, "method", SHADING_METHODS)
-    _checks.check_choice(output, "output", SHADING_OUTPUTS)
-    _checks.check_int(terms, "terms", 0)
-    _check_names(observer, "D65")
-    _check_sensitivity(sensitivity)
-    _checks.check_polarization(polarization)
-    dtype, device = _checks.resolve_dtype_device(normal, view, alpha, n_film, thickness, n_substrate, n_incident,
-                                                 prefiltered.radiance)
-    n = _vectors(normal, "normal", dtype, device)
-    v = _vectors(view, "view", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
+    n, v, a = normal, view, alpha
+    dtype, device = n.dtype, n.device
     levels = prefiltered.alphas.to(dtype=dtype, device=device)
     with torch.no_grad():
         nn_, vn = torch.linalg.vector_norm(n, dim=-1), torch.linalg.vector_norm(v, dim=-1)
@@ -211,13 +202,14 @@ def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, vie
     # eq. 12, third factor
     kw = dict(n_incident=n_incident, terms=terms, observer=observer, illuminant="D65", polarization=polarization,
               sensitivity=sensitivity)
+    # (the colour functions' bodies: their arguments are checked above, the derived ones by construction)
     if method == "kneiphof":
         mean, cov = light_moments_to_mean_cov(moments)
-        xyz = thin_film_xyz_filtered(v, mean, cov, n_film, thickness, n_substrate, **kw)
+        xyz = thin_film_xyz_filtered.__wrapped__(v, mean, cov, n_film, thickness, n_substrate, **kw)
     elif method == "fitted":
-        xyz = thin_film_xyz_fitted(cos_o, a_, n_film, thickness, n_substrate, **kw)
+        xyz = thin_film_xyz_fitted.__wrapped__(cos_o, a_, n_film, thickness, n_substrate, **kw)
     else:
-        xyz = thin_film_xyz_fourier(cos_o, n_film, thickness, n_substrate, **kw)
+        xyz = thin_film_xyz_fourier.__wrapped__(cos_o, n_film, thickness, n_substrate, **kw)
     rgb = xyz_to_linear_srgb(xyz) * radiance * albedo[..., None]
     if output == "xyz":
         return linear_srgb_to_xyz(rgb)
