@@ -61,7 +61,9 @@ def jewel_beetle(name: str, *, alpha: float = JEWEL_BEETLE_ALPHA, base_albedo: f
     absorbing base and one layer, every path out of the structure reflects exactly once: the
     single-reflection BRDF (eq. 34) is exact and
     :func:`~torchirid.layered.montecarlo_brdf` has no variance. A reflective base or
-    ``layers > 1`` adds multiple scattering.
+    ``layers > 1`` adds multiple scattering; the light transport then lights the mirrors from
+    air on both sides (the model's host, though each mirror ends in its own ``n1``): a model
+    of the beetle, where :func:`fourneau_fig7`'s structures have the same host on both sides.
 
     Args:
         name: one of :data:`JEWEL_BEETLE_NAMES` (``"green"`` — the paper's green/blue area,
