@@ -804,6 +804,14 @@ INCIDENT_INDEX = Arg(as_index, check_real_index, values=True, tensor=True)
 CELLS = Arg(lambda v, name, dtype, device: as_cells(v, device))
 #: "s", "p" or "unpolarized"
 POLARIZATION = choice(POLARIZATIONS)
+def check_vectors(t: torch.Tensor, name: str) -> None:
+    """ValueError unless ``t`` has 3 components (x, y, z) on its last axis."""
+    if t.ndim == 0 or t.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (*, 3) (last axis = x, y, z); got {tuple(t.shape)}")
+
+
+#: direction-like vectors ``(*, 3)`` (x, y, z on the last axis)
+VECTORS = Arg(as_real, check_vectors, tensor=True)
 #: a floating torch dtype (of a table built from nothing)
 FLOAT_DTYPE = Arg(None, check_float_dtype)
 #: a ``(low, high)`` wavelength range in nm

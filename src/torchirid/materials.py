@@ -376,6 +376,7 @@ def _table_tensors(key, source, dtype: torch.dtype, device: torch.device):
     return hit
 
 
+@_checks.arguments(wavelength=_checks.WAVELENGTH)
 def refractive_index(material, wavelength) -> torch.Tensor:
     r"""Complex refractive index :math:`n + iκ` (κ ≥ 0) of a material at vacuum wavelengths.
 
@@ -411,9 +412,8 @@ def refractive_index(material, wavelength) -> torch.Tensor:
         tensor(1.4000+0.j)
     """
     spec = _resolve(material)  # validate the material before any work
-    dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_wavelength(lam)
+    lam = wavelength
+    dtype, device = lam.dtype, lam.device
     cdt = _checks.complex_dtype(dtype)
     if spec[0] == "constant":
         z = spec[1]

@@ -59,22 +59,16 @@ _ARGS = {**FILM_COLOUR_ARGS, "sensitivity": _checks.choice(FILTERED_SENSITIVITY_
 __all__ = ["thin_film_xyz_filtered", "thin_film_xyz_gaussian_path"]
 
 
-def _check_vectors(t, name):
-    if t.ndim == 0 or t.shape[-1] != 3:
-        raise ValueError(f"{name} must have shape (*, 3) (last axis = x, y, z); got {tuple(t.shape)}")
-
-
 def _check_cov(t, name):
     if t.ndim < 2 or tuple(t.shape[-2:]) != (3, 3):
         raise ValueError(f"{name} must have shape (*, 3, 3); got {tuple(t.shape)}")
 
 
-#: direction-like vectors (*, 3); 3 × 3 covariances (*, 3, 3)
-VECTORS = _checks.Arg(_checks.as_real, _check_vectors, tensor=True)
+#: 3 × 3 covariances (*, 3, 3)
 COVARIANCES = _checks.Arg(_checks.as_real, _check_cov, tensor=True)
 
 
-@_checks.arguments(wo=VECTORS, light_mean=VECTORS, light_cov=COVARIANCES, **_ARGS)
+@_checks.arguments(wo=_checks.VECTORS, light_mean=_checks.VECTORS, light_cov=COVARIANCES, **_ARGS)
 def thin_film_xyz_filtered(wo, light_mean, light_cov, n_film, thickness, n_substrate, *,
                            n_incident=1.0, terms: int = 4, observer: str = "CIE 1931 2",
                            illuminant: str = "D65", polarization: str = "unpolarized",

@@ -52,7 +52,7 @@ import torch
 from .. import _checks
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from .dfg import shipped_dfg_lut
-from .filtered import _ARGS, VECTORS, thin_film_xyz_filtered
+from .filtered import _ARGS, thin_film_xyz_filtered
 from .fitted import thin_film_xyz_fitted
 from .fourier import thin_film_xyz_fourier
 from .prefilter import PrefilteredEnvironment, light_moments_to_mean_cov
@@ -112,7 +112,7 @@ def _lookup(pre: PrefilteredEnvironment, r: torch.Tensor, alpha: torch.Tensor) -
 
 @_checks.arguments(prefiltered=_checks.instance(PrefilteredEnvironment, "PrefilteredEnvironment (from prefilter_environment)"),
                    method=_checks.choice(SHADING_METHODS), output=_checks.choice(SHADING_OUTPUTS),
-                   normal=VECTORS, view=VECTORS, alpha=_checks.REAL,
+                   normal=_checks.VECTORS, view=_checks.VECTORS, alpha=_checks.REAL,
                    **{k: a for k, a in _ARGS.items() if k != "illuminant"})
 def shade_thin_film_environment(prefiltered: PrefilteredEnvironment, normal, view, alpha, n_film, thickness,
                                 n_substrate, *, n_incident=1.0, method: str = "kneiphof", terms: int = 4,

@@ -145,6 +145,9 @@ class FilmStack:
         return " | ".join([_material_label(self.n_incident), *inner, _material_label(self.n_substrate)])
 
 
+_index = refractive_index.__wrapped__  # (on a checked wavelength)
+
+
 def stack_indices(stack: FilmStack, wavelength) -> torch.Tensor:
     """Indices ``n + iκ`` of all media of ``stack`` at ``wavelength`` (nm): shape ``(*, N+2)``.
 
@@ -157,7 +160,7 @@ def stack_indices(stack: FilmStack, wavelength) -> torch.Tensor:
     """
     if not isinstance(stack, FilmStack):
         raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
-    return torch.stack([refractive_index(m, wavelength) for m in stack.materials], dim=-1)
+    return torch.stack([_index(m, wavelength) for m in stack.materials], dim=-1)
 
 
 @_checks.arguments(stack=_checks.instance(FilmStack), wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE,
@@ -204,6 +207,9 @@ def film_reflectance(wavelength, cos_theta, stack: FilmStack, *, thicknesses=Non
     return k_r, torch.where(opaque, torch.zeros_like(T), T)
 
 
+@_checks.arguments(normal=_checks.VECTORS, view=_checks.VECTORS, n_incident=_checks.positive(""),
+                   n_substrate=_checks.Arg(_checks.as_index, lambda t, name: _checks.check_positive(t.real, name, ""),
+                                           values=True, tensor=True))
 def smooth_directions(normal, view, n_incident, n_substrate):
     r"""Mirror and Snell (transmitted) directions of a viewing ray on a smooth coated surface.
 
@@ -234,17 +240,8 @@ def smooth_directions(normal, view, n_incident, n_substrate):
         >>> r.tolist(), [round(x, 6) + 0.0 for x in t.tolist()], float(c)
         ([-0.6, 0.0, 0.8], [-0.4, 0.0, -0.916515], 0.8)
     """
-    dtype, device = _checks.resolve_dtype_device(normal, view)
-    nrm = _checks.as_real(normal, "normal", dtype, device)
-    v = _checks.as_real(view, "view", dtype, device)
-    for t, name in ((nrm, "normal"), (v, "view")):
-        if t.ndim == 0 or t.shape[-1] != 3:
-            raise ValueError(f"{name} must have 3 components on its last axis; got shape {tuple(t.shape)}")
-    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    n1 = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    n1 = n1.real if n1.is_complex() else n1
-    _checks.check_positive(n0, "n_incident", unit="")
-    _checks.check_positive(n1, "n_substrate", unit="")
+    nrm, v, n0 = normal, view, n_incident
+    n1 = n_substrate.real if n_substrate.is_complex() else n_substrate
     cos_i = (nrm * v).sum(-1).clamp(0.0, 1.0)
     reflected = 2 * cos_i[..., None] * nrm - v
     spectral = n0.ndim > 0 or n1.ndim > 0  # indices given per wavelength: (…, W) against (*, W)
@@ -260,6 +257,8 @@ def smooth_directions(normal, view, n_incident, n_substrate):
     return reflected, transmitted, cos_i
 
 
+@_checks.arguments(stack=_checks.instance(FilmStack), wavelength=_checks.WAVELENGTH, normal=_checks.VECTORS,
+                   view=_checks.VECTORS, polarization=_checks.POLARIZATION)
 def smooth_radiance(wavelength, normal, view, stack: FilmStack, reflected,
                     transmitted=None, *, polarization: str = "unpolarized") -> torch.Tensor:
     r"""Spectral radiance seen on an ideally smooth coated surface: Hirayama eq. 7.
@@ -292,18 +291,13 @@ def smooth_radiance(wavelength, normal, view, stack: FilmStack, reflected,
         >>> round(float(I[0]), 6)
         0.103209
     """
-    if not isinstance(stack, FilmStack):
-        raise ValueError(f"stack must be a FilmStack; got {type(stack).__name__}")
-    dtype, device = _checks.resolve_dtype_device(wavelength, normal, view)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    # in the working dtype before smooth_directions, which sees only the directions (Python
-    # lists there would default to float32 next to a float64 wavelength)
-    normal = _checks.as_real(normal, "normal", dtype, device)
-    view = _checks.as_real(view, "view", dtype, device)
-    n0 = refractive_index(stack.n_incident, lam).real
-    n1 = refractive_index(stack.n_substrate, lam)
-    r_dir, t_dir, cos_i = smooth_directions(normal, view, n0, n1)
-    k_r, k_t = film_reflectance(lam, cos_i[..., None], stack, polarization=polarization)
+    lam = wavelength
+    dtype, device = lam.dtype, lam.device
+    # (the bodies of the public functions below: every argument they take is checked here)
+    n0 = _index(stack.n_incident, lam).real
+    n1 = _index(stack.n_substrate, lam)
+    r_dir, t_dir, cos_i = smooth_directions.__wrapped__(normal, view, n0, n1)
+    k_r, k_t = film_reflectance.__wrapped__(lam, cos_i[..., None], stack, polarization=polarization)
     I_r = reflected(r_dir, lam) if callable(reflected) else _checks.as_real(reflected, "reflected", dtype, device)
     out = k_r * I_r
     if transmitted is not None:
