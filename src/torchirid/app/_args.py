@@ -33,6 +33,7 @@ __all__ = [
     "USAGE_ERROR",
     "WRITE_ERROR",
     "add_command_parser",
+    "add_preview_option",
     "add_size_option",
     "check_size",
     "cannot_write",
@@ -49,6 +50,7 @@ __all__ = [
     "positive",
     "progress_bar",
     "reports_bad_arguments",
+    "resolve_preview",
 ]
 
 
@@ -296,6 +298,25 @@ def check_size(command: str, what: str, points: int, nbytes: int, *, yes: bool, 
                          f"long and fill memory or disk; {smaller}, or pass --yes to run it as asked")
     if not quiet:
         print(f"{PROG} {command}: {size} (--yes)", file=sys.stderr, flush=True)
+
+
+# ----------------------------------------------------------------------------- preview
+def add_preview_option(parser: argparse.ArgumentParser, sizes: dict, full: str, quick: str) -> None:
+    """``--preview``: the command at the coarse ``sizes`` (``{dest: (full value, preview value)}``,
+    options whose default is None so that a value given on the command line wins); ``full`` and
+    ``quick`` are the rough durations of the two runs, stated in the help."""
+    given = ", ".join(f"--{dest.replace('_', '-')} {small:g}" for dest, (_, small) in sizes.items())
+    parser.add_argument("--preview", action="store_true",
+                        help=f"a quick, coarse run ({quick}): {given}, unless given; the full run takes {full}")
+    parser.set_defaults(preview_sizes=sizes)
+
+
+def resolve_preview(args) -> None:
+    """Set the options of :func:`add_preview_option` left at None: their preview value with
+    ``--preview``, else their full value."""
+    for dest, (full, small) in args.preview_sizes.items():
+        if getattr(args, dest) is None:
+            setattr(args, dest, small if args.preview else full)
 
 
 # ----------------------------------------------------------------------------- progress, outputs
