@@ -239,8 +239,8 @@ def run(args) -> int:
     except OSError as e:
         return _args.cannot_write(NAME, out.parent, e)
     rel = float((err / mean.abs().clamp_min(1e-300)).max())
-    print(f"{_describe(s, args.preset)}; incidence {args.incident[0]:g}, {args.incident[1]:g}°; "
-          f"{args.samples} paths per direction pair in {args.blocks} blocks (seed {args.seed}); "
+    print(f"{len(args.exit)} direction pairs × {n} wavelengths, {args.samples} paths each in {args.blocks} blocks "
+          f"(seed {args.seed}); {_describe(s, args.preset)}; incidence {args.incident[0]:g}, {args.incident[1]:g}°; "
           f"brdf in sr⁻¹, eq. 34: the single-reflection BRDF")
     print("\n".join(_table(lam, args.exit, mean, err, single)))
     print(_summary(s, lam, args.exit, mean, err, single))
