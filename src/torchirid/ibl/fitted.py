@@ -45,7 +45,7 @@ from ..lut import LUT
 from .filtered import _ARGS, _series_xyz
 from .fourier import check_film_above_incident, fourier_terms
 from .sensitivity import _sensitivity_width
-from .uniform import MASKING_MODES, _check_masking, cos_theta1_distribution
+from .uniform import _LOBE, MASKING_MODES, _check_masking, _distribution
 from .._cache import cached
 
 __all__ = [
@@ -83,6 +83,7 @@ def _quantile_pieces(grid, w, quantiles):
     return torch.stack(out, -2)  # (*, K, 3)
 
 
+@_checks.arguments(bins=_checks.integer(1), **_LOBE)
 def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int = 2048, nodes: int = 64,
                   masking: str = "separable"):
     r"""The K-component mixture of cos θ1 for given geometry, computed directly (no table).
@@ -106,7 +107,7 @@ def light_mixture(cos_theta_o, alpha, *, quantiles=DEFAULT_QUANTILES, bins: int 
     q = [float(x) for x in quantiles]
     if not q or any(not (0.0 < x < 1.0) for x in q) or any(b <= a for a, b in zip(q[:-1], q[1:])):
         raise ValueError(f"quantiles must be increasing values in (0, 1); got {quantiles!r}")
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
+    grid, w, _ = _distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
     return _quantile_pieces(grid, w, q)
 
 

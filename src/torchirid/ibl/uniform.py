@@ -66,6 +66,7 @@ from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import smith_g1_kernel, reflect
 from ..optics.thin_film import thin_film_reflectance
+from .sensitivity import ILLUMINANT, OBSERVER
 
 __all__ = [
     "uniform_light_moments",
@@ -82,24 +83,21 @@ def _check_masking(masking) -> str:
     return _checks.check_choice(masking, "masking", MASKING_MODES)
 
 
-def _geometry(cos_theta_o, alpha):
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha)
-    c = _checks.as_real(cos_theta_o, "cos_theta_o", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
+def _check_view(c, name):
     with torch.no_grad():
         if bool(((c <= 0) | (c > 1)).any()):
-            raise ValueError("cos_theta_o must be in (0, 1] (a view above the horizon)")
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    shape = _checks.broadcast_shapes(c.shape, a.shape)
-    return c.expand(shape), a.expand(shape), dtype, device
+            raise ValueError(f"{name} must be in (0, 1] (a view above the horizon)")
 
 
-def _geometry_in_dtype_of(cos_theta_o, alpha, *film):
-    """cos θo and α as tensors in the working dtype of all the inputs, with that dtype and device
-    (Python-list angles next to a float64 film stay float64; validated by :func:`_geometry`)."""
-    dtype, device = _checks.resolve_dtype_device(cos_theta_o, alpha, *film)
-    return (_checks.as_real(cos_theta_o, "cos_theta_o", dtype, device), _checks.as_real(alpha, "alpha", dtype, device),
-            dtype, device)
+#: the lobe's geometry: a view above the horizon and a GGX roughness > 0, broadcast together
+_LOBE = dict(cos_theta_o=_checks.real(_check_view), alpha=_checks.positive("(GGX roughness)"),
+             nodes=_checks.integer(2), masking=_checks.choice(MASKING_MODES))
+
+
+def _geometry(c, a):
+    """Checked cos θo and α broadcast together, with their dtype and device."""
+    shape = _checks.broadcast_shapes(c.shape, a.shape, names=("cos_theta_o", "alpha"))
+    return c.expand(shape), a.expand(shape), c.dtype, c.device
 
 
 def _view(c: torch.Tensor) -> torch.Tensor:
@@ -129,6 +127,7 @@ def _lobe_rule(nodes, dtype, device):
     return uu, pp, (wu[:, None] / nphi).expand(nodes, nphi).reshape(-1)
 
 
+@_checks.arguments(**_LOBE)
 def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str = "separable"):
     r"""Quadrature of :math:`∫\tilde ρ(ω_i,ω_o)⟨n,ω_i⟩ f(ω_i)\,dω_i` over a GGX lobe (module docstring).
 
@@ -153,8 +152,6 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str
         >>> [round(float(uniform_lobe_quadrature(c, 1.0, masking=m)[2].sum()), 4) for m in MASKING_MODES]
         [0.4091, 0.4507]
     """
-    _checks.check_int(nodes, "nodes", 2)
-    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     u, phi, wq = _lobe_rule(nodes, dtype, device)
     a_ = a[..., None]
@@ -180,6 +177,7 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str
     return wi, h, torch.where(torch.isnan(z + vh), torch.nan, wgt) * wq  # (NaN geometry: NaN weights)
 
 
+@_checks.arguments(**_LOBE)
 def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str = "separable"):
     r"""Albedo, mean and covariance of the light directions p_R ∝ ρ̃⟨n,ω_i⟩ under uniform light.
 
@@ -198,8 +196,6 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str =
         >>> round(float(A), 4), [round(v, 4) for v in mu.tolist()]
         (0.856, [-0.399, 0.0, 0.7063])
     """
-    _checks.check_int(nodes, "nodes", 2)
-    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     # block by block over large batches (torchirid._chunks): 2 · nodes² quadrature points per geometry
@@ -208,10 +204,13 @@ def uniform_light_moments(cos_theta_o, alpha, *, nodes: int = 64, masking: str =
     return out[..., 0].contiguous(), out[..., 1:4].contiguous(), out[..., 4:].reshape(*shape, 3, 3).contiguous()
 
 
+_lobe_quadrature = uniform_lobe_quadrature.__wrapped__  # (the bodies, on checked arguments)
+
+
 def _light_moments(c, a, *, nodes, masking):
     """Albedo, mean and covariance of one block, packed as ``(*, 1 + 3 + 9)``."""
     shape = c.shape
-    wi, _, w = uniform_lobe_quadrature(c.reshape(-1), a.reshape(-1), nodes=nodes, masking=masking)
+    wi, _, w = _lobe_quadrature(c.reshape(-1), a.reshape(-1), nodes=nodes, masking=masking)
     A = w.sum(-1)
     p = w / A[..., None]
     mu = (p[..., None] * wi).sum(-2)
@@ -220,6 +219,7 @@ def _light_moments(c, a, *, nodes, masking):
     return torch.cat([A[..., None], mu, cov.reshape(-1, 9)], -1).reshape(*shape, 13)
 
 
+@_checks.arguments(bins=_checks.integer(1), **_LOBE)
 def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int = 64,
                             masking: str = "separable"):
     r"""The distribution of :math:`\cos θ_1 = ⟨h, ω_i⟩` under p_R, as linear-splat weights on a grid.
@@ -239,9 +239,6 @@ def cos_theta1_distribution(cos_theta_o, alpha, *, bins: int = 2048, nodes: int 
         >>> [round(v, 4) for v in w.tolist()]  # a near-mirror at 60°: cos θ1 ≈ 0.5 (GGX tails: 2e-6)
         [0.0, 0.0, 1.0, 0.0, 0.0]
     """
-    _checks.check_int(bins, "bins", 1)
-    _checks.check_int(nodes, "nodes", 2)
-    _check_masking(masking)
     c, a, dtype, device = _geometry(cos_theta_o, alpha)
     shape = c.shape
     grid = torch.linspace(0.0, 1.0, bins + 1, dtype=dtype, device=device)
@@ -255,7 +252,7 @@ def _cos_theta1_histogram(c, a, *, bins, nodes, masking):
     """Albedo and the splat weights of cos θ1 of one block, packed as ``(*, 1 + bins + 1)``."""
     shape = c.shape
     cc = c.reshape(-1)
-    _, h, w = uniform_lobe_quadrature(cc, a.reshape(-1), nodes=nodes, masking=masking)
+    _, h, w = _lobe_quadrature(cc, a.reshape(-1), nodes=nodes, masking=masking)
     c1 = (h * _view(cc)[..., None, :]).sum(-1).clamp(0.0, 1.0)  # ⟨h, ω_o⟩ = ⟨h, ω_i⟩
     x = c1 * bins
     i0 = x.nan_to_num(0.0).floor().clamp(max=bins - 1)  # (NaN: any bin; its NaN weight t marks it)
@@ -271,6 +268,11 @@ def _cos_theta1_histogram(c, a, *, bins, nodes, masking):
     return torch.cat([A[..., None], hist], -1).reshape(*shape, bins + 2)
 
 
+_distribution = cos_theta1_distribution.__wrapped__
+
+
+@_checks.arguments(n_film=_checks.REAL, thickness=_checks.THICKNESS, n_incident=_checks.positive(""),
+                   bins=_checks.integer(1), **_LOBE)
 def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident=1.0, bins: int = 2048,
                             nodes: int = 64, masking: str = "separable"):
     r"""Exact mean and variance of the path difference D = 2η₂d cos θ₂ under p_R (uniform light).
@@ -295,17 +297,12 @@ def path_difference_moments(cos_theta_o, alpha, n_film, thickness, *, n_incident
         >>> round(float(mD), 1)  # a near-mirror at normal incidence: D = 2·1.3·600
         1560.0
     """
-    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
-    nf = _checks.as_real(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    n0 = _checks.as_real(n_incident, "n_incident", dtype, device)
-    _checks.check_positive(n0, "n_incident", "")
-    _checks.check_nonnegative(d, "thickness")
-    if bool((nf < n0).any()):
+    grid, w, _ = _distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
+    nf, d, n0 = n_film, thickness, n_incident
+    if _checks.value_checks_enabled() and bool((nf < n0).any()):
         raise ValueError("n_film must be >= n_incident (a propagating wave in the film)")
     # block by block over large batches (torchirid._chunks): bins + 1 weights per point
-    batch = _checks.broadcast_shapes(w.shape[:-1], nf.shape, n0.shape)
+    batch = _checks.broadcast_shapes(w.shape[:-1], nf.shape, n0.shape, names=("cos_theta_o, alpha", "n_film", "n_incident"))
     m1, var = _chunk_evaluate(_cos2_moments, (w, nf, n0), batch, core=(1, 0, 0), width=grid.numel(), grid=grid)
     scale = 2.0 * nf * d
     return scale * m1, scale * scale * var, m1, var
@@ -320,6 +317,9 @@ def _cos2_moments(w, nf, n0, *, grid):
     return m1, (m2 - m1 * m1).clamp_min(0.0)
 
 
+@_checks.arguments(n_film=_checks.REAL, thickness=_checks.THICKNESS, n_substrate=_checks.INDEX,
+                   n_incident=_checks.INCIDENT_INDEX, wavelength=_checks.WAVELENGTH | None, observer=OBSERVER,
+                   illuminant=ILLUMINANT, polarization=_checks.POLARIZATION, bins=_checks.integer(1), **_LOBE)
 def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *, n_incident=1.0,
                           observer: str = "CIE 1931 2", illuminant: str = "D65",
                           polarization: str = "unpolarized", bins: int = 2048, nodes: int = 64,
@@ -352,18 +352,17 @@ def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         >>> [round(v, 4) for v in xyz.tolist()]
         [0.0647, 0.067, 0.1077]
     """
-    cos_theta_o, alpha, dtype, device = _geometry_in_dtype_of(cos_theta_o, alpha, n_film, thickness, n_incident)
-    grid, w, _ = cos_theta1_distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
+    dtype, device = cos_theta_o.dtype, cos_theta_o.device
+    grid, w, _ = _distribution(cos_theta_o, alpha, bins=bins, nodes=nodes, masking=masking)
     if wavelength is None:
-        wavelength = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    if lam.ndim != 1:
-        raise ValueError(f"wavelength must be 1-D; got shape {tuple(lam.shape)}")
+        lam = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
+    else:
+        lam = wavelength
+        if lam.ndim != 1:
+            raise ValueError(f"wavelength must be 1-D; got shape {tuple(lam.shape)}")
     W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (W, 3)
-    nf = _checks.as_real(n_film, "n_film", dtype, device)
-    d = _checks.as_real(thickness, "thickness", dtype, device)
-    ns = _checks.as_index(n_substrate, "n_substrate", dtype, device)
-    film_shape = _checks.broadcast_shapes(nf.shape, d.shape, ns.shape)
+    nf, d, ns, n0 = n_film, thickness, n_substrate, n_incident
+    film_shape = _checks.broadcast_shapes(nf.shape, d.shape, ns.shape, names=("n_film", "thickness", "n_substrate"))
     nf, d, ns = (t.expand(film_shape).reshape(-1) for t in (nf, d, ns))
     # XYZ[R](cos θ1) on the grid for every film, in blocks of films that bound the (films, bins, W)
     # spectra: films × bins × W ≤ the block size of torchirid._chunks (at least one film; None: all)
@@ -372,14 +371,17 @@ def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
     rows = []
     for s in range(0, max(nf.numel(), 1), per):  # (once for an empty batch)
         sl = slice(s, s + per)
-        R = thin_film_reflectance(lam, grid[:, None], nf[sl, None, None], d[sl, None, None],
-                                  ns[sl, None, None], n_incident=n_incident, polarization=polarization)
+        R = _reflectance(lam, grid[:, None], nf[sl, None, None], d[sl, None, None],
+                         ns[sl, None, None], n_incident=n0, polarization=polarization)
         rows.append(R @ W)  # (f, bins+1, 3)
     F = torch.cat(rows).reshape(*film_shape, grid.numel(), 3)
     # Σ_k w_k F_k over the broadcast of geometries and films, in blocks (a broadcast matmul would
     # copy w and F to the full (*, bins+1, 3) batch first)
     batch = _checks.broadcast_shapes(w.shape[:-1], film_shape)
     return _chunk_evaluate(_mixture_xyz, (w, F), batch, core=(1, 2), out_core=1, width=3 * grid.numel())
+
+
+_reflectance = thin_film_reflectance.__wrapped__.__wrapped__  # (below the small-call and check decorators)
 
 
 def _mixture_xyz(w, F):
