@@ -62,3 +62,17 @@ def test_a_default_out_is_out(name):
     out = next((a for a in SUBPARSERS[name]._actions if a.dest == "out"), None)
     if out is not None and not out.required:
         assert out.default.split("/")[0] == "out", (name, out.default)
+
+
+def test_the_parser_imports_no_figure_module():
+    """Building the parser (``torchirid --help``) loads no figure that draws, no matplotlib, and not the
+    library subpackages that only a command's run needs (they load when it runs)."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from torchirid.app import cli; cli.build_parser(); "
+            "print(' '.join(sorted(m for m in sys.modules if m == 'matplotlib' or m.startswith(("
+            "'torchirid.app.figures.', 'torchirid.ibl', 'torchirid.spectral', 'colour')))))")
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    # _format: the --format choices; film_maps: imported by fit_film at module level (matplotlib inside)
+    assert set(loaded) <= {"torchirid.app.figures._format", "torchirid.app.figures.film_maps"}, loaded

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import torch
-
-from ...optics.film_tables import ANGLE_AXES, STACK_NAMES, film_reflectance_lut, interpolation_error
 from .. import _args
 
 NAME = "film-table"
@@ -16,6 +13,8 @@ __all__ = ["NAME", "add_parser", "run"]
 
 def add_parser(subparsers):
     """Register ``film-table`` on an argparse subparsers object (``func=run``); returns its parser."""
+    from ...optics.film_tables import ANGLE_AXES, STACK_NAMES
+
     p = _args.add_command_parser(
         subparsers,
         NAME,
@@ -48,6 +47,9 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Build, save and describe the table. Exit status: 0, 1 (write), 2 (bad argument)."""
+    import torch
+
+    from ...optics.film_tables import film_reflectance_lut, interpolation_error
     from ...presets import hirayama_stacks
 
     lo, hi, count = _args.parse_wavelengths(args.wavelengths)

@@ -6,16 +6,14 @@ import argparse
 import math
 from pathlib import Path
 
-import torch
-
-from ...layered import PROJECTIONS, LayeredBragg, RoughBraggLayer, scatterogram
-from ...presets import JEWEL_BEETLE, JEWEL_BEETLE_NAMES, jewel_beetle
 from .. import _args
-from ..figures import scatterograms
 
 NAME = "scatterogram"
 
 __all__ = ["NAME", "add_parser", "run"]
+
+#: the beam row drawn when no --beam is given: normal incidence, as match_scatterogram's default incident_deg
+DEFAULT_BEAM = (0.0, 0.0)
 
 
 def _exposure(text: str):
@@ -32,6 +30,9 @@ def _exposure(text: str):
 
 def add_parser(subparsers):
     """Register ``scatterogram`` on an argparse subparsers object (``func=run``); returns its parser."""
+    from ...layered.scatterograms import PROJECTIONS
+    from ...presets import JEWEL_BEETLE_NAMES
+
     sp = _args.add_command_parser(
         subparsers,
         NAME,
@@ -76,7 +77,8 @@ def add_parser(subparsers):
     g = sp.add_argument_group("illumination")
     g.add_argument("--no-white", dest="white", action="store_false", help="leave out the white-environment row (drawn first unless this is given)")
     g.add_argument("--beam", nargs=2, type=_args.number, action="append", metavar=("THETA", "PHI"),
-                   help="add a narrow-beam row lit from (θ, φ) in degrees; repeatable (default: one beam at 0 0)")
+                   help=f"add a narrow-beam row lit from (θ, φ) in degrees; repeatable (default: one beam at "
+                        f"{DEFAULT_BEAM[0]:g} {DEFAULT_BEAM[1]:g})")
     g = sp.add_argument_group("image and output")
     g.add_argument("--resolution", type=_args.count, default=160, metavar="PIXELS", help="pixels per side of each image")
     g.add_argument("--wavelengths", nargs=3, metavar=("MIN", "MAX", "COUNT"), default=["380", "780", "81"],
@@ -97,11 +99,17 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Render, draw and write the scatterograms; prints the two paths. Exit status: 0, 1 (write), 2 (bad argument)."""
+    import torch
+
+    from ...layered import LayeredBragg, RoughBraggLayer, scatterogram
+    from ...presets import JEWEL_BEETLE, jewel_beetle
+    from ..figures import scatterograms
+
     _args.check_name(args.name)
     wl_min, wl_max, wl_count = _args.parse_wavelengths(args.wavelengths)
     if wl_count < 2 or wl_max <= wl_min:
         raise ValueError("--wavelengths: a spectrum needs MIN < MAX and COUNT >= 2")
-    beams = args.beam if args.beam is not None else [[0.0, 0.0]]
+    beams = args.beam if args.beam is not None else [list(DEFAULT_BEAM)]
     if not args.white and not beams:
         raise ValueError("nothing to render: --no-white needs at least one --beam")
     for theta, _ in beams:

@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import _args
-from ..figures import reflectance_maps
 
 NAME = "spectrum"
 KINDS = ("bragg", "thin-film")
@@ -81,7 +80,7 @@ def add_parser(subparsers):
         help="number of incidence angles θ (degrees, in the incident medium), evenly spaced from 0 to 90 inclusive "
              "(default 91: every degree)",
     )
-    g.add_argument("--dtype", choices=reflectance_maps.DTYPES, default="float64", help="precision of the computation")
+    g.add_argument("--dtype", choices=("float64", "float32"), default="float64", help="precision of the computation")
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")
     g.add_argument("--name", default="spectrum", metavar="STEM", help="file stem: writes STEM.npz and STEM.png")
     _args.add_size_option(g)
@@ -93,6 +92,8 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Compute, draw and write the map; prints the two paths. Exit status: 0, 1 (write), 2 (bad argument)."""
+    from ..figures import reflectance_maps
+
     wavelengths = _args.parse_wavelengths(args.wavelengths)
     _args.check_name(args.name)
     _args.check_size(NAME, f"the map {args.angles} angles × {wavelengths[2]} wavelengths of {args.dtype}",

@@ -17,51 +17,57 @@ the angles of the grids in degrees (with their cosines alongside).
 - :mod:`~torchirid.app.figures.thin_film_ibl` — Kneiphof et al. 2019, Fig. 7 measured
   (``torchirid thin-film``);
 - :mod:`~torchirid.app.figures.film_maps` — the per-pixel maps of ``torchirid fit-film``.
+
+The names below load their module on first use (PEP 562): a command imports only its own
+figure module, and ``torchirid --help`` none.
 """
 
-from .film_maps import plot_film_map, save_film_map_png
-from .gradients import (
-    CURVE_WAVELENGTHS_NM,
-    GRADIENT_ATLAS_STEPS,
-    GRADIENT_METHODS,
-    GradientAtlas,
-    gradient_atlas,
-    plot_gradient_atlas,
-    save_gradient_atlas_npz,
-    save_gradient_atlas_png,
-)
-from .reflectance_maps import (
-    ReflectanceMap,
-    bragg_reflectance_map,
-    plot_reflectance_map,
-    save_reflectance_map_npz,
-    save_reflectance_map_png,
-    thin_film_reflectance_map,
-)
-from .scatterograms import CIRCLES_DEG, plot_scatterograms, save_scatterograms_npz, save_scatterograms_png
-from .spheres import (
-    SpherePanels,
-    SphereRender,
-    chroma_stats,
-    chroma_table_markdown,
-    fig8_rows,
-    lamp_spd,
-    plot_panels,
-    render_panels,
-    render_sphere,
-    save_panels_npz,
-    save_panels_png,
-    table1_objects,
-)
-from .thin_film_ibl import (
-    THIN_FILM_IBL_METHODS,
-    THIN_FILM_IBL_PANELS,
-    ThinFilmIBLComparison,
-    plot_thin_film_ibl,
-    save_thin_film_ibl_npz,
-    save_thin_film_ibl_png,
-    thin_film_ibl_comparison,
-)
+from __future__ import annotations
+
+import importlib
+
+#: each public name → its module
+_MODULES = {
+    "CIRCLES_DEG": "scatterograms",
+    "CURVE_WAVELENGTHS_NM": "gradients",
+    "GRADIENT_ATLAS_STEPS": "gradients",
+    "GRADIENT_METHODS": "gradients",
+    "GradientAtlas": "gradients",
+    "ReflectanceMap": "reflectance_maps",
+    "SpherePanels": "spheres",
+    "SphereRender": "spheres",
+    "THIN_FILM_IBL_METHODS": "thin_film_ibl",
+    "THIN_FILM_IBL_PANELS": "thin_film_ibl",
+    "ThinFilmIBLComparison": "thin_film_ibl",
+    "bragg_reflectance_map": "reflectance_maps",
+    "chroma_stats": "spheres",
+    "chroma_table_markdown": "spheres",
+    "fig8_rows": "spheres",
+    "gradient_atlas": "gradients",
+    "lamp_spd": "spheres",
+    "plot_film_map": "film_maps",
+    "plot_gradient_atlas": "gradients",
+    "plot_panels": "spheres",
+    "plot_reflectance_map": "reflectance_maps",
+    "plot_scatterograms": "scatterograms",
+    "plot_thin_film_ibl": "thin_film_ibl",
+    "render_panels": "spheres",
+    "render_sphere": "spheres",
+    "save_film_map_png": "film_maps",
+    "save_gradient_atlas_npz": "gradients",
+    "save_gradient_atlas_png": "gradients",
+    "save_panels_npz": "spheres",
+    "save_panels_png": "spheres",
+    "save_reflectance_map_npz": "reflectance_maps",
+    "save_reflectance_map_png": "reflectance_maps",
+    "thin_film_reflectance_map": "reflectance_maps",
+    "save_scatterograms_npz": "scatterograms",
+    "save_scatterograms_png": "scatterograms",
+    "save_thin_film_ibl_npz": "thin_film_ibl",
+    "save_thin_film_ibl_png": "thin_film_ibl",
+    "table1_objects": "spheres",
+    "thin_film_ibl_comparison": "thin_film_ibl",
+}
 
 __all__ = [
     "CIRCLES_DEG",
@@ -104,3 +110,15 @@ __all__ = [
     "table1_objects",
     "thin_film_ibl_comparison",
 ]
+
+
+def __getattr__(name: str):
+    if name in _MODULES:
+        value = getattr(importlib.import_module(f".{_MODULES[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
