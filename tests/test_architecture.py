@@ -204,8 +204,8 @@ SHARED_KERNELS = {
     "torchirid.optics.bragg": ("yeh_reflectance_kernel", "prepare_bragg_mirror", "bragg_reflectance_kernel"),
     # Kobayashi's samples: synthetic_cube renders them by name; torchirid.presets publishes them
     "torchirid.estimation.synthetic": ("SAMPLES",),
-    # GGX D and Smith G1 on cosines, without the argument checks (inner loops of quadratures)
-    "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel"),
+    # GGX D, Smith G1 and the mirror direction without the argument checks (inner loops of quadratures)
+    "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel", "reflect_kernel"),
 }
 
 

@@ -829,7 +829,9 @@ def arguments(*, broadcast: Sequence[str] | bool = (), **specs: Arg):
     checked in the order of ``specs``. ``broadcast``: names of arguments whose shapes must
     broadcast together (``True``: every tensor argument); a mismatch is a ValueError naming them (not torch's bare RuntimeError).
     A call that does not bind (missing or unknown arguments) raises Python's own TypeError.
-    The wrapped function keeps its signature and docstring."""
+    The wrapped function keeps its signature and docstring; its ``__wrapped__`` is the body on
+    checked values — what an internal caller that has checked the same arguments calls (another
+    public function's body, a kernel's block loop), so that nothing is checked twice."""
     import inspect
 
     def decorate(fn):

@@ -24,7 +24,7 @@ import torch
 
 from .. import _checks
 from ..lut import LUT
-from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
+from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1
 from .._cache import cached
 
 __all__ = ["dfg_lut", "shipped_dfg_lut"]
@@ -79,7 +79,7 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
     u = _hammersley(samples, dtype)  # (N, 2)
     a = alpha[None, :, None]  # (1, A, 1)
     m = sample_ggx_vndf(v, a, u)  # (C, A, N, 3)
-    l = reflect(v, m)
+    l = reflect_kernel(v, m)
     w = torch.where(l[..., 2] > 0, smith_g1(l[..., 2].clamp_min(0.0), a), torch.zeros_like(l[..., 2]))
     fc = (1.0 - (v * m).sum(-1).clamp(0.0, 1.0)) ** 5
     values = torch.stack([((1.0 - fc) * w).mean(-1), (fc * w).mean(-1)], -1)  # (C, A, 2)

@@ -64,7 +64,7 @@ from .. import _checks
 from .._chunks import evaluate as _chunk_evaluate, get_chunk_size as _chunk_size
 from .._quadrature import gauss_legendre01
 from ..color.convert import xyz_weights
-from ..microfacet.ggx import smith_g1_kernel, reflect
+from ..microfacet.ggx import reflect_kernel, smith_g1_kernel
 from ..optics.thin_film import thin_film_reflectance
 from .sensitivity import ILLUMINANT, OBSERVER
 
@@ -162,7 +162,7 @@ def uniform_lobe_quadrature(cos_theta_o, alpha, *, nodes: int = 64, masking: str
     h = torch.stack([sin_h * torch.cos(phi), sin_h * torch.sin(phi), cos_h], -1)  # (*, Q, 3)
     v = _view(c)[..., None, :]
     vh = (v * h).sum(-1)
-    wi = reflect(v, h)
+    wi = reflect_kernel(v, h)
     z = wi[..., 2]
     ok = (z > 0) & (vh > 0) & (cos_h > 0)
     zs = torch.where(ok, z, torch.ones_like(z))

@@ -10,7 +10,7 @@ import torch
 from .. import _checks
 from .._quadrature import gauss_legendre01
 from . import _geometry
-from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
+from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1
 from ..optics.fresnel import fresnel_reflectance
 
 from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _check_structure, _tables, reflectance_lut
@@ -172,7 +172,7 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
         tab = tables[l]
         a = tab.layer.alpha
         m = sample_ggx_vndf(vq, a, u.expand(n_mu, -1, 2))  # (M, Q, 3)
-        o = reflect(vq, m)
+        o = reflect_kernel(vq, m)
         oz = o[..., 2].clamp(0.0, 1.0)  # o below the layer's plane: masked (G1 = 0 there)
         weight = torch.where(o[..., 2] > 0, smith_g1(oz, a), torch.zeros_like(oz)) * w_u  # (M, Q)
         cos_d = (vq * m).sum(-1).clamp(0.0, 1.0)

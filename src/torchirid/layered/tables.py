@@ -71,7 +71,7 @@ def coating_reflectance(cos_theta, n_incident) -> torch.Tensor:
     _checks.check_cosine(c)
     if float(n_incident) == 1.0:
         return torch.zeros_like(c)
-    return fresnel_reflectance(c, 1.0, float(n_incident))
+    return fresnel_reflectance.__wrapped__(c, torch.ones_like(c), torch.full_like(c, float(n_incident)))
 
 
 # ----------------------------------------------------------------------------------------

@@ -181,6 +181,11 @@ def reflect(wi, m) -> torch.Tensor:
     dtype, device = _checks.resolve_dtype_device(wi, m)
     i = _as_vectors(wi, "wi", 3, dtype, device)
     n = _as_vectors(m, "m", 3, dtype, device)
+    return reflect_kernel(i, n)
+
+
+def reflect_kernel(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
+    """:func:`reflect` on checked ``(*, 3)`` tensors of one dtype and device."""
     return 2.0 * (i * n).sum(-1, keepdim=True) * n - i
 
 

@@ -258,7 +258,7 @@ def _he_dd(lam, n_med, n_sub, ci, co, cphi, sigma, tau, shadowing: bool):
     D = (math.pi**2 / 4) * (tau * n_med / lam) ** 2 * _series_D(g, b)
     # Fresnel at the local (bisector) angle: cos θ_b = sqrt((1 + in·out)/2)
     cos_b = torch.sqrt(torch.clamp(0.5 * vv / 2, min=0, max=1))  # |in+out|² = 2(1 + in·out)
-    F = fresnel_reflectance(cos_b, n_med, n_sub)
+    F = fresnel_reflectance.__wrapped__(cos_b, n_med, n_sub)  # (the body: its arguments are checked)
     den = math.pi * ci * co
     grazing = den == 0  # (not `den > 0`: a NaN direction must give NaN, not 0)
     rho = F * G * S * D / torch.where(grazing, torch.ones_like(den), den)
