@@ -20,12 +20,14 @@ def _run(page: Path) -> None:
         exec(compile(code, f"{page.name}[block {i}]", "exec"), namespace)  # noqa: S102 (the docs' own code)
 
 
-def test_getting_started_code_runs(capsys):
+def test_getting_started_code_runs(capsys, tmp_path, monkeypatch):
     page = DOCS / "getting_started.md"
     assert len(re.findall(r"```python\n", page.read_text(encoding="utf-8"))) >= 4
+    monkeypatch.chdir(tmp_path)  # the page writes cube.npz where the reader is
     _run(page)
     out = capsys.readouterr().out
     assert "torch.Size([90, 401])" in out and "torch.Size([90, 3])" in out
+    assert (tmp_path / "cube.npz").is_file()  # the cube writer's file, for the page's torchirid fit-film
 
 
 # what each guide page's code prints where it states a result (the rest must run without error)
