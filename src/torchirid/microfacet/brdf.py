@@ -20,7 +20,7 @@ import torch
 from torch import nn
 
 from .. import _checks
-from .ggx import _as_vectors, ggx_d_kernel
+from .ggx import ALPHA, ggx_d_kernel
 
 __all__ = ["microfacet_brdf", "MicrofacetBRDF"]
 
@@ -32,6 +32,17 @@ def _g1_over_cos(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     return 2.0 / (c + torch.sqrt(c2 + a * a * (1.0 - c2)))
 
 
+def _check_reflectance(r, name):
+    if not callable(r):
+        _checks.check_nonnegative(r, name, unit="(a reflectance)")
+
+
+#: a reflectance: a number or tensor ≥ 0, or a function R(cos θd) left as it is
+REFLECTANCE = _checks.Arg(lambda v, name, dtype, device: v if callable(v) else _checks.as_real(v, name, dtype, device),
+                          _check_reflectance, tensor=True)
+
+
+@_checks.arguments(wi=_checks.VECTORS, wo=_checks.VECTORS, alpha=ALPHA, reflectance=REFLECTANCE)
 def microfacet_brdf(wi, wo, alpha, reflectance=1.0) -> torch.Tensor:
     r"""GGX microfacet BRDF of eq. 17 (Fourneau et al. 2024), in sr⁻¹.
 
@@ -71,14 +82,9 @@ def microfacet_brdf(wi, wo, alpha, reflectance=1.0) -> torch.Tensor:
     0.012732
     """
     const = not callable(reflectance)
-    dtype, device = _checks.resolve_dtype_device(wi, wo, alpha, reflectance if const else None)
-    i = _as_vectors(wi, "wi", 3, dtype, device)
-    o = _as_vectors(wo, "wo", 3, dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    if const:
-        r_const = _checks.as_real(reflectance, "reflectance", dtype, device)
-        _checks.check_nonnegative(r_const, "reflectance", unit="(a reflectance)")
+    i, o, a = wi, wo, alpha
+    dtype, device = i.dtype, i.device
+    r_const = reflectance
 
     ci, co = i[..., 2], o[..., 2]
     below = (ci <= 0) | (co <= 0)  # (NaN is not below: it propagates)

@@ -149,13 +149,6 @@ def smith_g1_kernel(c: torch.Tensor, a: torch.Tensor) -> torch.Tensor:
     return 2.0 * c / (c + root)
 
 
-def _as_vectors(x, name: str, size: int, dtype, device) -> torch.Tensor:
-    t = _checks.as_real(x, name, dtype, device)
-    if t.ndim == 0 or t.shape[-1] != size:
-        raise ValueError(f"{name} must have shape (*, {size}) (last axis = vector components); got {tuple(t.shape)}")
-    return t
-
-
 def _check_above(wz: torch.Tensor, name: str) -> None:
     with torch.no_grad():
         if bool((wz <= 0).any()):
@@ -165,6 +158,28 @@ def _check_above(wz: torch.Tensor, name: str) -> None:
             )
 
 
+def _check_direction_above(t: torch.Tensor, name: str) -> None:
+    _checks.check_vectors(t, name)
+    if _checks.value_checks_enabled():
+        _check_above(t[..., 2], name)
+
+
+def _check_samples(t: torch.Tensor, name: str) -> None:
+    if t.ndim == 0 or t.shape[-1] != 2:
+        raise ValueError(f"{name} must have shape (*, 2) (two uniform numbers per sample); got {tuple(t.shape)}")
+    if _checks.value_checks_enabled():
+        with torch.no_grad():
+            if bool(((t < 0) | (t > 1)).any()):
+                raise ValueError(f"{name} must lie in [0, 1] (uniform random numbers)")
+
+
+#: the arguments of this module: GGX roughness, directions (above the surface), uniform samples
+ALPHA = _checks.positive("(GGX roughness)")
+ABOVE = _checks.Arg(_checks.as_real, _check_direction_above, tensor=True)
+SAMPLES = _checks.Arg(_checks.as_real, _check_samples, tensor=True)
+
+
+@_checks.arguments(wi=_checks.VECTORS, m=_checks.VECTORS)
 def reflect(wi, m) -> torch.Tensor:
     r"""Mirror reflection of ``wi`` about the normal ``m``: :math:`\mathbf o = 2(\mathbf i\cdot\mathbf m)\mathbf m - \mathbf i`.
 
@@ -178,10 +193,7 @@ def reflect(wi, m) -> torch.Tensor:
     >>> reflect(torch.tensor([0.6, 0.0, 0.8]), torch.tensor([0.0, 0.0, 1.0])).tolist()
     [-0.6000000238418579, 0.0, 0.800000011920929]
     """
-    dtype, device = _checks.resolve_dtype_device(wi, m)
-    i = _as_vectors(wi, "wi", 3, dtype, device)
-    n = _as_vectors(m, "m", 3, dtype, device)
-    return reflect_kernel(i, n)
+    return reflect_kernel(wi, m)
 
 
 def reflect_kernel(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
@@ -189,6 +201,7 @@ def reflect_kernel(i: torch.Tensor, n: torch.Tensor) -> torch.Tensor:
     return 2.0 * (i * n).sum(-1, keepdim=True) * n - i
 
 
+@_checks.arguments(wi=ABOVE, alpha=ALPHA, u=SAMPLES)
 def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
     r"""Sample a microfacet normal from the GGX distribution of visible normals (isotropic α).
 
@@ -214,15 +227,7 @@ def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
     >>> m.tolist()  # u1 = 0 samples the centre of the disk: m = n
     [0.0, 0.0, 1.0]
     """
-    dtype, device = _checks.resolve_dtype_device(wi, alpha, u)
-    v = _as_vectors(wi, "wi", 3, dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    uu = _as_vectors(u, "u", 2, dtype, device)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    _check_above(v[..., 2], "wi")
-    with torch.no_grad():
-        if bool(((uu < 0) | (uu > 1)).any()):
-            raise ValueError("u must lie in [0, 1] (uniform random numbers)")
+    v, a, uu = wi, alpha, u
     a = a.unsqueeze(-1) if a.ndim > 0 else a
     # stretch to the α = 1 configuration
     vh = torch.cat([a * v[..., :2], v[..., 2:].expand(*_checks.broadcast_shapes(a.shape, v[..., 2:].shape))], -1)
@@ -257,6 +262,7 @@ def sample_ggx_vndf(wi, alpha, u) -> torch.Tensor:
     return ne / torch.linalg.vector_norm(ne, dim=-1, keepdim=True)  # |ne| > 0: nh is unit, α > 0
 
 
+@_checks.arguments(wi=ABOVE, m=_checks.VECTORS, alpha=ALPHA)
 def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
     r"""Density (sr⁻¹) of :func:`sample_ggx_vndf`: the GGX distribution of visible normals
 
@@ -282,18 +288,14 @@ def ggx_vndf_pdf(wi, m, alpha) -> torch.Tensor:
     >>> round(float(ggx_vndf_pdf(n, n, 0.5)), 6)  # = D(n) = 1/(π α²) at normal incidence
     1.273239
     """
-    dtype, device = _checks.resolve_dtype_device(wi, m, alpha)
-    i = _as_vectors(wi, "wi", 3, dtype, device)
-    mm = _as_vectors(m, "m", 3, dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    _check_above(i[..., 2], "wi")
+    i, mm, a = wi, m, alpha
     ci = i[..., 2]
     dot = (i * mm).sum(-1)
     g1_over_c = smith_g1_kernel(ci, a) / ci  # ci > 0 (validated)
     return g1_over_c * dot.clamp(min=0.0) * ggx_d_kernel(mm[..., 2], a)
 
 
+@_checks.arguments(wi=_checks.VECTORS, wo=_checks.VECTORS, m=_checks.VECTORS, alpha=ALPHA)
 def smith_g(wi, wo, m, alpha) -> torch.Tensor:
     r"""Separable Smith shadowing–masking :math:`G(\mathbf i,\mathbf o,\mathbf m) = G_1(\mathbf i,\mathbf m)\,G_1(\mathbf o,\mathbf m)`
     (Fourneau et al. 2024 eq. 19, with its χ⁺ factors), on vectors.
@@ -319,12 +321,7 @@ def smith_g(wi, wo, m, alpha) -> torch.Tensor:
     >>> round(float(smith_g(v, n, n, 0.5)), 6)  # = G1(cos 60°) · G1(1)
     0.861002
     """
-    dtype, device = _checks.resolve_dtype_device(wi, wo, m, alpha)
-    i = _as_vectors(wi, "wi", 3, dtype, device)
-    o = _as_vectors(wo, "wo", 3, dtype, device)
-    mm = _as_vectors(m, "m", 3, dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+    i, o, mm, a = wi, wo, m, alpha
     ci, co = i[..., 2], o[..., 2]
     # χ⁺((v·m)/(v·n)) tested as (v·m)(v·n) > 0, without dividing by v·n; NaN propagates
     im, om = (i * mm).sum(-1), (o * mm).sum(-1)
