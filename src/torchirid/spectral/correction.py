@@ -167,6 +167,13 @@ def _normal_reflectance(n1: torch.Tensor, n2: torch.Tensor) -> torch.Tensor:
     return r.abs().square() if r.is_complex() else r * r
 
 
+def _coefficients(value, name, dtype, device):
+    a, b = _resolve_coefficients(value)
+    return _checks.as_real(a, f"{name} (a)", dtype, device), _checks.as_real(b, f"{name} (b)", dtype, device)
+
+
+@_checks.arguments(cos_theta=_checks.COSINE, n1=_checks.INCIDENT_INDEX, n2=_checks.INDEX,
+                   coefficients=_checks.Arg(_coefficients))
 def angular_correction(cos_theta, n1, n2, *, coefficients=None) -> torch.Tensor:
     r"""Schlick approximation w̃(θ₁) of the angular correction term (Fourneau et al. 2024, app. B).
 
@@ -199,16 +206,7 @@ def angular_correction(cos_theta, n1, n2, *, coefficients=None) -> torch.Tensor:
         >>> [round(v, 6) for v in angular_correction(c, 1.0, 1.5, coefficients="paper").tolist()]
         [0.5614, 0.575106, 1.0]
     """
-    a, b = _resolve_coefficients(coefficients)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, n1, n2, a, b)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    n1 = _checks.as_index(n1, "n1", dtype, device)
-    n2 = _checks.as_index(n2, "n2", dtype, device)
-    a = _checks.as_real(a, "coefficients (a)", dtype, device)
-    b = _checks.as_real(b, "coefficients (b)", dtype, device)
-    _checks.check_cosine(c)
-    _checks.check_real_index(n1, "n1")
-    _checks.check_index(n2, "n2")
+    c, (a, b) = cos_theta, coefficients
     if n1.is_complex():
         n1 = n1.real
     w0 = a * _normal_reflectance(n1, n2) + b
