@@ -43,9 +43,9 @@ def test_help_has_no_artefacts(name, capsys):
         shown = _shown(parser, action)
         assert shown.strip(), f"{name} {label}: no help text"
         assert shown in text, (name, label)
-        assert len(re.findall(r"\bdefault\b", shown, re.I)) <= 1, f"{name} {label}: default shown twice: {shown}"
+        assert len(re.findall(r"\bdefault\b", shown, re.IGNORECASE)) <= 1, f"{name} {label}: default shown twice: {shown}"
         if action.nargs == 0:  # a flag: its help says what it does, not "(default: False)"
-            assert not re.search(r"default: *(true|false)", shown, re.I), f"{name} {label}: {shown}"
+            assert not re.search(r"default: *(true|false)", shown, re.IGNORECASE), f"{name} {label}: {shown}"
     assert not re.search(r"\(default: *(True|False)\)", text)
     assert not re.search(r"\(default:? ([^)]*)\) \(default:? \1\)", text)
 

@@ -26,20 +26,20 @@ WRITE_ERROR = 1
 POLARIZATIONS = ("s", "p", "unpolarized")
 
 __all__ = [
-    "ArgumentParser",
-    "HelpFormatter",
     "POLARIZATIONS",
     "PROG",
     "USAGE_ERROR",
     "WRITE_ERROR",
+    "ArgumentParser",
+    "HelpFormatter",
     "add_command_parser",
     "add_preview_option",
     "add_size_option",
-    "check_size",
     "cannot_write",
     "check_name",
     "check_out",
     "check_range",
+    "check_size",
     "count",
     "fail",
     "index",
