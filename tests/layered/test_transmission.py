@@ -79,9 +79,8 @@ def test_tau_matches_brute_force_hemisphere_integral(theta_deg):
 class _Clear(RoughBraggLayer):
     """A layer whose mirrors transmit everything (T = 1)."""
 
-    def reflectance(self, wavelength, cos_theta):
-        return torch.zeros(torch.broadcast_shapes(torch.as_tensor(wavelength).shape, cos_theta.shape),
-                           dtype=cos_theta.dtype)
+    def _reflectance_kernel(self, lam, cos_theta):  # (what the layered models evaluate)
+        return torch.zeros(torch.broadcast_shapes(lam.shape, cos_theta.shape), dtype=cos_theta.dtype)
 
 
 def test_tau_is_g1_when_transparent_and_below_g1_otherwise():

@@ -174,7 +174,7 @@ class _Layer:
 
     def reflectance(self, cos_d: torch.Tensor) -> torch.Tensor:
         """R_λ at host cosines ``cos_d`` (*) → (*, W)."""
-        return self.layer.reflectance(self.lam, cos_d.clamp(0.0, 1.0).unsqueeze(-1))
+        return self.layer._reflectance_kernel(self.lam, cos_d.clamp(0.0, 1.0).unsqueeze(-1))
 
     def transmittance(self, cos_d: torch.Tensor) -> torch.Tensor:
         """T_λ = 1 − R_λ of the Bragg mirror (the host is lossless) at ``cos_d`` (*) → (*, W)."""

@@ -17,7 +17,7 @@ import torch
 
 
 from .. import _checks
-from ..optics.bragg import bragg_reflectance
+from ..optics.bragg import bragg_reflectance, bragg_reflectance_kernel
 
 __all__ = ["RoughBraggLayer", "LayeredBragg"]
 
@@ -118,6 +118,21 @@ class RoughBraggLayer:
             wavelength, cos_theta, self.n1, self.n2, self.d1, self.d2, self.cells, n_incident=nh,
             polarization="unpolarized",
         )
+
+    def _reflectance_kernel(self, lam: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        """:meth:`reflectance` on checked tensors of one dtype and device (the layered models'
+        tables and transport call it per evaluation): the layer's parameters, checked at
+        construction, go to Yeh's kernel without a second check."""
+        dtype, device = lam.dtype, lam.device
+        n1 = _checks.as_index(self.n1, "n1", dtype, device)
+        n2 = _checks.as_index(self.n2, "n2", dtype, device)
+        d1 = _checks.as_real(self.d1, "d1", dtype, device)
+        d2 = _checks.as_real(self.d2, "d2", dtype, device)
+        same = self.n_incident is self.n1 or self.n_incident == self.n1
+        nh = None if same else _checks.as_index(self.n_incident, "n_incident", dtype, device)
+        N = torch.scalar_tensor(int(self.cells), dtype=torch.int64, device=device)
+        return bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, polarization="unpolarized",
+                                        n_max=int(self.cells))
 
 
 @dataclass(frozen=True)

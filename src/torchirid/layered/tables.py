@@ -105,7 +105,7 @@ def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECT
     lam = _geometry.wavelengths(wavelength, dtype, device)
     theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device)
     cos = torch.cos(theta).clamp(0.0, 1.0)
-    R = layer.reflectance(lam, cos.unsqueeze(-1))  # (angles, W)
+    R = layer._reflectance_kernel(lam, cos.unsqueeze(-1))  # (angles, W)
     return LUT(
         R,
         {"theta": theta},
@@ -141,7 +141,7 @@ class _LayerTables:
     def reflectance(self, cos_theta: torch.Tensor) -> torch.Tensor:
         if self.R is not None:
             return self.R.interp(torch.acos(cos_theta.clamp(-1.0, 1.0)))
-        return self.layer.reflectance(self.lam, cos_theta.unsqueeze(-1))
+        return self.layer._reflectance_kernel(self.lam, cos_theta.unsqueeze(-1))
 
 
 #: how a mirror's reflectance is evaluated (``reflectance=``): Yeh's closed form, or its angle table

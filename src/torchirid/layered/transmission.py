@@ -66,7 +66,7 @@ def _check_nodes(nodes) -> int:
 
 def _tau_rule(layer, theta_d, weight, lam):
     cos_d = torch.cos(theta_d).clamp(0.0, 1.0)
-    t = 1.0 - layer.reflectance(lam.unsqueeze(-1), cos_d)  # (S, K)
+    t = 1.0 - layer._reflectance_kernel(lam.unsqueeze(-1), cos_d)  # (S, K)
     return (weight * t).sum(-1)
 
 
@@ -234,7 +234,7 @@ def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
     lam = _geometry.wavelengths(wavelength, dtype, device)  # (W,), finite (the table's metadata stores it)
     plain = layer.numbers()  # tensor parameters (fitting) → numbers for the weights' cache and the metadata
     cos, grid, weights = _lut_weights(plain["alpha"], angles, theta_d_cells, dtype, str(device))
-    t = 1.0 - layer.reflectance(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
+    t = 1.0 - layer._reflectance_kernel(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
     values = weights @ t  # (angles, W)
     return LUT(
         values,

@@ -228,7 +228,7 @@ def _validated_r12(cos_theta, n1, n2, polarization):
     _checks.check_cosine(c)
     _checks.check_real_index(n1, "n1")
     _checks.check_index(n2, "n2")
-    r12 = fresnel_reflectance(c, n1, n2, polarization=polarization)
+    r12 = fresnel_reflectance.__wrapped__(c, n1, n2, polarization=polarization)  # (checked above)
     # R₁₂ = 1 exactly at grazing incidence and under total internal reflection (real n₂), where
     # the Fresnel value may round an ulp below 1 (and 1 − w ∝ √(1 − R₁₂) would magnify that to 1e-8)
     n1r = n1.real if n1.is_complex() else n1
