@@ -810,6 +810,20 @@ def check_vectors(t: torch.Tensor, name: str) -> None:
         raise ValueError(f"{name} must have shape (*, 3) (last axis = x, y, z); got {tuple(t.shape)}")
 
 
+def check_flag(value, name: str) -> None:
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be a bool (True or False); got {value!r}")
+
+
+def check_progress(value, name: str = "progress") -> None:
+    if value is not None and not callable(value):
+        raise ValueError(f"{name} must be None or a callable {name}(done, total); got {value!r}")
+
+
+#: True or False (not 0/1, not a string)
+FLAG = Arg(None, check_flag)
+#: None or a callable ``progress(done, total)`` (docs/conventions.md, "Progress")
+PROGRESS = Arg(None, check_progress)
 #: direction-like vectors ``(*, 3)`` (x, y, z on the last axis)
 VECTORS = Arg(as_real, check_vectors, tensor=True)
 #: a floating torch dtype (of a table built from nothing)
