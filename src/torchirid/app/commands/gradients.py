@@ -104,7 +104,8 @@ def run(args) -> int:
     figures = _args.figure_paths(out, args.name, args.format)
     try:
         atlas = gradients.gradient_atlas(args.lambdas, args.ratios, n1=args.n1, n2=args.n2, cells=args.cells,
-                                         polarization=args.polarization, angles=args.angles, progress=bar)
+                                         polarization=args.polarization, angles=args.angles,
+                                         progress=lambda done, total: bar.update(1))
         try:
             out.mkdir(parents=True, exist_ok=True)
             bar.set_postfix_str("figure", refresh=False)

@@ -120,7 +120,8 @@ def run(args) -> int:
                              quiet=args.quiet)
     try:
         panels = spheres.render_panels(stacks, sigmas, args.tau, size=args.size, wavelength_step=args.wavelength_step,
-                                       lamp=args.lamp, ambient=args.ambient, progress=bar.update)
+                                       lamp=args.lamp, ambient=args.ambient,
+                                       progress=lambda done, total: bar.update(1))
     finally:
         bar.close()
     figures = _args.figure_paths(out, name, args.format)

@@ -189,9 +189,8 @@ def gradient_atlas(
         cells: number N >= 1 of cells of the mirrors.
         polarization: "s", "p" or "unpolarized" (mean of the s and p reflectances).
         angles: number A >= 2 of strip angles θ, evenly spaced from 0° to 90° inclusive.
-        progress: optional tqdm-style bar; before each step of
-            :data:`GRADIENT_ATLAS_STEPS` it gets ``set_postfix_str(label, refresh=False)``,
-            after it ``update()``.
+        progress: ``None`` or ``progress(done, total)``, called after each of the
+            :data:`GRADIENT_ATLAS_STEPS` (``total`` = their number; docs/conventions.md).
 
     Returns:
         A :class:`GradientAtlas`.
@@ -217,13 +216,12 @@ def gradient_atlas(
     def cosines(deg):  # cos 90° is 6e-17, not 0; clip guards against rounding outside [0, 1]
         return torch.as_tensor(np.clip(np.cos(np.radians(deg)), 0.0, 1.0), dtype=dtype)
 
-    def step(label):
-        if progress is not None:
-            progress.set_postfix_str(label, refresh=False)
+    finished = [0]
 
     def done():
+        finished[0] += 1
         if progress is not None:
-            progress.update()
+            progress(finished[0], len(GRADIENT_ATLAS_STEPS))
 
     # the grid as broadcasting tensors: Λ (L, 1, 1) × d1/Λ (1, R, 1) × angle (1, 1, A)
     period = torch.as_tensor(lambdas, dtype=dtype)[:, None, None]
@@ -238,20 +236,17 @@ def gradient_atlas(
         # the strips exist to show the fast methods' errors next to the reference (also where the
         # fringes are too few for them): their out-of-domain RuntimeWarning would only repeat it
         warnings.filterwarnings("ignore", message=r"bragg_xyz\(method=.*fewer than", category=RuntimeWarning)
-        for key, label, kwargs in GRADIENT_METHODS:
-            step(label)
+        for key, _, kwargs in GRADIENT_METHODS:
             xyz[key] = bragg_xyz(cos_t, n1, n2, d1, d2, cells, **kwargs, **common).numpy()
             done()
 
         # thin film: a slab of index n2, thickness Λ, in n1 (air by default) — (L, A, 3)
-        step("thin film")
         wl = torch.linspace(380.0, 780.0, THIN_FILM_SAMPLES, dtype=dtype)
         R_film = thin_film_reflectance(wl, cos_t[:, None], n2, period, n1, n_incident=n1, **common)
         xyz["thin_film"] = spectrum_to_xyz(R_film, wl).numpy()
         done()
 
         # reflectance curves at the CMF peaks: (L, R, C, 3) and (L, C, 3)
-        step("curves")
         wl_c = torch.as_tensor(CURVE_WAVELENGTHS_NM, dtype=dtype)
         cos_c = cosines(curve_theta_deg)[:, None]
         R_bragg = bragg_reflectance(wl_c, cos_c, n1, n2, d1[..., None], d2[..., None], cells, **common).numpy()

@@ -390,7 +390,8 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, *,
                   **kwargs) -> SpherePanels:
     """Render every (stack, σ₀) as a coated and an uncoated sphere (:func:`render_sphere` kwargs).
 
-    ``progress``: optional callable, called once per rendered sphere (2 · stacks · σ₀ calls).
+    ``progress``: ``None`` or ``progress(done, total)``, called after each rendered sphere
+    (``total`` = 2 · stacks · σ₀; docs/conventions.md).
 
     Example:
         >>> p = render_panels({"Al": ("Al", [(1.4, 300.0)])}, sigmas=(0.0,), size=8, wavelength_step=50.0)
@@ -399,6 +400,7 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, *,
     """
 
     rows = list(stacks)
+    total, done = 2 * len(rows) * len(sigmas), 0
     images, chroma, light = [], [], []
     for name in rows:
         substrate, films = stacks[name]
@@ -407,8 +409,9 @@ def render_panels(stacks: dict, sigmas=(0.0, 25.0, 50.0), tau: float = 300.0, *,
             pair = []
             for c in (True, False):
                 pair.append(render_sphere(substrate, films, float(s), tau, coated=c, **kwargs))
+                done += 1
                 if progress is not None:
-                    progress()
+                    progress(done, total)
             row_i.append(np.stack([p.srgb for p in pair]))
             row_c.append(np.array([[p.chroma_mean, p.chroma_p95] for p in pair]))
             row_l.append(np.array([p.lightness_mean for p in pair]))
