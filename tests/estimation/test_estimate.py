@@ -1,10 +1,12 @@
-"""Tests of torchirid.estimation.noise's noise estimate, ``noise_level``, against closed forms.
+"""Tests of torchirid.estimation.noise's noise estimate, ``noise_level``, against closed forms, and of
+the flags ``estimate_film`` reports.
 
 The 4th difference Δ⁴y = y₋₂ − 4y₋₁ + 6y₀ − 4y₁ + y₂ annihilates every cubic exactly, multiplies
 white noise of standard deviation σ by √(1 + 16 + 36 + 16 + 1) = √70, and the median absolute
 value of a zero-mean Gaussian is σ Φ⁻¹(3/4). (``estimate_film`` itself — the bars on the paper's
 samples, the index-model choice, progress, dead pixels — is tested in tests/estimation/test_refine.py
-and test_invalid_pixels.py.)
+and test_invalid_pixels.py; its defaults against the command line's and the batch tool's in
+tests/app/test_defaults.py.)
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import statistics
 import pytest
 import torch
 
+import torchirid.estimation as E
 from torchirid.estimation import noise_level
 
 F64 = torch.float64
@@ -59,3 +62,17 @@ def test_outliers_and_missing_samples_barely_move_it():
 def test_fewer_than_five_bands_raise():
     with pytest.raises(ValueError, match="5 bands"):
         noise_level(torch.zeros(3, 4))
+
+
+def test_the_index_search_reports_its_fallback(monkeypatch):
+    """estimate_film's own ``settings["flags"]`` names the fallback when the grid overrules the peaks."""
+    import torchirid.estimation.index_search as search
+    from torchirid.estimation.estimate import RESTART_FLAG
+
+    c = E.synthetic_cube("mgf2_400", height=2, width=2, seed=1)
+    quick = dict(index_model_name="constant", thickness_range=(300.0, 500.0), iterations=2, final_iterations=0)
+    clean = E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, **quick)
+    assert clean.settings["index_start"] == "peaks" and clean.settings["flags"] == []
+    monkeypatch.setattr(search, "RESTART_RATIO", 1e9)  # the grid always "clearly better": a forced restart
+    est = E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, **quick)
+    assert est.settings["index_start"] == "grid" and est.settings["flags"] == [RESTART_FLAG]

@@ -114,8 +114,8 @@ def test_refine_film_progress_counts_iterations_and_the_order_check():
 def test_estimate_film_progress_counts_stages():
     c = synthetic_cube("mgf2_400", height=2, width=2, seed=1)
     seen = []
-    estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, thickness_range=(300.0, 500.0), iterations=2,
-                  final_iterations=1, progress=lambda d, t: seen.append((d, t)))
+    estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, index_model_name="constant", thickness_range=(300.0, 500.0),
+                  iterations=2, final_iterations=1, progress=lambda d, t: seen.append((d, t)))
     _check_progress(seen)
     # peaks, index scan, 3 order hypotheses, order check, thickness, 1 final joint iteration
     assert seen == [(d, 8) for d in range(1, 9)]

@@ -141,10 +141,110 @@ def test_cli_fit_batch(tmp_path, cubes, capsys):
     assert main(["fit-batch", "film", *map(str, cubes), "--set", "n_substrate=1.64", "--out", str(out),
                  "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "2 of 4 items fitted, 2 failed" in text and str(out) in text
+    assert "2 of 4 items fitted (0 flagged), 2 failed" in text and str(out) in text
     with open(out, newline="") as f:
         rows = list(csv.DictReader(f))
     assert [r["status"] for r in rows] == ["ok", "error", "ok", "error"]
     with pytest.raises(SystemExit) as e:
         main(["fit-batch", "film", str(cubes[0]), "--out", str(tmp_path / "x.txt")])
     assert e.value.code == 2 and ".json, .csv or .parquet" in capsys.readouterr().err
+
+
+def test_cli_fit_batch_fails_when_no_file_was_fitted(tmp_path, cubes, capsys):
+    """Issue 35.2: every file failed → exit status 1 (a failure after the checks), the table still written."""
+    from torchirid.app.cli import main
+
+    out = tmp_path / "fits.csv"
+    assert main(["fit-batch", "film", str(cubes[1]), str(cubes[3]), "--out", str(out), "--quiet"]) == 1
+    io = capsys.readouterr()
+    assert "0 of 2 items fitted" in io.out
+    assert "torchirid fit-batch: error: no file was fitted (2 of 2 failed" in io.err and str(out) in io.err
+    with open(out, newline="") as f:
+        assert [r["status"] for r in csv.DictReader(f)] == ["error", "error"]
+
+
+@pytest.fixture(scope="module")
+def zns_cube(tmp_path_factory):
+    """Kobayashi's dispersive ZnS film (Sample 3), 6 × 6 pixels: a constant index misfits it."""
+    c = E.synthetic_cube("zns_500", height=6, width=6, seed=0)
+    path = tmp_path_factory.mktemp("zns") / "zns_500.npz"
+    E.write_npz(path, c.cube, c.wavelength, c.angles_deg)
+    return path, c
+
+
+def test_a_flagged_fit_is_not_ok(zns_cube, tmp_path, capsys):
+    """Issue 35.2: a fit the estimate itself doubts (here a constant index on a dispersive film: the
+    residual far above the noise) is "flagged" with its reason, in the records, the table and the
+    command's summary — and the command exits 0 (it was fitted)."""
+    path, truth = zns_cube
+    with pytest.warns(RuntimeWarning, match="noise level"):
+        rec = fit_item("film", path, fit={"index_model_name": "constant"})
+    assert rec["status"] == "flagged" and rec["error"] is None
+    assert "noise level" in rec["flags"] and "index_model_name='auto'" in rec["flags"]
+    assert rec["index_model"] == "constant" and rec["n"] is not None  # the figures are still there
+    good = fit_item("film", path)  # the default (auto): a Cauchy index, no flag
+    assert good["status"] == "ok" and good["flags"] is None and good["index_model"].startswith("cauchy")
+    assert abs(good["thickness_mean_nm"] - float(truth.thickness.mean())) < 5.0
+    from torchirid.app.cli import main
+
+    out = tmp_path / "fits.json"
+    with pytest.warns(RuntimeWarning):
+        assert main(["fit-batch", "film", str(path), "--set", "index_model_name=constant", "--out", str(out),
+                     "--quiet"]) == 0
+    text = capsys.readouterr().out
+    assert "1 of 1 items fitted (1 flagged), 0 failed" in text and "flagged: estimate_film: the median RMS" in text
+    (row,) = json.loads(out.read_text())
+    assert row["status"] == "flagged" and "noise level" in row["flags"]
+
+
+def test_an_index_search_fallback_and_an_ambiguous_match_are_flagged(cubes, tmp_path, monkeypatch):
+    """The other flags: a film fit whose index search fell back from the peaks to a grid (its
+    ``settings["flags"]``), and an ambiguous scatterogram match."""
+    from types import SimpleNamespace
+
+    import torchirid.fitting as F
+    from torchirid.estimation.estimate import RESTART_FLAG
+
+    real = E.estimate_film
+
+    def fell_back(*args, **kwargs):
+        est = real(*args, **kwargs)
+        est.settings["flags"] = [RESTART_FLAG]  # (what estimate_film reports when the grid overrules the peaks)
+        return est
+
+    monkeypatch.setattr(E, "estimate_film", fell_back)
+    rec = fit_item("film", cubes[0], fit={"iterations": 1, "final_iterations": 0})
+    assert rec["status"] == "flagged" and "fell back" in rec["flags"]
+    alt = SimpleNamespace(label="2Λ", near_degenerate=True)
+    fit = SimpleNamespace(period=160.0, delta=0.5, n1=1.59, n2=1.67, cells=8, alpha=0.05, exposure=1.0, loss=0.1,
+                          delta_e2000=0.5, iterations=3, alternatives=(alt,), ambiguous=True)
+    monkeypatch.setattr(F, "match_scatterogram", lambda *a, **k: fit)
+    png = F.write_scatterogram(tmp_path / "s.png", torch.full((8, 8, 3), 0.3, dtype=F64))
+    rec = fit_item("scatterogram", png)
+    assert rec["status"] == "flagged" and rec["flags"].startswith("ambiguous") and "2Λ" in rec["flags"]
+    assert rec["period_nm"] == 160.0
+
+
+@pytest.mark.slow
+def test_the_zns_batch_fits_by_default(tmp_path, capsys):
+    """Issue 35.2's case: ``fit-batch film mgf2_400.npz mgf2_600.npz zns_500.npz --set n_substrate=1.64``
+    on Kobayashi's three samples (16 × 16 pixels, seed 2: ZnS 502.6 nm thick on average). With the old
+    default (a constant index) ZnS came out ~616 nm; by default (auto) it is within 5 nm, and every
+    row is "ok"."""
+    from torchirid.app.cli import main
+
+    paths, truth = [], {}
+    for name in ("mgf2_400", "mgf2_600", "zns_500"):
+        c = E.synthetic_cube(name, height=16, width=16, seed=2)
+        paths.append(tmp_path / f"{name}.npz")
+        E.write_npz(paths[-1], c.cube, c.wavelength, c.angles_deg)
+        truth[name] = float(c.thickness.mean())
+    assert round(truth["zns_500"], 1) == 502.6
+    out = tmp_path / "fits.json"
+    assert main(["fit-batch", "film", *map(str, paths), "--set", "n_substrate=1.64", "--out", str(out), "--quiet"]) == 0
+    assert "3 of 3 items fitted (0 flagged), 0 failed" in capsys.readouterr().out
+    rows = {r["item"].rsplit("/", 1)[-1][:-4]: r for r in json.loads(out.read_text())}
+    assert [r["status"] for r in rows.values()] == ["ok", "ok", "ok"]
+    assert rows["zns_500"]["index_model"].startswith("cauchy")
+    for name, d in truth.items():
+        assert abs(rows[name]["thickness_mean_nm"] - d) < 5.0, (name, rows[name]["thickness_mean_nm"], d)

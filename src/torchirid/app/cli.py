@@ -9,8 +9,9 @@ Errors: a bad argument — an argparse error, a ``ValueError`` from the command 
 library about an argument, or an ``--out`` that cannot be written (checked before the command
 runs) — prints exactly one line on stderr, ``torchirid <subcommand>: error: <message>`` (no
 usage, no traceback), and ends with exit status 2: :func:`main` raises ``SystemExit(2)`` as
-argparse itself does. A write that fails after the checks (a full disk) or an unreachable
-scheduler prints the same kind of line and returns 1.
+argparse itself does. A write that fails after the checks (a full disk), an unreachable
+scheduler or a ``fit-batch`` in which no file was fitted prints the same kind of line and
+returns 1.
 """
 
 from __future__ import annotations
@@ -71,8 +72,9 @@ _APP_EXTRA = ("matplotlib", "tqdm")
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``torchirid`` command; returns the exit status (0, or 1 for a write that
-    failed after the checks) and raises ``SystemExit(2)`` for a bad argument (an ``--out`` that
-    cannot be written included), after its one-line message."""
+    failed after the checks, an unreachable scheduler, a batch with no file fitted) and raises
+    ``SystemExit(2)`` for a bad argument (an ``--out`` that cannot be written included), after its
+    one-line message."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
     if extra:  # reported by the subcommand's parser, so that the line names the subcommand

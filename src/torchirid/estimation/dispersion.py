@@ -55,14 +55,16 @@ def index_model_size(model: str) -> int:
     return INDEX_MODELS[model]
 
 
-def index_model(wavelength, params, model: str = "constant") -> torch.Tensor:
+def index_model(wavelength, params, model: str) -> torch.Tensor:
     r"""Real refractive index n(λ) of a Cauchy-type model (see the module docstring).
 
     Args:
         wavelength: vacuum wavelength in nm (> 0), shape ``(*)``.
         params: ``(*, K)`` parameters, K = ``index_model_size()`` of ``model``
             (A, then B and C in µm² and µm⁴).
-        model: ``"constant"``, ``"cauchy"`` or ``"cauchy3"``.
+        model: ``"constant"``, ``"cauchy"`` or ``"cauchy3"`` — no default: it fixes K, the
+            length of ``params`` (as in :func:`fit_index_model`; ``"auto"``, a choice among the
+            models by the data, is the film fit's: :func:`~torchirid.estimation.estimate_film`).
 
     Returns:
         n with the broadcast shape of ``wavelength`` and ``params[..., 0]``; differentiable
@@ -132,10 +134,12 @@ def zns_index(wavelength) -> torch.Tensor:
     return sellmeier_index(wavelength, _ZNS_A, _ZNS_B, _ZNS_C)
 
 
-def fit_index_model(wavelength, n, model: str = "cauchy3") -> torch.Tensor:
+def fit_index_model(wavelength, n, model: str) -> torch.Tensor:
     """Least-squares parameters of ``model`` for tabulated ``n`` at ``wavelength`` (nm).
 
-    The Cauchy models are linear in their parameters, so this is one ``lstsq``.
+    ``model``: ``"constant"``, ``"cauchy"`` or ``"cauchy3"``, no default (as in
+    :func:`index_model`, which evaluates the parameters returned). The Cauchy models are linear in
+    their parameters, so this is one ``lstsq``.
 
     Example:
         >>> import torch

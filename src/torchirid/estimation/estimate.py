@@ -60,15 +60,19 @@ from dataclasses import dataclass, field
 
 import torch
 
-from .. import _checks
+from .. import _checks, _threads
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
 from .index_search import ORDER_SHIFTS, scan_sample, select_index_model
 from .noise import noise_check
 from .peaks import peak_method
-from .problem import FilmProblem, prepare_problem
+from .problem import DEFAULT_INDEX_MODEL, FilmProblem, prepare_problem
 from .thickness_map import final_pass, image_thickness, order_check
 
 __all__ = ["FilmEstimate", "estimate_film"]
+
+#: the flag of a fit whose index search fell back from the peaks to the (n, d) grid (``settings["flags"]``)
+RESTART_FLAG = ("the peak method's index (eq. 12) misled the index search, which fell back to an exhaustive "
+                "(n, d) grid: check the result (noise, a film with few extrema in range, the angles)")
 
 
 @dataclass
@@ -78,6 +82,10 @@ class FilmEstimate:
     params ``(K,)`` of ``index_model``; n: the index at 589.3 nm; thickness ``(*)`` nm;
     rms ``(*)`` per-pixel RMS residual (reflectance) over the pixel's finite samples; n_peak /
     thickness_peak: the peak method's estimates (eq. 12–14); timings: seconds per stage;
+    settings: the settings used and what the fit found — among them ``flags``, a list of
+    one-line reasons to doubt the fit (the residual far above the data's noise, the same text
+    as the ``RuntimeWarning``; an index search that fell back from the peaks to a grid), empty
+    for a clean fit: ``fit_batch`` marks a flagged fit ``"flagged"``, not ``"ok"``;
     valid ``(*)`` bool: the pixels with at least one finite sample — thickness, rms and
     thickness_peak are NaN elsewhere (dead pixels, module docstring); None (an estimate built
     by hand) means the pixels of finite thickness.
@@ -126,10 +134,11 @@ def _peak_stage(st: FilmProblem):
     return pk, d_peak
 
 
+@_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
-def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = "constant", bandwidth=4.0,
-                  passband: str = "box", polarization: str = "unpolarized", n_incident=1.0, n_range=(1.2, 3.5),
-                  thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
+def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = DEFAULT_INDEX_MODEL,
+                  bandwidth=4.0, passband: str = "box", polarization: str = "unpolarized", n_incident=1.0,
+                  n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,
                   iterations: int = 10, final_iterations: int = 2, seed: int = 0, progress=None) -> FilmEstimate:
     """Film index (shared) and per-pixel thickness from a cube (module docstring).
 
@@ -137,9 +146,11 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         cube: ``(*, A, B)`` band reflectance (e.g. ``(H, W, A, B)``), angles sorted by increasing θ.
         wavelength: ``(B,)`` uniformly spaced band centres (nm); cos_theta ``(A,)``.
         n_substrate: real substrate index (known, as in the paper: PET 1.64).
-        index_model_name: ``"constant"``, a dispersive ``"cauchy"`` / ``"cauchy3"``, or ``"auto"``
-            (the model of least BIC on the sample, module docstring; one index search per model
-            tried; its cost: docs/performance.md, "Thin-film estimation from hyperspectral cubes").
+        index_model_name: ``"auto"`` (default: the model of least BIC on the sample, module
+            docstring; one index search per model tried, its cost: docs/performance.md,
+            "Thin-film estimation from hyperspectral cubes"), ``"constant"``, or a dispersive
+            ``"cauchy"`` / ``"cauchy3"``. The same default in ``torchirid fit-film`` and
+            ``fit_batch("film")``: ``"constant"`` misfits a dispersive film such as ZnS.
         bandwidth, passband: the camera's band model.
         polarization: ``"unpolarized"``, ``"s"`` or ``"p"``; Kobayashi et al.'s camera sees the
             s wave through a polarizer: their setup is ``polarization="s"``.
@@ -193,7 +204,8 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
     times["thickness"] = time.perf_counter() - t2
     times["total"] = time.perf_counter() - t0
     rms = (sse / st.count).sqrt()  # over the pixel's finite samples
-    sigma, ratio = noise_check(st.Y, rms, model, index_model_name)
+    sigma, ratio, noise_flag = noise_check(st.Y, rms, model, index_model_name)
+    flags = ([RESTART_FLAG] if scan.restarted else []) + ([noise_flag] if noise_flag else [])
     P, V = st.valid.numel(), st.Y.shape[0]
     return FilmEstimate(
         params=theta, index_model=model, n=float(index_model(st.scalar(REFERENCE_WAVELENGTH), theta, model)),
@@ -202,5 +214,5 @@ def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name:
         settings=dict(st.band, n_substrate=st.ns, index_model=model, index_start="grid" if scan.restarted else "peaks",
                       index_model_requested=index_model_name, index_selection=selection, noise_level=sigma,
                       residual_to_noise=ratio, exhaustive_pixels=exhaustive, smoothness=smoothness, sample=sample,
-                      seed=seed, pixels=P, invalid_pixels=P - V,
+                      seed=seed, pixels=P, invalid_pixels=P - V, flags=flags,
                       pixels_missing_samples=int((st.count < st.Y.shape[-2] * st.Y.shape[-1]).sum())))

@@ -71,11 +71,13 @@ def noise_advice(model: str, requested: str) -> str:
 def noise_check(Y, rms, model: str, requested: str):
     """Compare the median RMS residual ``rms`` (of the valid pixels ``Y``) with the data's noise
     level; warn (``RuntimeWarning``, advice by :func:`noise_advice`) above
-    ``NOISE_WARNING_RATIO`` → ``(noise level, ratio)``. The warning points at the caller of
-    ``estimate_film`` (which calls this)."""
+    ``NOISE_WARNING_RATIO`` → ``(noise level, ratio, the warning's text or None)``. The warning
+    points at the caller of ``estimate_film`` (which calls this)."""
     sigma = noise_level(Y)
     ratio = float(rms[rms.isfinite()].median()) / sigma if sigma > 0 else math.inf
-    if ratio > NOISE_WARNING_RATIO:
-        warnings.warn(f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data "
-                      f"({sigma:.2g}); {noise_advice(model, requested)}", RuntimeWarning, stacklevel=4)
-    return sigma, ratio
+    if not ratio > NOISE_WARNING_RATIO:
+        return sigma, ratio, None
+    text = (f"estimate_film: the median RMS residual is {ratio:.1f}x the noise level of the data ({sigma:.2g}); "
+            f"{noise_advice(model, requested)}")
+    warnings.warn(text, RuntimeWarning, stacklevel=4)
+    return sigma, ratio, text

@@ -25,6 +25,9 @@ from .residuals import decimation
 __all__ = []
 
 INDEX_CHOICES = ("auto",) + tuple(INDEX_MODELS)  # what estimate_film / fit-film accept
+#: estimate_film's index model by default (fit-film and fit-batch film take it from there): "auto" — the
+#: model of least BIC — is right on a dispersive film (the ZnS sample), where "constant" misfits it
+DEFAULT_INDEX_MODEL = "auto"
 DECIMATION_STRIDE = 3  # index stages: every 3rd band of the first, middle, last angles (~8x cheaper, orders distinct)
 
 

@@ -5,14 +5,21 @@ r"""Batch fitting on Dask: many measurements fitted independently, one result ta
 :func:`torchirid.fitting.match_scatterogram` (``kind="scatterogram"``) — in this process, on an
 embedded ``LocalCluster`` or on any Dask scheduler, and returns one record per file, in the
 order given. A file that cannot be read or fitted gives a record with ``status="error"`` and the
-error's one-line message; the others finish. A worker process that dies is Dask's to handle:
-its items are rescheduled on the others (``distributed.scheduler.allowed-failures`` times), then
-reported as errors like any other. :func:`write_results` writes the records as JSON, CSV or
-Parquet (by the file's suffix).
+error's one-line message; the others finish. A fit that the fit itself doubts gets
+``status="flagged"`` and the reasons in ``flags``: a film estimate whose residual stays far above
+the data's noise level, or whose index search fell back from the peaks to a grid (its
+``settings["flags"]``); an ambiguous scatterogram match (``ScatterogramFit.ambiguous``). A worker
+process that dies is Dask's to handle: its items are rescheduled on the others
+(``distributed.scheduler.allowed-failures`` times), then reported as errors like any other.
+:func:`write_results` writes the records as JSON, CSV or Parquet (by the file's suffix).
 
-Every record has ``item`` (the path), ``status`` (``"ok"`` / ``"error"``), ``error`` (None or
-``"ExceptionType: message"``) and ``seconds`` (the item's wall time on its worker); the fit's
-figures follow (``torchirid.scale.fits.FIELDS``), None where the item failed.
+Every record has ``item`` (the path), ``status`` (``"ok"`` / ``"flagged"`` / ``"error"``),
+``error`` (None or ``"ExceptionType: message"``), ``flags`` (None or the reasons to doubt the fit,
+joined by `` | ``) and ``seconds`` (the item's wall time on its worker); the fit's figures follow
+(``torchirid.scale.fits.FIELDS``), None where the item failed. The fits take their own defaults
+(``estimate_film``'s ``index_model_name="auto"``, ``match_scatterogram``'s settings); the one
+setting a batch supplies is ``estimate_film``'s ``n_substrate``, 1.64 (PET) as in ``torchirid
+fit-film``.
 """
 
 from __future__ import annotations
@@ -36,16 +43,20 @@ FIELDS = {
                      "iterations"),
 }
 KINDS = tuple(FIELDS)
-COMMON = ("item", "status", "error", "seconds")
+COMMON = ("item", "status", "error", "flags", "seconds")
+#: the statuses of a record: fitted, fitted but doubted by the fit itself (see ``flags``), failed
+STATUSES = ("ok", "flagged", "error")
+#: the substrate index of a film fit when the batch does not set one (PET, as ``torchirid fit-film --n-substrate``)
+FILM_N_SUBSTRATE = 1.64
 
 
-def _film(path: str, read: dict, fit: dict) -> dict:
+def _film(path: str, read: dict, fit: dict) -> tuple[dict, list[str]]:
     from ..estimation import estimate_film
     from ..estimation.cube_io import read_cube
 
     cube = read_cube(path, **read)
-    n_substrate = fit.pop("n_substrate", 1.64)
-    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, n_substrate, **fit)
+    n_substrate = fit.pop("n_substrate", FILM_N_SUBSTRATE)
+    est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, n_substrate, **fit)  # (its warnings: its flags)
     d = est.thickness[est.thickness.isfinite()].double()
     rms = est.rms[est.rms.isfinite()].double()
     return {"n": float(est.n), "index_model": est.index_model,
@@ -55,20 +66,25 @@ def _film(path: str, read: dict, fit: dict) -> dict:
             "thickness_min_nm": float(d.min()) if d.numel() else None,
             "thickness_max_nm": float(d.max()) if d.numel() else None,
             "rms_mean": float(rms.mean()) if rms.numel() else None,
-            "pixels": int(est.thickness.numel()), "pixels_valid": int(d.numel())}
+            "pixels": int(est.thickness.numel()), "pixels_valid": int(d.numel())}, list(est.settings["flags"])
 
 
-def _scatterogram(path: str, read: dict, fit: dict) -> dict:
+def _scatterogram(path: str, read: dict, fit: dict) -> tuple[dict, list[str]]:
     from ..fitting import read_scatterogram, match_scatterogram
 
     image = read_scatterogram(path, **read)
     fit.setdefault("projection", image.projection)
     r = match_scatterogram(image.xyz, image.mask, **fit)
+    look_alike = [a.label for a in r.alternatives if a.near_degenerate]
+    flags = [f"ambiguous: the period's harmonic refit(s) {', '.join(look_alike) or '?'} look the same as the fit "
+             "(mean CIEDE2000 below ambiguity_de2000): the scatterogram does not decide the period"
+             ] if r.ambiguous else []
     return {"period_nm": r.period, "delta": r.delta, "n1": r.n1, "n2": r.n2, "cells": r.cells, "alpha": r.alpha,
-            "exposure": r.exposure, "loss": r.loss, "delta_e2000": r.delta_e2000, "iterations": r.iterations}
+            "exposure": r.exposure, "loss": r.loss, "delta_e2000": r.delta_e2000, "iterations": r.iterations}, flags
 
 
-_FITS: dict[str, Callable[[str, dict, dict], dict]] = {"film": _film, "scatterogram": _scatterogram}
+#: each kind's fit: (path, read settings, fit settings) → (the record's figures, the fit's flags)
+_FITS: dict[str, Callable[[str, dict, dict], tuple[dict, list[str]]]] = {"film": _film, "scatterogram": _scatterogram}
 
 
 def _one_line(exc: BaseException) -> str:
@@ -76,15 +92,18 @@ def _one_line(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {text[:500]}"
 
 
-def _record(kind: str, item: str, status: str, error: str | None, seconds: float | None, values: dict | None) -> dict:
-    rec = {"item": item, "status": status, "error": error, "seconds": seconds}
+def _record(kind: str, item: str, status: str, error: str | None, seconds: float | None, values: dict | None,
+            flags: list[str] | None = None) -> dict:
+    rec = {"item": item, "status": status, "error": error, "flags": " | ".join(flags) if flags else None,
+           "seconds": seconds}
     rec.update({k: (values or {}).get(k) for k in FIELDS[kind]})
     return rec
 
 
 def fit_item(kind: str, item, read: dict | None = None, fit: dict | None = None) -> dict:
     """Fit one file and return its record; any exception becomes a record with ``status="error"``
-    (what runs on a worker: it never raises for a bad input).
+    (what runs on a worker: it never raises for a bad input), a fit with flags one with
+    ``status="flagged"``.
 
     ``kind``, ``read`` and ``fit`` as :func:`fit_batch`; ``item``: one file path.
 
@@ -105,10 +124,11 @@ def fit_item(kind: str, item, read: dict | None = None, fit: dict | None = None)
     """
     start = time.perf_counter()
     try:
-        values = _FITS[kind](os.fspath(item), dict(read or {}), dict(fit or {}))
+        values, flags = _FITS[kind](os.fspath(item), dict(read or {}), dict(fit or {}))
     except Exception as exc:  # noqa: BLE001 — one bad input is reported, the batch goes on
         return _record(kind, os.fspath(item), "error", _one_line(exc), time.perf_counter() - start, None)
-    return _record(kind, os.fspath(item), "ok", None, time.perf_counter() - start, values)
+    return _record(kind, os.fspath(item), "flagged" if flags else "ok", None, time.perf_counter() - start, values,
+                   [" ".join(f.split()) for f in flags])
 
 
 #: the reader and the fit of each kind, and the arguments a file supplies (not settable)
@@ -170,15 +190,17 @@ def fit_batch(kind: str, items, *, read: dict | None = None, fit: dict | None = 
             ``read_scatterogram``: ``projection``, ``resolution``, ``exposure``, …).
         fit: keyword arguments of the fit (``estimate_film``: ``n_substrate`` (default 1.64),
             ``index_model_name``, ``thickness_range``, …; ``match_scatterogram``:
-            ``incident_deg``, ``cells``, ``period_range``, …).
+            ``incident_deg``, ``cells``, ``period_range``, …); what is not given takes the fit's
+            own default (estimate_film's and match_scatterogram's, as the ``torchirid`` commands).
         client, scheduler, workers, timeout: where the fits run, as
             :func:`torchirid.scale.build_table` (default: this process, one after the other).
         progress: ``None`` or a callable ``progress(done, total)``: items finished out of
             ``len(items)``, as they finish.
 
     Returns:
-        A list of dicts (``torchirid.scale.fits.FIELDS``): ``status`` is ``"ok"`` or ``"error"`` (with ``error``
-        the one-line reason); the batch does not stop at a bad item.
+        A list of dicts (``torchirid.scale.fits.FIELDS``): ``status`` is ``"ok"``, ``"flagged"``
+        (fitted, with ``flags`` the reasons to doubt the fit: module docstring) or ``"error"``
+        (with ``error`` the one-line reason); the batch does not stop at a bad item.
 
     Raises:
         ValueError: before any file is read, for settings that would fail every item: a name

@@ -7,6 +7,8 @@ from __future__ import annotations
 from .. import _args
 
 NAME = "fit-batch"
+#: the exit status when no file was fitted: 1, the status of a failure after the arguments were checked
+NOTHING_FITTED = _args.WRITE_ERROR
 
 __all__ = ["NAME", "add_parser", "run"]
 
@@ -19,8 +21,11 @@ def add_parser(subparsers):
         help="fit many cubes or scatterograms in parallel (Dask) → one JSON/CSV/Parquet table with a status per file",
         description=(
             "Fit every FILE independently and write one row per file to --out (.json, .csv or\n"
-            ".parquet): the fitted figures, 'status' (ok / error), the one-line error of a file\n"
-            "that could not be read or fitted (the others still finish) and the seconds it took.\n"
+            ".parquet): the fitted figures, 'status' (ok / flagged / error), the one-line error of a\n"
+            "file that could not be read or fitted (the others still finish), the 'flags' of a fit\n"
+            "that doubts itself (a film residual far above the noise, an ambiguous scatterogram)\n"
+            "and the seconds it took. The fits take the library's defaults (film: the index model\n"
+            "auto, as fit-film). Exit status 1 when no file was fitted.\n"
             "  film          a hyperspectral cube per file (.npz or ENVI .hdr): film index and\n"
             "                thickness statistics (estimate_film; --set n_substrate=1.64 ...)\n"
             "  scatterogram  a PNG / OpenEXR scatterogram per file: the Bragg layer\n"
@@ -46,8 +51,9 @@ def add_parser(subparsers):
 
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
-    """Fit the files and write the table. Exit status: 0 (whatever the per-file statuses; they are in
-    the table), 1 (scheduler unreachable, write failed), 2 (bad argument)."""
+    """Fit the files and write the table. Exit status: 0 (at least one file fitted, ok or flagged: the
+    per-file statuses are in the table), 1 (no file fitted — the table still lists the errors —,
+    scheduler unreachable, write failed), 2 (bad argument)."""
     from pathlib import Path
 
     from ...scale.fits import check_batch, fit_batch, write_results
@@ -71,10 +77,16 @@ def run(args) -> int:
         write_results(out, records)
     except OSError as e:
         return _args.cannot_write(NAME, out.parent, e)
-    failed = [r for r in records if r["status"] != "ok"]
-    print(f"{len(records) - len(failed)} of {len(records)} items fitted, {len(failed)} failed; wrote {out}")
-    for r in failed[:10]:
-        print(f"  {r['item']}: {r['error']}")
-    if len(failed) > 10:
-        print(f"  ... and {len(failed) - 10} more (see the table)")
+    failed = [r for r in records if r["status"] == "error"]
+    flagged = [r for r in records if r["status"] == "flagged"]
+    print(f"{len(records) - len(failed)} of {len(records)} items fitted ({len(flagged)} flagged), {len(failed)} failed; "
+          f"wrote {out}")
+    shown = [(r["item"], f"flagged: {r['flags']}") for r in flagged] + [(r["item"], r["error"]) for r in failed]
+    for item, why in shown[:10]:
+        print(f"  {item}: {why}")
+    if len(shown) > 10:
+        print(f"  ... and {len(shown) - 10} more (see the table)")
+    if len(failed) == len(records):  # nothing fitted: the batch failed, whatever the table says
+        return _args.fail(NAME, f"no file was fitted ({len(failed)} of {len(failed)} failed; the errors are in {out})",
+                          status=NOTHING_FITTED)
     return 0

@@ -14,6 +14,7 @@ finite (a statistic of no pixel, an infinite misfit) is written ``null``.
 
 from __future__ import annotations
 
+import inspect
 import os
 import sys
 import warnings
@@ -24,6 +25,7 @@ import torch
 from ..._io import write_json
 from ...estimation import estimate_film
 from ...estimation.cube_io import read_cube
+from ...estimation.problem import INDEX_CHOICES
 from .. import _args
 from ..figures.film_maps import save_film_map_png
 
@@ -33,6 +35,10 @@ NAME = "fit-film"
 MAX_REFLECTANCE = 1.5
 
 __all__ = ["NAME", "add_parser", "run"]
+
+#: estimate_film's defaults: each option of the fit takes its default from the library (one default per parameter)
+FIT_DEFAULTS = {name: p.default for name, p in inspect.signature(estimate_film).parameters.items()
+                if p.default is not inspect.Parameter.empty}
 
 
 def add_parser(subparsers):
@@ -58,22 +64,24 @@ def add_parser(subparsers):
                         "ENVI file without an 'incidence angle' field")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--n-substrate", type=_args.positive, default=1.64, metavar="N", help="substrate index (PET: 1.64)")
-    p.add_argument("--polarization", choices=_args.POLARIZATIONS, default="unpolarized",
+    p.add_argument("--polarization", choices=_args.POLARIZATIONS, default=FIT_DEFAULTS["polarization"],
                    help="polarization seen by the camera (default: unpolarized, as everywhere in torchirid; "
                         "Kobayashi et al. measure the s wave through a polarizer: --polarization s)")
     p.add_argument("--bandwidth", type=_args.positive_length, default=None, metavar="NM",
-                   help="band width in nm (default: from the file, else 4)")
-    p.add_argument("--passband", choices=("box", "gaussian"), default="box",
+                   help=f"band width in nm (default: from the file, else {FIT_DEFAULTS['bandwidth']:g})")
+    p.add_argument("--passband", choices=("box", "gaussian"), default=FIT_DEFAULTS["passband"],
                    help="shape of each band's spectral response, --bandwidth wide")
-    p.add_argument("--index-model", choices=("auto", "constant", "cauchy", "cauchy3"), default="auto",
-                   help="film index model: auto (default) fits constant, cauchy and cauchy3 on a pixel sample and "
-                        "keeps the least BIC; cauchy3 for a dispersive film such as ZnS")
-    p.add_argument("--thickness-range", type=_args.positive_length, nargs=2, default=(20.0, 2000.0), metavar=("MIN", "MAX"),
-                   help="film thicknesses searched, in nm")
-    p.add_argument("--smoothness", type=_args.nonnegative, default=0.0,
+    p.add_argument("--index-model", choices=INDEX_CHOICES, default=FIT_DEFAULTS["index_model_name"],
+                   help="film index model, as in estimate_film and fit-batch film: auto fits constant, cauchy and "
+                        "cauchy3 on a pixel sample and keeps the least BIC; constant misfits a dispersive film such "
+                        "as ZnS")
+    p.add_argument("--thickness-range", type=_args.positive_length, nargs=2, default=FIT_DEFAULTS["thickness_range"],
+                   metavar=("MIN", "MAX"), help="film thicknesses searched, in nm")
+    p.add_argument("--smoothness", type=_args.nonnegative, default=FIT_DEFAULTS["smoothness"],
                    help="spatial smoothness weight (reflectance²/nm²)")
     p.add_argument("--threads", type=_args.count, default=None, help="torch threads (default: torch's)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random pixel sample on which the index is searched")
+    p.add_argument("--seed", type=int, default=FIT_DEFAULTS["seed"],
+                   help="seed of the random pixel sample on which the index is searched")
     _args.add_output_options(p)
     p.set_defaults(func=run, parser=p)
     return p
@@ -105,7 +113,8 @@ def run(args) -> int:
         raise ValueError(f"the cube holds reflectances up to {top:g} (> {MAX_REFLECTANCE:g}): fit-film needs reflectance "
                          "as a fraction of 1; data in percent? divide by 100, or give the ENVI header a "
                          "'reflectance scale factor = 100'")
-    bw = args.bandwidth if args.bandwidth is not None else (cube.bandwidth if cube.bandwidth is not None else 4.0)
+    bw = args.bandwidth if args.bandwidth is not None else (
+        cube.bandwidth if cube.bandwidth is not None else FIT_DEFAULTS["bandwidth"])
     bar = _args.progress_bar(f"torchirid {NAME}", unit="stage", quiet=args.quiet)  # (estimate_film gives the total)
     try:
         with warnings.catch_warnings(record=True) as caught:
@@ -118,6 +127,7 @@ def run(args) -> int:
     finally:
         bar.close()
     notes = [str(w.message) for w in caught]
+    notes += [flag for flag in est.settings["flags"] if flag not in notes]  # (a fallback flags without a warning)
     for note in notes:
         print(f"{_args.PROG} {NAME}: warning: {_args.one_line(note)}", file=sys.stderr)
     d, valid = est.thickness, est.valid
