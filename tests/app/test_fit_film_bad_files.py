@@ -76,3 +76,21 @@ def test_reversed_thickness_range_is_one_line_and_status_2(tmp_path, capsys, bou
     assert err.splitlines() == [
         f"torchirid fit-film: error: --thickness-range: MIN must be < MAX (nm); got {bounds[0]} {bounds[1]}"]
     assert not (tmp_path / "out").exists()
+
+
+def test_angles_in_radians_say_so(tmp_path, capsys):
+    """Issue 35.4: a cube whose angles are in radians (0.17–0.87) fails with one line that says the
+    angles look like radians and where to give them in degrees (the library's n_film is no
+    option of fit-film)."""
+    from torchirid.estimation import synthetic_cube
+
+    c = synthetic_cube("mgf2_400", height=2, width=2, seed=0)
+    path = tmp_path / "radians.npz"
+    write_npz(path, c.cube, c.wavelength, torch.deg2rad(c.angles_deg))
+    code, err = _run(capsys, ["fit-film", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith("torchirid fit-film: error: no extremum of the cube could be followed over the angles")
+    assert "look like radians, and must be degrees" in err and "180/π" in err and "--angles" in err
+    assert "n_film" not in err and "n_range" not in err  # (library arguments the command does not take)
+    assert not (tmp_path / "out").exists()
+

@@ -76,3 +76,31 @@ def test_the_index_search_reports_its_fallback(monkeypatch):
     monkeypatch.setattr(search, "RESTART_RATIO", 1e9)  # the grid always "clearly better": a forced restart
     est = E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, **quick)
     assert est.settings["index_start"] == "grid" and est.settings["flags"] == [RESTART_FLAG]
+
+
+def test_no_track_error_names_estimate_films_own_remedies():
+    """Issue 35.4: estimate_film takes no n_film — its error names what it does take (cos_theta,
+    n_range) and the route for a known index, and says when the angles look like radians."""
+    import inspect
+
+    c = E.synthetic_cube("mgf2_400", height=2, width=2, seed=0)
+    radians_as_degrees = torch.cos(torch.deg2rad(torch.deg2rad(c.angles_deg)))  # angles 0.17–0.87 rad read as °
+    with pytest.raises(ValueError, match="look like radians, and must be degrees") as e:
+        E.estimate_film(c.cube, c.wavelength, radians_as_degrees, 1.64)
+    text = str(e.value)
+    assert "pass n_film" not in text and "n_film" not in inspect.signature(E.estimate_film).parameters
+    assert "widen n_range" in text and "torch.deg2rad" in text and "refine_film(" in text
+    for named in ("cos_theta", "n_range"):
+        assert named in text and named in inspect.signature(E.estimate_film).parameters
+    with pytest.raises(ValueError, match="widen n_range") as e:  # the index outside n_range: no radians
+        E.estimate_film(c.cube, c.wavelength, c.cos_theta, 1.64, n_range=(2.0, 3.5))
+    assert "radians" not in str(e.value)
+
+
+def test_radians_hint():
+    from torchirid.estimation.peaks import radians_hint
+
+    assert "look like radians" in radians_hint([0.17, 0.35, 0.52, 0.70, 0.87])
+    assert radians_hint([10.0, 20.0, 30.0]) == "" and radians_hint([0.0, 0.0]) == "" and radians_hint([1.0]) == ""
+    assert radians_hint([0.5, 1.6]) == ""  # 1.6 > π/2: not radians of an incidence angle
+

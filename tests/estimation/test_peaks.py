@@ -85,3 +85,23 @@ def test_errors():
     flat = torch.full((2, 2, 5, 81), 0.04, dtype=F64)
     with pytest.raises(ValueError, match="n_film"):
         peak_method(flat, torch.arange(400.0, 721, 4, dtype=F64), torch.linspace(0.98, 0.64, 5, dtype=F64), 1.64)
+
+
+def test_no_track_error_names_the_fix():
+    """Issue 35.4: when eq. 12 finds no extremum followed over the angles, the error names what
+    fixes it — for peak_method its n_film and n_range; angles in radians taken for degrees
+    (cos of 0.17–0.87°) are called out as such."""
+    from torchirid.estimation.peaks import NoTrackError
+
+    c = synthetic_cube("mgf2_400", height=2, width=2, seed=0)
+    radians_as_degrees = torch.cos(torch.deg2rad(torch.deg2rad(c.angles_deg)))  # 0.17–0.87 "degrees"
+    with pytest.raises(NoTrackError, match="pass n_film") as e:
+        peak_method(c.cube, c.wavelength, radians_as_degrees, 1.64)
+    assert isinstance(e.value, ValueError) and "look like radians, and must be degrees" in str(e.value)
+    assert e.value.angles_deg[0] == pytest.approx(0.1745, abs=1e-4) and e.value.n_range == (1.2, 3.5)
+    # a film whose index lies outside n_range: no radians in the message, n_range named
+    with pytest.raises(NoTrackError, match=r"widen n_range") as e:
+        peak_method(c.cube, c.wavelength, c.cos_theta, 1.64, n_range=(2.0, 3.5))
+    assert "radians" not in str(e.value) and "(2.0, 3.5)" in str(e.value)
+    assert float(peak_method(c.cube, c.wavelength, radians_as_degrees, 1.64, n_film=1.37).thickness.mean()) > 0
+

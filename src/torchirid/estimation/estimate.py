@@ -64,7 +64,7 @@ from .. import _checks, _threads
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
 from .index_search import ORDER_SHIFTS, scan_sample, select_index_model
 from .noise import noise_check
-from .peaks import peak_method
+from .peaks import NoTrackError, peak_method, radians_hint
 from .problem import DEFAULT_INDEX_MODEL, FilmProblem, prepare_problem
 from .thickness_map import final_pass, image_thickness, order_check
 
@@ -124,8 +124,20 @@ class FilmEstimate:
 
 def _peak_stage(st: FilmProblem):
     """Stage 1, the peak method (eq. 8–14) on the valid pixels → ``(PeakResult, d_peak (V,))``; a pixel
-    without a peak estimate gets a finite seed (the median)."""
-    pk = peak_method(st.Y, st.lam, st.c, st.ns, n_range=st.n_range, thickness_range=st.thickness_range, **st.band)
+    without a peak estimate gets a finite seed (the median). No extremum followed over the angles:
+    :class:`NoTrackError` naming estimate_film's remedies (it takes no ``n_film``)."""
+    try:
+        pk = peak_method(st.Y, st.lam, st.c, st.ns, n_range=st.n_range, thickness_range=st.thickness_range,
+                         **st.band)
+    except NoTrackError as exc:
+        hint = radians_hint(exc.angles_deg)
+        raise NoTrackError(
+            f"no extremum could be followed over the angles with an index inside n_range {exc.n_range}: the film's "
+            f"index cannot be estimated (eq. 12); "
+            f"{hint + ' (cos_theta = torch.cos(torch.deg2rad(angles_deg))); ' if hint else ''}"
+            "check cos_theta and widen n_range if the index lies outside it; a film whose index is known: "
+            "peak_method(..., n_film=n) for the thicknesses, then refine_film(..., index_init=n, fit_index=False)",
+            exc.angles_deg, exc.n_range) from None
     d_peak = pk.thickness.reshape(-1)
     if bool(d_peak.isnan().any()):
         fill = d_peak.nanmedian() if bool((~d_peak.isnan()).any()) else st.scalar(st.thickness_range[0])

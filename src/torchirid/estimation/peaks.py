@@ -58,6 +58,30 @@ WINDOW_MAX = 12  # bands: 25 samples already average the noise; wider only mixes
 HALF_WINDOW = 0.5  # W/2 bands (at least 1): the candidates' smoothing σ, and how far a vertex may sit from its band
 MAX_EXTREMA = 16  # extrema kept per spectrum: all of a 2 µm MgF2 (~12) or 1.2 µm ZnS film (~15) in 400–720 nm
 MIN_TRACK_ANGLES = 3  # eq. 12 over ≥ 3 angles: two points always fit the line, a third tests the pairing
+
+
+class NoTrackError(ValueError):
+    """No extremum of the cube could be followed over the angles with an index inside ``n_range``:
+    eq. 12 has no index to give. A ``ValueError`` whose message names the remedy of the function
+    that raised it (``peak_method``: ``n_film``; ``estimate_film`` and ``torchirid fit-film``
+    re-raise it with theirs); ``angles_deg`` (the incidence angles, from cos θ) and ``n_range``
+    let a caller word its own."""
+
+    def __init__(self, message: str, angles_deg: tuple, n_range: tuple):
+        super().__init__(message)
+        self.angles_deg = tuple(angles_deg)
+        self.n_range = tuple(n_range)
+
+
+def radians_hint(angles_deg) -> str:
+    """``""``, or — when every incidence angle (in degrees as given) lies within [0, π/2] and they
+    are not all 0 — the sentence that they look like radians: angles of a few tenths of a degree
+    to 1.57° cannot separate the extrema of a film, radians in [0, π/2] read as degrees do."""
+    a = [float(v) for v in angles_deg]
+    if len(a) < 2 or not all(0.0 <= v <= math.pi / 2 + 1e-9 for v in a) or max(a) == 0.0:
+        return ""
+    return (f"the incidence angles {min(a):.3g}–{max(a):.3g}° all lie within [0, π/2] = [0, 1.571]: they look like "
+            "radians, and must be degrees")
 PARITY_FALLBACK_WAVELENGTH = 550.0  # nm: where the sign of r01 r12 is taken for a pixel without a track (mid-visible)
 
 
@@ -474,7 +498,7 @@ def peak_method(cube, wavelength, cos_theta, n_substrate, *, bandwidth: float = 
     batch = y.shape[:-2]
     Y = y.reshape(-1, *y.shape[-2:])
     tracks, kinds, n_tr, W = _tracks(Y, lam, c, window, n_range, n0)
-    n_est = _eq12_index(n_tr, n_range) if n_film is None else n_film
+    n_est = _eq12_index(n_tr, n_range, c) if n_film is None else n_film
     d, sse, nofb = _eq14_thickness(Y, lam, c, ns, tracks, kinds, n_est, thickness_range, score_stride, band)
     return PeakResult(n=n_est, thickness=d.reshape(batch), sse=sse.reshape(batch),
                       track_index=n_tr.reshape(*batch, -1), window=W, fallback=nofb)
@@ -490,11 +514,18 @@ def _tracks(Y, lam, c, window, n_range, n_incident):
     return tracks, kinds, n_tr, W
 
 
-def _eq12_index(n_tr, n_range) -> float:
-    """The film's n: the median of the per-track indices inside ``n_range`` (robust to mismatched tracks)."""
+def _eq12_index(n_tr, n_range, cos_theta) -> float:
+    """The film's n: the median of the per-track indices inside ``n_range`` (robust to mismatched
+    tracks); :class:`NoTrackError` when there is none."""
     vals = n_tr[(n_tr >= n_range[0]) & (n_tr <= n_range[1])]
     if vals.numel() == 0:
-        raise ValueError("no extremum could be followed over angles: the index cannot be estimated by eq. 12; pass n_film")
+        angles = tuple(math.degrees(math.acos(min(1.0, max(-1.0, float(v))))) for v in cos_theta.reshape(-1))
+        hint = radians_hint(angles)
+        raise NoTrackError(
+            f"no extremum could be followed over the angles with an index inside n_range {tuple(n_range)}: eq. 12 "
+            f"cannot estimate the film's index; {hint + ' (cos_theta = torch.cos(torch.deg2rad(angles_deg))); ' if hint else ''}"
+            "pass n_film (the film's index, if known), widen n_range if the index lies outside it, or check "
+            "cos_theta", angles, n_range)
     return float(vals.median())
 
 

@@ -25,6 +25,7 @@ import torch
 from ..._io import write_json
 from ...estimation import estimate_film
 from ...estimation.cube_io import read_cube
+from ...estimation.peaks import NoTrackError, radians_hint
 from ...estimation.problem import INDEX_CHOICES
 from .. import _args
 from ..figures.film_maps import save_film_map_png
@@ -96,6 +97,20 @@ def _stats(x) -> dict:
             "std": float(v.std()) if v.numel() > 1 else 0.0}
 
 
+def _no_track_message(angles_deg) -> str:
+    """The error of a cube in which no extremum could be followed over the angles, with what to do
+    on the command line: angles in radians given as degrees (the commonest cause) or others."""
+    shown = " ".join(f"{a:g}" for a in angles_deg)
+    head = (f"no extremum of the cube could be followed over the angles ({shown} degrees as read): the film's index "
+            "cannot be estimated; ")
+    where = "the .npz's angle_deg, the ENVI header's 'incidence angle', or --angles"
+    hint = radians_hint(angles_deg)
+    if hint:
+        return head + f"{hint}: multiply them by 180/π ({where})"
+    return head + (f"check the angles, in degrees ({where}), and --n-substrate; a film whose index lies outside "
+                   "1.2–3.5, or with too few fringes that move with the angle, cannot be fitted")
+
+
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Estimate the film and write the maps and the report. Exit status: 0, 1 (write), 2 (bad argument or cube)."""
@@ -124,6 +139,8 @@ def run(args) -> int:
                                 polarization=args.polarization, thickness_range=tuple(args.thickness_range),
                                 smoothness=args.smoothness, seed=args.seed,
                                 progress=_args.progress_callback(bar))
+    except NoTrackError:  # (the library's remedies name its own arguments: say it in the command's terms)
+        raise ValueError(_no_track_message(cube.angles_deg.tolist())) from None
     finally:
         bar.close()
     notes = [str(w.message) for w in caught]
