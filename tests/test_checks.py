@@ -97,10 +97,6 @@ def test_shapes_that_do_not_broadcast_name_the_arguments_and_the_fix():
 #: a composed function that calls another checked public function. Each is debt — lower a count
 #: when it is fixed (the test below fails until the entry is updated).
 REPEATS = {
-    # importance sampling: the transmissivity table and the transmission probability of each
-    # layer are built through their checked public functions
-    "layered.single_reflection_pdf": 3,
-    "layered.importance_sampling.layer_reflection_probabilities": 3,
     # spectral colours: the mirror's checks (prepare_bragg_mirror) plus the colour weights of
     # their own wavelength grid (xyz_weights, which also checks a user's grid is increasing)
     "bragg_xyz spectral": 2,

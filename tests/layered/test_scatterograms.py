@@ -170,13 +170,13 @@ def test_brdf_blocks_follow_the_chunk_knob(illumination, monkeypatch):
 
     kw = FAST if illumination == "white" else dict(wavelength=LAM, incident_deg=(30.0, 0.0))
     pairs = []
-    real = scatterograms.single_reflection_brdf
+    real = scatterograms._single_reflection_brdf  # (the BRDF's body: the render checked its arguments)
 
     def spy(lam, wi, wo, *a, **k):
         pairs.append(torch.broadcast_shapes(wi.shape[:-1], wo.shape[:-1]).numel())
         return real(lam, wi, wo, *a, **k)
 
-    monkeypatch.setattr(scatterograms, "single_reflection_brdf", spy)
+    monkeypatch.setattr(scatterograms, "_single_reflection_brdf", spy)
     results = {}
     for chunk in (None, 48):
         pairs.clear()

@@ -6,6 +6,7 @@ import torch
 
 from .. import _checks
 from ..optics.fresnel import fresnel_reflectance
+from .structure import LayeredBragg, RoughBraggLayer
 
 
 def directions(w, name: str, dtype, device, *, grazing: bool) -> torch.Tensor:
@@ -41,6 +42,45 @@ def wavelengths(wavelength, dtype, device) -> torch.Tensor:
                          f"{int((~torch.isfinite(lam)).sum())} non-finite value(s)")
     _checks.check_wavelength(lam)
     return lam
+
+
+def as_structure(structure, name: str = "structure", dtype=None, device=None) -> LayeredBragg:
+    """``structure`` as a :class:`LayeredBragg` (one :class:`RoughBraggLayer` becomes a stack of
+    one over a black base); ValueError naming ``name`` for anything else."""
+    if isinstance(structure, RoughBraggLayer):
+        return LayeredBragg([structure])
+    if not isinstance(structure, LayeredBragg):
+        raise ValueError(f"{name} must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
+    return structure
+
+
+# the argument specs of the layered models (``_checks.arguments``)
+#: a LayeredBragg, or one RoughBraggLayer (over a black base), converted to a LayeredBragg
+STRUCTURE = _checks.Arg(as_structure)
+#: one rough Bragg layer
+LAYER = _checks.instance(RoughBraggLayer)
+#: unit directions ``(*, 3)`` strictly above the surface (z > 0), renormalised
+DIRECTIONS = _checks.Arg(lambda w, name, dtype, device: directions(w, name, dtype, device, grazing=False),
+                         tensor=True)
+#: unit directions ``(*, 3)`` above the surface, grazing (z = 0) allowed, renormalised
+GRAZING_DIRECTIONS = _checks.Arg(lambda w, name, dtype, device: directions(w, name, dtype, device, grazing=True),
+                                 tensor=True)
+#: the spectral grid ``(W,)`` of a call: non-empty, 1-D, finite wavelengths in nm
+WAVELENGTHS = _checks.Arg(lambda w, name, dtype, device: wavelengths(w, dtype, device), tensor=True)
+#: GGX roughness, > 0
+ALPHA = _checks.positive("(GGX roughness)")
+
+
+def unit(w: torch.Tensor) -> torch.Tensor:
+    """``w / |w|`` on the last axis: the renormalisation :data:`DIRECTIONS` applies, for an internal
+    caller that hands its own unit directions to a public function's body."""
+    return w / torch.linalg.vector_norm(w, dim=-1, keepdim=True)
+
+
+def layer_alpha(layer: RoughBraggLayer, dtype, device) -> torch.Tensor:
+    """The layer's GGX roughness (checked at construction) as a tensor of the call's ``dtype``,
+    converted once per call for the GGX kernels and bodies (as their argument check would)."""
+    return _checks.as_real(layer.alpha, "alpha", dtype, device)
 
 
 def refract_in(w: torch.Tensor, n1: float):
@@ -83,8 +123,22 @@ def refract_out(w_in: torch.Tensor, n1: float):
     return torch.cat([t, z.unsqueeze(-1)], dim=-1), exits
 
 
+def fresnel(cos_theta: torch.Tensor, n_incident, n_substrate) -> torch.Tensor:
+    """Unpolarized Fresnel reflectance ``F(θ, n_incident → n_substrate)`` at the cosines
+    ``cos_theta`` (a tensor in [0, 1]): the body of
+    :func:`~torchirid.optics.fresnel.fresnel_reflectance` on its arguments converted as its check
+    would (float64 when any of them is; the indices: numbers or a layer's 0-dim tensors, checked
+    at construction), without checking them again per call."""
+    wide = (torch.float64, torch.complex128)
+    double = any(isinstance(x, torch.Tensor) and x.dtype in wide for x in (cos_theta, n_incident, n_substrate))
+    dtype, device = (torch.float64 if double else torch.float32), cos_theta.device
+    return fresnel_reflectance.__wrapped__(_checks.as_real(cos_theta, "cos_theta", dtype, device),
+                                           _checks.as_index(n_incident, "n_incident", dtype, device),
+                                           _checks.as_index(n_substrate, "n_substrate", dtype, device))
+
+
 def coating_transmittance(cos_outer: torch.Tensor, n1: float) -> torch.Tensor:
     """Unpolarized Fresnel transmittance of the coating seen from the air, ``1 − F(θ, 1 → n1)``."""
     if n1 == 1.0:
         return torch.ones_like(cos_outer)
-    return 1.0 - fresnel_reflectance(cos_outer.clamp(0.0, 1.0), 1.0, n1)
+    return 1.0 - fresnel(cos_outer.clamp(0.0, 1.0), 1.0, n1)

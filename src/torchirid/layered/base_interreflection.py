@@ -10,10 +10,9 @@ import torch
 from .. import _checks
 from .._quadrature import gauss_legendre01
 from . import _geometry
-from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1
-from ..optics.fresnel import fresnel_reflectance
+from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1_kernel
 
-from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _check_structure, _tables, reflectance_lut
+from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _tables, reflectance_lut
 
 __all__ = []
 
@@ -29,6 +28,9 @@ BASE_REFLECTANCE_ANGLES = 4097
 # ----------------------------------------------------------------------------------------
 # light bouncing between the Lambertian base and the layers above it (opt-in)
 # ----------------------------------------------------------------------------------------
+@_checks.arguments(structure=_geometry.STRUCTURE, transmissivity_angles=_checks.integer(2),
+                   mu_nodes=_checks.integer(1), radius_nodes=_checks.integer(1), azimuth_nodes=_checks.integer(1),
+                   reflectance_angles=_checks.integer(2), wavelength=_geometry.WAVELENGTHS)
 def base_return_fraction(
     wavelength,
     structure,
@@ -127,13 +129,7 @@ def base_return_fraction(
         >>> [round(v, 3) for v in rd.tolist()]
         [0.317, 0.13]
     """
-    structure = _check_structure(structure)
-    for name, v, low in (("transmissivity_angles", transmissivity_angles, 2), ("mu_nodes", mu_nodes, 1),
-                         ("radius_nodes", radius_nodes, 1), ("azimuth_nodes", azimuth_nodes, 1),
-                         ("reflectance_angles", reflectance_angles, 2)):
-        _checks.check_int(v, name, low)
-    dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
+    lam = wavelength
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     return _base_return(structure, tables, lam, mu_nodes=mu_nodes, radius_nodes=radius_nodes,
                         azimuth_nodes=azimuth_nodes, reflectance_angles=reflectance_angles)
@@ -170,11 +166,11 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
     below = torch.ones(n_mu, W, dtype=dtype, device=device)  # Π_{k>l} τ_k(μ): layers between l and the base
     for l in range(len(tables) - 1, -1, -1):
         tab = tables[l]
-        a = tab.layer.alpha
-        m = sample_ggx_vndf(vq, a, u.expand(n_mu, -1, 2))  # (M, Q, 3)
+        a = tab.alpha  # (α as a tensor of the call's dtype: the GGX body and kernel, no check per layer)
+        m = sample_ggx_vndf.__wrapped__(vq, a, u.expand(n_mu, -1, 2))  # (M, Q, 3)
         o = reflect_kernel(vq, m)
         oz = o[..., 2].clamp(0.0, 1.0)  # o below the layer's plane: masked (G1 = 0 there)
-        weight = torch.where(o[..., 2] > 0, smith_g1(oz, a), torch.zeros_like(oz)) * w_u  # (M, Q)
+        weight = torch.where(o[..., 2] > 0, smith_g1_kernel(oz.abs(), a), torch.zeros_like(oz)) * w_u  # (M, Q)
         cos_d = (vq * m).sum(-1).clamp(0.0, 1.0)
         R = _reflectance_table(tab, reflectance_angles).interp(torch.acos(cos_d))  # (M, Q, W)
         for k in range(l + 1, len(tables)):  # the way down from layer l to the base
@@ -182,7 +178,7 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
         r_up = r_up + below * torch.einsum("mq,mqw->mw", weight, R)
         below = below * tab.transmissivity(mu)
     if structure.coated:  # specular round trip through the coating: same μ on the way down
-        f_in = fresnel_reflectance(mu, n, 1.0)
+        f_in = _geometry.fresnel(mu, n, 1.0)
         r_up = r_up + below * below * f_in[:, None]
     return 2.0 * torch.einsum("m,mw->w", w_mu * mu, r_up)
 
@@ -190,6 +186,6 @@ def _base_return(structure, tables, lam, *, mu_nodes=BASE_MU_NODES, radius_nodes
 def _reflectance_table(tab, angles):
     if tab.R is not None and tab.R.values.shape[0] >= angles:
         return tab.R
-    return reflectance_lut(tab.lam, tab.layer, angles=angles)
+    return reflectance_lut.__wrapped__(tab.lam, tab.layer, angles=angles)
 
 

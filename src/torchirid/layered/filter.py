@@ -113,6 +113,7 @@ import torch
 
 from .. import _checks, _chunks
 from .._quadrature import gauss_legendre01
+from . import _geometry
 
 __all__ = ["transmission_filter"]  # the 2-D table: layered.filter_lut
 
@@ -329,18 +330,13 @@ def _check_range(t: torch.Tensor, name: str, lo: float, hi: float, what: str) ->
             raise ValueError(f"{name} must lie in [{lo:g}, {hi:.10g}] ({what}); got {t[bad].flatten()[0].item():g}")
 
 
-def _prepare_angles(theta_i, theta_d, alpha):
-    dtype, device = _checks.resolve_dtype_device(theta_i, theta_d, alpha)
-    ti = _checks.as_real(theta_i, "theta_i_rad", dtype, device)
-    td = _checks.as_real(theta_d, "theta_d_rad", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    hi, _ = _half_pi_parts(dtype)
-    _check_range(ti, "theta_i_rad", 0.0, hi, "radians, incidence angle")
-    _check_range(td, "theta_d_rad", 0.0, hi, "radians, difference angle θd = ∠(i, m)")
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    return ti, td, a
+def _angle(what: str) -> _checks.Arg:
+    """An angle in radians in [0, π/2] (π/2 rounded to the argument's dtype), ``what`` in the message."""
+    return _checks.real(lambda t, name: _check_range(t, name, 0.0, _half_pi_parts(t.dtype)[0], what))
 
 
+@_checks.arguments(theta_i_rad=_angle("radians, incidence angle"),
+                   theta_d_rad=_angle("radians, difference angle θd = ∠(i, m)"), alpha=_geometry.ALPHA)
 def transmission_filter(theta_i_rad, theta_d_rad, alpha) -> torch.Tensor:
     r"""Transmission filter :math:`F_\alpha(\theta_i, \theta_d)` (Fourneau et al. 2024 eq. 29), in rad⁻¹.
 
@@ -365,8 +361,7 @@ def transmission_filter(theta_i_rad, theta_d_rad, alpha) -> torch.Tensor:
     >>> round(float(transmission_filter(theta_i, 0.5, 0.1)), 9)
     5.064837242
     """
-    ti, td, a = _prepare_angles(theta_i_rad, theta_d_rad, alpha)
-    return _filter(ti, td, a)
+    return _filter(theta_i_rad, theta_d_rad, alpha)
 
 
 def _quadrature(ti: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize: bool, cos_i=None):
@@ -423,6 +418,7 @@ def _quadrature_cos(c: torch.Tensor, alpha: torch.Tensor, nodes: int, normalize:
     return _quadrature(torch.acos(c_s), alpha, nodes, normalize, c_s)
 
 
+@_checks.arguments(cos_theta_i=_checks.COSINE, alpha=_geometry.ALPHA, nodes=_checks.integer(2), normalize=_checks.FLAG)
 def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = True):
     r"""A quadrature rule with weight function :math:`F_\alpha(\theta_i,\cdot)` (eq. 28):
     :math:`\sum_k w_k\,g(\theta_{d,k}) \approx \int_0^{\pi/2} g(\theta_d)F_\alpha(\theta_i,\theta_d)\,d\theta_d`.
@@ -458,13 +454,7 @@ def filter_quadrature(cos_theta_i, alpha, nodes: int = 64, *, normalize: bool = 
     >>> c.shape, round(float(w.sum()), 12)   # = G1(60°) for α = 0.1
     (torch.Size([32]), 0.992610433948)
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta_i, alpha)
-    c = _checks.as_real(cos_theta_i, "cos_theta_i", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_cosine(c, "cos_theta_i")
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    _checks.check_int(nodes, "nodes", 2)
-    c, a = torch.broadcast_tensors(c, a)
+    c, a = torch.broadcast_tensors(cos_theta_i, alpha)
     theta, weight = _quadrature_cos(c, a, nodes, normalize)
     return torch.cos(theta), weight
 

@@ -183,6 +183,24 @@ class FilterLUT:
             raise ValueError(f"LUT file {str(path)!r} is not a transmission-filter table: {exc}") from exc
 
 
+def _number_check(ok, message: str):
+    """A check of a Python number (not a bool): ``ok(v)`` or ValueError ``<name> must <message>; got v``."""
+    def check(v, name):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not ok(v):
+            raise ValueError(f"{name} must {message}; got {v!r}")
+    return _checks.Arg(None, check)
+
+
+def _check_table_dtype(dtype, name):
+    if dtype not in (torch.float16, torch.float32, torch.float64):
+        raise ValueError(f"{name} must be torch.float16, float32 or float64; got {dtype}")
+
+
+@_checks.arguments(
+    alpha=_number_check(lambda v: math.isfinite(v) and v > 0, "be a finite real number > 0 (GGX roughness)"),
+    theta_i_step_deg=_number_check(lambda v: 0 < v <= 90, "lie in (0, 90] degrees"),
+    u_nodes=_checks.integer(2), max_theta_i_nodes=_checks.integer(2), max_u_nodes=_checks.integer(2),
+    rtol=_number_check(lambda v: v > 0, "be a real number > 0"), dtype=_checks.Arg(None, _check_table_dtype))
 def transmission_filter_lut(alpha: float, *, theta_i_step_deg: float = 0.25, u_nodes: int = 129,
                             rtol: float = 3e-4, max_theta_i_nodes: int = 8193, max_u_nodes: int = 2049,
                             dtype: torch.dtype = torch.float64) -> FilterLUT:
@@ -216,17 +234,6 @@ def transmission_filter_lut(alpha: float, *, theta_i_step_deg: float = 0.25, u_n
     >>> bool(err < 1e-3 * 6.52)   # the peak of F_0.1 is 6.52
     True
     """
-    if isinstance(alpha, bool) or not isinstance(alpha, (int, float)) or not math.isfinite(alpha) or alpha <= 0:
-        raise ValueError(f"alpha must be a finite real number > 0 (GGX roughness); got {alpha!r}")
-    if isinstance(theta_i_step_deg, bool) or not isinstance(theta_i_step_deg, (int, float)) or not 0 < theta_i_step_deg <= 90:
-        raise ValueError(f"theta_i_step_deg must lie in (0, 90] degrees; got {theta_i_step_deg!r}")
-    for name, val, least in (("u_nodes", u_nodes, 2), ("max_theta_i_nodes", max_theta_i_nodes, 2),
-                             ("max_u_nodes", max_u_nodes, 2)):
-        _checks.check_int(val, name, least)
-    if isinstance(rtol, bool) or not isinstance(rtol, (int, float)) or not rtol > 0:
-        raise ValueError(f"rtol must be a real number > 0; got {rtol!r}")
-    if dtype not in (torch.float16, torch.float32, torch.float64):
-        raise ValueError(f"dtype must be torch.float16, float32 or float64; got {dtype}")
     f64 = torch.float64
     a = torch.tensor(float(alpha), dtype=f64)
     n_i = max(2, int(math.ceil(90.0 / theta_i_step_deg - 1e-9)) + 1)

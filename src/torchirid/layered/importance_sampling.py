@@ -12,9 +12,9 @@ import torch
 from .. import _checks
 from . import _geometry
 from ..microfacet.ggx import ggx_d_kernel, smith_g1_kernel, sample_ggx_vndf
-from .transmission import transmission_probability
+from .transmission import probability_kernel
 
-from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _check_structure, _half_vector, _tables, refract_into_host
+from .tables import REFLECTANCE_ANGLES, TRANSMISSIVITY_ANGLES, _half_vector, _tables, refract_into_host
 
 __all__ = ["sample_single_reflection", "single_reflection_pdf"]
 
@@ -22,6 +22,8 @@ __all__ = ["sample_single_reflection", "single_reflection_pdf"]
 # ----------------------------------------------------------------------------------------
 # importance sampling (eq. 35)
 # ----------------------------------------------------------------------------------------
+@_checks.arguments(structure=_geometry.STRUCTURE, cos_theta=_checks.COSINE, wavelength=_geometry.WAVELENGTHS,
+                   transmissivity_angles=_checks.integer(2))
 def layer_reflection_probabilities(wavelength, cos_theta, structure, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
     r"""Probabilities of eq. 35 that the single reflection happens on layer ``l`` (last entry:
     the base), multiplexed over wavelengths: ``(*, L + 1)`` summing to 1.
@@ -42,20 +44,16 @@ def layer_reflection_probabilities(wavelength, cos_theta, structure, *, transmis
         >>> torch.allclose(p.sum(-1), torch.ones(2, dtype=torch.float64))
         True
     """
-    structure = _check_structure(structure)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, wavelength)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    _checks.check_cosine(c)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
-    tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
-    return _reflection_probabilities(structure, tables, c)
+    tables = _tables(structure, wavelength, transmissivity_angles, REFLECTANCE_ANGLES, False)
+    return _reflection_probabilities(structure, tables, cos_theta)
 
 
 def _reflection_probabilities(structure, tables, c):
     probs = []
     carry = torch.ones_like(c)
     for tab in tables:
-        p_t = transmission_probability(tab.transmissivity(c), c, tab.layer.alpha, multiplexed=True)
+        tau = tab.transmissivity(c)
+        p_t = probability_kernel(tau, c.unsqueeze(-1), tab.alpha.unsqueeze(-1), True)  # eq. 31, multiplexed
         p_t = p_t.squeeze(-1) if p_t.dim() > c.dim() else p_t
         probs.append(carry * (1.0 - p_t))
         carry = carry * p_t
@@ -70,6 +68,26 @@ def _cosine_hemisphere(u: torch.Tensor) -> torch.Tensor:
     return torch.stack([r * torch.cos(phi), r * torch.sin(phi), z], dim=-1)
 
 
+def _as_uniforms(u, name, dtype, device) -> torch.Tensor:
+    u = _checks.as_real(u, name, dtype, device)
+    if u.dim() == 0 or u.shape[-1] != 3:
+        raise ValueError(f"{name} must have shape (*, 3) (uniforms in [0, 1)); got {tuple(u.shape)}")
+    return u
+
+
+def _check_uniforms(u, name) -> None:
+    with torch.no_grad():
+        if bool(((u < 0) | (u > 1)).any()):  # (NaN passes: it propagates)
+            raise ValueError(f"{name} must lie in [0, 1] (uniform random numbers)")
+
+
+#: three uniform random numbers per sample, ``(*, 3)`` in [0, 1]
+UNIFORMS = _checks.Arg(_as_uniforms, _check_uniforms, values=True, tensor=True)
+
+
+@_checks.arguments(structure=_geometry.STRUCTURE, wi=_geometry.GRAZING_DIRECTIONS, wavelength=_geometry.WAVELENGTHS,
+                   u=UNIFORMS, transmissivity_angles=_checks.integer(2),
+                   broadcast=("wi", "u"))
 def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES):
     r"""Importance-sample an outgoing direction of the single-reflection model (eq. 35).
 
@@ -99,13 +117,8 @@ def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_ang
         >>> torch.allclose(pdf, single_reflection_pdf(lam, wi, wo, s))
         True
     """
-    structure = _check_structure(structure)
-    dtype, device = _checks.resolve_dtype_device(wi, wavelength, u)
-    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
-    u = _checks.as_real(u, "u", dtype, device)
-    if u.dim() == 0 or u.shape[-1] != 3:
-        raise ValueError(f"u must have shape (*, 3) (uniforms in [0, 1)); got {tuple(u.shape)}")
+    lam = wavelength
+    dtype = lam.dtype
     wi, u = torch.broadcast_tensors(wi, u)
     tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
     n = structure.n_coating
@@ -119,7 +132,7 @@ def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_ang
     zi = wi_h[..., 2].clamp_min(torch.finfo(dtype).tiny)
     wi_s = torch.cat([wi_h[..., :2], zi.unsqueeze(-1)], -1)
     for tab in tables:
-        m = sample_ggx_vndf(wi_s, tab.layer.alpha, u[..., 1:3])
+        m = sample_ggx_vndf.__wrapped__(wi_s, tab.alpha, u[..., 1:3])
         cands.append(2.0 * (wi_s * m).sum(-1, keepdim=True) * m - wi_s)
     cands.append(_cosine_hemisphere(u[..., 1:3]))
     cands = torch.stack(cands, dim=-2)
@@ -132,6 +145,8 @@ def sample_single_reflection(wavelength, wi, structure, u, *, transmissivity_ang
     return torch.where(bad.unsqueeze(-1), torch.nan, wo), torch.where(bad, torch.nan, pdf)
 
 
+@_checks.arguments(structure=_geometry.STRUCTURE, wi=_geometry.GRAZING_DIRECTIONS, wo=_geometry.GRAZING_DIRECTIONS,
+                   wavelength=_geometry.WAVELENGTHS, transmissivity_angles=_checks.integer(2), broadcast=("wi", "wo"))
 def single_reflection_pdf(wavelength, wi, wo, structure, *, transmissivity_angles: int = TRANSMISSIVITY_ANGLES) -> torch.Tensor:
     """Solid-angle density (sr⁻¹, in the outer medium) of :func:`sample_single_reflection`.
 
@@ -154,13 +169,8 @@ def single_reflection_pdf(wavelength, wi, wo, structure, *, transmissivity_angle
         >>> round(float((pdf * t.sin()).sum() * dt * dp), 3)
         0.999
     """
-    structure = _check_structure(structure)
-    dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
-    wo = _geometry.directions(wo, "wo", dtype, device, grazing=True)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
     wi, wo = torch.broadcast_tensors(wi, wo)
-    tables = _tables(structure, lam, transmissivity_angles, REFLECTANCE_ANGLES, False)
+    tables = _tables(structure, wavelength, transmissivity_angles, REFLECTANCE_ANGLES, False)
     probs = _reflection_probabilities(structure, tables, refract_into_host(wi, structure.n_coating)[..., 2])
     return torch.where(_geometry.nan_rows(wi, wo), torch.nan, _pdf(structure, tables, wi, wo, probs))
 

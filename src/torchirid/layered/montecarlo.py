@@ -126,18 +126,22 @@ from .. import _checks
 from .._cache import cache_dict
 from . import _geometry
 from ..microfacet.brdf import microfacet_brdf
-from ..microfacet.ggx import reflect, sample_ggx_vndf, smith_g1
-from ..optics.fresnel import fresnel_reflectance
+from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1_kernel
 from .structure import LayeredBragg, RoughBraggLayer
 from .transmission import (
     DEFAULT_ANGLES,
     DEFAULT_THETA_D_CELLS,
-    transmission_probability,
-    transmission_weight,
+    probability_kernel,
     transmissivity_lut,
+    weight_kernel,
 )
 
 __all__ = ["montecarlo_brdf"]
+
+# the bodies of the GGX functions: the transport hands them checked tensors of the call's dtype
+# (directions it built, the layer's α converted once), so nothing is checked again per bounce
+_brdf = microfacet_brdf.__wrapped__
+_vndf = sample_ggx_vndf.__wrapped__
 
 #: registry of the transmission sampling strategies of :func:`montecarlo_brdf`
 TRANSMISSION_MODES = ("filter", "microfacet")
@@ -149,7 +153,7 @@ TRANSMISSION_MODES = ("filter", "microfacet")
 def _coating_r_inside(cos_inner: torch.Tensor, n1: float) -> torch.Tensor:
     """Unpolarized Fresnel reflectance of the coating seen from the host, F(θ', n1 → 1)
     (1 beyond the critical angle: total internal reflection)."""
-    return fresnel_reflectance(cos_inner.clamp(0.0, 1.0), n1, 1.0)
+    return _geometry.fresnel(cos_inner.clamp(0.0, 1.0), n1, 1.0)
 
 
 # ----------------------------------------------------------------------------------------
@@ -163,11 +167,12 @@ _TABLES_MAX = 32
 
 class _Layer:
     """Per-layer optics of one call: R_λ, T_λ = 1 − R_λ (as eq. 28 in
-    :mod:`~torchirid.layered.transmission`) and the τ table (eq. 28)."""
+    :mod:`~torchirid.layered.transmission`) and the τ table (eq. 28); ``alpha``: the layer's α
+    as a tensor of the call's dtype."""
 
     def __init__(self, layer: RoughBraggLayer, lam: torch.Tensor, tau_angles: int, tau_cells: int):
         self.layer = layer
-        self.alpha = layer.alpha
+        self.alpha = _geometry.layer_alpha(layer, lam.dtype, lam.device)
         self.lam = lam
         self.tau_kw = {"angles": tau_angles, "theta_d_cells": tau_cells}
         self._key = (layer, tuple(lam.tolist()), lam.dtype, str(lam.device), tau_angles, tau_cells)
@@ -187,7 +192,7 @@ class _Layer:
         lut = _TABLES.get(self._key)
         if lut is None:
             # (outside inference mode: a table cached by a call in inference mode must serve autograd calls)
-            lut = _checks.normal_tensors(transmissivity_lut)(self.lam, self.layer, **self.tau_kw)
+            lut = _checks.normal_tensors(transmissivity_lut.__wrapped__)(self.lam, self.layer, **self.tau_kw)
             while len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[self._key] = lut
@@ -233,7 +238,7 @@ class _Transport:
             elif mode == "filter":
                 chain.append(chain[-1] * lay.tau(wo_in[:, 2]))
             else:
-                chain.append(chain[-1] * smith_g1(wo_in[:, 2], lay.alpha).unsqueeze(-1))
+                chain.append(chain[-1] * smith_g1_kernel(wo_in[:, 2].abs(), lay.alpha).unsqueeze(-1))
         self.chain = torch.stack(chain, 1)  # (P, L+1, W)
 
     # -- one chunk of paths ---------------------------------------------------------------
@@ -275,7 +280,7 @@ class _Transport:
                 idx = torch.nonzero(nee & (gap == l)).squeeze(-1)
                 if idx.numel():
                     p = pair[idx]
-                    f = microfacet_brdf(-d[idx], self.wo_in[p], lay.alpha, lay.reflectance)
+                    f = _brdf(-d[idx], self.wo_in[p], lay.alpha, lay.reflectance)
                     acc.index_add_(0, pid[idx], beta[idx] * f * out[idx])
             if self.rho > 0:
                 idx = torch.nonzero(at_base & nee).squeeze(-1)
@@ -335,7 +340,7 @@ class _Transport:
                 j = torch.nonzero(g > k).squeeze(-1)  # paths below layer k
                 if not j.numel():
                     break
-                m = sample_ggx_vndf(wo[j], lay.alpha, u[idx[j], 4 + 2 * k:6 + 2 * k])
+                m = _vndf(wo[j], lay.alpha, u[idx[j], 4 + 2 * k:6 + 2 * k])
                 vals[j] = vals[j] * lay.transmittance((wo[j] * m).sum(-1))
         out[idx] = vals
         return out
@@ -348,17 +353,18 @@ class _Transport:
         sgn = torch.where(down[idx], 1.0, -1.0).to(dl.dtype)  # +1: hit from above
         b = beta[idx]
         u0 = u[idx, 0]
-        g1 = smith_g1(c, lay.alpha)
+        g1 = smith_g1_kernel(c, lay.alpha)  # (c = |d_z| ≥ 0)
         if self.mode == "filter":
             tau = lay.tau(c)
-            p_t = transmission_probability(tau, c, lay.alpha).squeeze(-1)  # eq. 31, multiplexed
+            c1, a1 = c.unsqueeze(-1), lay.alpha.unsqueeze(-1)
+            p_t = probability_kernel(tau, c1, a1, True).squeeze(-1)  # eq. 31, multiplexed
             trans = u0 < p_t
-            w_t = transmission_weight(tau, c, lay.alpha)  # eq. 33 (= τ / p_trans)
+            w_t = weight_kernel(tau, c1, a1, True)  # eq. 33 (= τ / p_trans)
             refl = ~trans
             p_r = 1.0 - p_t
             m = r_d = None
         else:
-            m = sample_ggx_vndf(wi, lay.alpha, u[idx, 1:3])
+            m = _vndf(wi, lay.alpha, u[idx, 1:3])
             cos_d = (wi * m).sum(-1).clamp(0.0, 1.0)
             r_d = lay.reflectance(cos_d)
             t_d = lay.transmittance(cos_d)
@@ -385,15 +391,15 @@ class _Transport:
         ir = idx[jr]
         wr = wi[jr]
         if m is None:
-            m = sample_ggx_vndf(wr, lay.alpha, u[ir, 1:3])
+            m = _vndf(wr, lay.alpha, u[ir, 1:3])
             r = lay.reflectance((wr * m).sum(-1).clamp(0.0, 1.0))
         else:
             m, r = m[jr], r_d[jr]
-        o = reflect(wr, m)
+        o = reflect_kernel(wr, m)
         o = o / torch.linalg.vector_norm(o, dim=-1, keepdim=True)  # no drift of |d| over many bounces
         ok = o[:, 2] > 0  # reflected through the layer: masked (G1 χ⁺), the path dies
         pr = p_r[jr]
-        w_r = r * (smith_g1(o[:, 2].clamp(min=0.0), lay.alpha) / torch.where(pr > 0, pr, torch.ones_like(pr))).unsqueeze(-1)
+        w_r = r * (smith_g1_kernel(o[:, 2].clamp(min=0.0).abs(), lay.alpha) / torch.where(pr > 0, pr, torch.ones_like(pr))).unsqueeze(-1)
         new_beta[ir] = b[jr] * w_r
         new_d[ir] = torch.cat([o[:, :2], (o[:, 2] * sgn[jr]).unsqueeze(-1)], -1)
         alive[ir] &= ok
@@ -404,6 +410,12 @@ class _Transport:
 # ----------------------------------------------------------------------------------------
 # public API
 # ----------------------------------------------------------------------------------------
+@_checks.arguments(
+    structure=_geometry.STRUCTURE, transmission=_checks.choice(TRANSMISSION_MODES), samples=_checks.integer(2),
+    seed=_checks.integer(0), max_depth=_checks.integer(1), rr_depth=_checks.integer(0),
+    batch_size=_checks.integer(1), transmissivity_angles=_checks.integer(2), theta_d_cells=_checks.integer(2),
+    progress=_checks.PROGRESS, single_reflection=_checks.FLAG, multiple_reflection=_checks.FLAG,
+    wi=_geometry.DIRECTIONS, wo=_geometry.DIRECTIONS, wavelength=_geometry.WAVELENGTHS, broadcast=("wi", "wo"))
 def montecarlo_brdf(
     wavelength,
     wi,
@@ -468,8 +480,8 @@ def montecarlo_brdf(
         same arguments and ``seed`` the result is identical.
 
     Raises:
-        ValueError: a bad structure, direction (not ``(*, 3)``, not unit, ``z <= 0``),
-            wavelength, sample count, depth or an unknown ``transmission``.
+        ValueError: a bad structure, direction (not ``(*, 3)``, not unit, ``z <= 0``, ``wi`` and
+            ``wo`` not broadcasting), wavelength, sample count, depth or an unknown ``transmission``.
 
     Example (one rough layer in air over a black base: only single reflections exist, so
     the estimate is eq. 17 exactly and its standard error is 0):
@@ -482,32 +494,12 @@ def montecarlo_brdf(
         >>> [round(v, 6) for v in f.tolist()], bool(err.max() < 1e-12)
         ([0.047742, 1.158475], True)
     """
-    if isinstance(structure, RoughBraggLayer):
-        structure = LayeredBragg([structure])
-    if not isinstance(structure, LayeredBragg):
-        raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
-    _checks.check_choice(transmission, "transmission", TRANSMISSION_MODES)
-    samples = _checks.check_int(samples, "samples", 2)
-    seed = _checks.check_int(seed, "seed", 0)
-    max_depth = _checks.check_int(max_depth, "max_depth", 1)
-    rr_depth = _checks.check_int(rr_depth, "rr_depth", 0)
-    batch_size = _checks.check_int(batch_size, "batch_size", 1)
-    transmissivity_angles = _checks.check_int(transmissivity_angles, "transmissivity_angles", 2)
-    theta_d_cells = _checks.check_int(theta_d_cells, "theta_d_cells", 2)
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
-    if not isinstance(single_reflection, bool):
-        raise ValueError(f"single_reflection must be a bool; got {single_reflection!r}")
-    if not isinstance(multiple_reflection, bool):
-        raise ValueError(f"multiple_reflection must be a bool; got {multiple_reflection!r}")
     if single_reflection and multiple_reflection:
         raise ValueError("single_reflection and multiple_reflection exclude each other "
                          "(full transport = single + multiple: leave both False)")
-    dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    i = _geometry.directions(wi, "wi", dtype, device, grazing=False)
-    o = _geometry.directions(wo, "wo", dtype, device, grazing=False)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
-    i, o = torch.broadcast_tensors(i, o)
+    lam = wavelength
+    dtype, device = lam.dtype, lam.device
+    i, o = torch.broadcast_tensors(wi, wo)
     batch = i.shape[:-1]
     i, o = i.reshape(-1, 3), o.reshape(-1, 3)
     P, W = i.shape[0], lam.numel()

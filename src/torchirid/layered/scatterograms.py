@@ -56,9 +56,9 @@ from ..color import xyz_to_srgb
 from ..color.convert import xyz_weights
 from ..microfacet.ggx import ggx_vndf_pdf, sample_ggx_vndf
 from . import _geometry
-from .tables import coating_reflectance, refract_into_host
+from .tables import REFLECTANCE_MODES, coating_reflectance, refract_into_host
 from .single_reflection import single_reflection_brdf
-from .structure import LayeredBragg, RoughBraggLayer
+from .structure import LayeredBragg
 
 __all__ = [
     "PROJECTIONS",
@@ -80,12 +80,22 @@ LOBE_NODES = (24, 16)
 #: white environment with a Lambertian base: cosine-weighted hemisphere (GL in sin²θ_i, azimuths)
 COSINE_NODES = (16, 32)
 
+# the bodies of the functions the renders evaluate per block or per quadrature rule, on the
+# arguments scatterogram checked once (the directions renormalised as the BRDF's check does)
+_single_reflection_brdf = single_reflection_brdf.__wrapped__
+_vndf = sample_ggx_vndf.__wrapped__
+_vndf_pdf = ggx_vndf_pdf.__wrapped__
+
 
 # ----------------------------------------------------------------------------------------
 # the angular mapping
 # ----------------------------------------------------------------------------------------
 def _check_projection(projection) -> None:
     _checks.check_choice(projection, "projection", PROJECTIONS)
+
+
+#: one of :data:`PROJECTIONS`
+PROJECTION = _checks.choice(PROJECTIONS)
 
 
 def projection_radius(theta_rad, projection: str = "equidistant") -> torch.Tensor:
@@ -125,6 +135,7 @@ def projection_theta(radius, projection: str = "equidistant") -> torch.Tensor:
     return 2.0 * torch.asin(r / math.sqrt(2.0))
 
 
+@_checks.arguments(resolution=_checks.integer(1), projection=PROJECTION, dtype=_checks.FLOAT_DTYPE)
 def scatterogram_directions(resolution: int, *, projection: str = "equidistant", dtype=torch.float64,
                             device=None) -> tuple[torch.Tensor, torch.Tensor]:
     """The reflected direction of every pixel of a ``resolution × resolution`` scatterogram.
@@ -141,8 +152,6 @@ def scatterogram_directions(resolution: int, *, projection: str = "equidistant",
     >>> int(m.sum()), [round(v, 4) for v in d[1, 2].tolist()]
     (12, [0.3728, 0.3728, 0.8497])
     """
-    resolution = _checks.check_int(resolution, "resolution", 1)
-    _check_projection(projection)
     c = (2.0 * torch.arange(resolution, dtype=dtype, device=device) + 1.0) / resolution - 1.0
     y, x = torch.meshgrid(-c, c, indexing="ij")
     rho = torch.sqrt(x * x + y * y)
@@ -199,14 +208,6 @@ class Scatterogram:
 # ----------------------------------------------------------------------------------------
 # computation
 # ----------------------------------------------------------------------------------------
-def _structure(structure) -> LayeredBragg:
-    if isinstance(structure, RoughBraggLayer):
-        return LayeredBragg([structure])
-    if not isinstance(structure, LayeredBragg):
-        raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
-    return structure
-
-
 def _dtype_device(structure: LayeredBragg, *args):
     """dtype/device from the tensors among the layer parameters and ``args``; float64 if none."""
     values = [getattr(layer, k) for layer in structure.layers for k in ("n1", "n2", "d1", "d2", "alpha")]
@@ -227,12 +228,23 @@ def _wavelengths(wavelength, dtype, device) -> torch.Tensor:
     return lam
 
 
-def _nodes(name, value) -> tuple[int, int]:
+def _as_nodes(value, name, dtype=None, device=None) -> tuple[int, int]:
     ok = (isinstance(value, (tuple, list)) and len(value) == 2
           and all(isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 1 for v in value))
     if not ok:
         raise ValueError(f"{name} must be a pair of integers >= 1; got {value!r}")
     return int(value[0]), int(value[1])
+
+
+def _check_incident(value, name) -> None:
+    if value is not None and (not isinstance(value, (tuple, list)) or len(value) != 2):
+        raise ValueError(f"{name} must be None (white environment) or (theta_deg, phi_deg); got {value!r}")
+
+
+#: a pair of node counts ≥ 1 (a quadrature rule's two axes)
+NODE_PAIR = _checks.Arg(_as_nodes)
+#: None (the white environment) or the beam's ``(θ_i, φ_i)`` in degrees (checked against the dtype later)
+INCIDENT = _checks.Arg(None, _check_incident)
 
 
 def _brdf_kwargs(structure: LayeredBragg, reflectance: str, transmissivity_angles) -> dict:
@@ -254,12 +266,15 @@ def _pairs_per_block(lam, count) -> int:
 
 
 def _brdf(structure, wi, wo, lam, kw) -> torch.Tensor:
-    """single_reflection_brdf over the broadcast pairs (*, 3), block by block (bounded memory)."""
+    """single_reflection_brdf over the broadcast pairs (*, 3), block by block (bounded memory): its
+    body, on unit directions above the surface that the render built (renormalised as its check
+    would), the render's checked wavelengths and table sizes."""
     wi, wo = torch.broadcast_tensors(wi, wo)
     shape = wi.shape[:-1]
     wi, wo = wi.reshape(-1, 3), wo.reshape(-1, 3)
     step = _pairs_per_block(lam, wi.shape[0])
-    out = [single_reflection_brdf(lam, wi[k:k + step], wo[k:k + step], structure, **kw)
+    unit = _geometry.unit
+    out = [_single_reflection_brdf(lam, unit(wi[k:k + step]), unit(wo[k:k + step]), structure, **kw)
            for k in range(0, wi.shape[0], step)]
     return torch.cat(out, 0).reshape(*shape, lam.numel())
 
@@ -301,7 +316,7 @@ def _lobe_density(o_h, i, i_h, alphas, n_incident, coated):
     od = (o_h * h).sum(-1).clamp_min(torch.finfo(h.dtype).tiny)
     total = 0.0
     for a in alphas:
-        total = total + ggx_vndf_pdf(o_h, h, a) / (4.0 * od)
+        total = total + _vndf_pdf(o_h, h, a) / (4.0 * od)
     if coated:  # dω_i' → dω_i: n² cos θ_i' dω_i' = cos θ_i dω_i
         total = total * i[..., 2] / (n_incident * n_incident * i_h[..., 2].clamp_min(torch.finfo(h.dtype).tiny))
     return total
@@ -320,7 +335,7 @@ def _white_profile(structure, theta_o, lam, kw, lobe_nodes, cosine_nodes) -> tor
     dtype, device = lam.dtype, lam.device
     n = structure.n_coating
     coated = bool(structure.coated)
-    alphas = [layer.alpha for layer in structure.layers]
+    alphas = [_geometry.layer_alpha(layer, dtype, device) for layer in structure.layers]  # (tensors: the GGX bodies)
     wo = torch.stack([torch.sin(theta_o), torch.zeros_like(theta_o), torch.cos(theta_o)], -1)  # (P, 3)
     o_h = refract_into_host(wo, n) if coated else wo
     o_h = o_h.unsqueeze(-2)  # (P, 1, 3)
@@ -329,7 +344,7 @@ def _white_profile(structure, theta_o, lam, kw, lobe_nodes, cosine_nodes) -> tor
     total = 0.0
     for a in alphas:  # one lobe rule per layer
         u, w = _unit_square(lobe_nodes, dtype, device, _WARP)
-        m = sample_ggx_vndf(o_h, a, u)  # (P, Q, 3)
+        m = _vndf(o_h, a, u)  # (P, Q, 3)
         i_h = 2.0 * (o_h * m).sum(-1, keepdim=True) * m - o_h
         ok = i_h[..., 2] > 0
         i = i_h
@@ -358,7 +373,7 @@ def _white_profile(structure, theta_o, lam, kw, lobe_nodes, cosine_nodes) -> tor
         g = _brdf(structure, i, wo_b, lam, kw) * i[..., 2].unsqueeze(-1)
         total = total + (g * (w / q.clamp_min(tiny)).unsqueeze(-1)).sum(-2)
     if coated:  # the coating's specular Dirac reflects the white environment: + F(θ_o)
-        total = total + coating_reflectance(wo[:, 2].clamp(0.0, 1.0), float(n)).unsqueeze(-1)
+        total = total + coating_reflectance.__wrapped__(wo[:, 2].clamp(0.0, 1.0), float(n)).unsqueeze(-1)
     return total
 
 
@@ -371,6 +386,10 @@ def _interp_profile(values, theta_nodes, theta):
     return values[i0] * (1 - f) + values[i0 + 1] * f
 
 
+@_checks.arguments(structure=_geometry.STRUCTURE, resolution=_checks.integer(1), projection=PROJECTION,
+                   reflectance=_checks.choice(REFLECTANCE_MODES), lobe_nodes=NODE_PAIR, cosine_nodes=NODE_PAIR,
+                   profile_angles=_checks.integer(2) | None, incident_deg=INCIDENT,
+                   transmissivity_angles=_checks.integer(2) | None)
 def scatterogram(
     structure,
     *,
@@ -428,24 +447,15 @@ def scatterogram(
         >>> [round(v, 2) for v in (x, y, z)], y > max(x, z)
         ([2.44, 4.7, 2.45], True)
     """
-    structure = _structure(structure)
-    resolution = _checks.check_int(resolution, "resolution", 1)
-    _check_projection(projection)
-    _checks.check_choice(reflectance, "reflectance", ("exact", "lut"))
-    lobe_nodes = _nodes("lobe_nodes", lobe_nodes)
-    cosine_nodes = _nodes("cosine_nodes", cosine_nodes)
     if profile_angles is None:
         profile_angles = min(resolution + 1, 181)
-    profile_angles = _checks.check_int(profile_angles, "profile_angles", 2)
-    if incident_deg is not None:
-        if not isinstance(incident_deg, (tuple, list)) or len(incident_deg) != 2:
-            raise ValueError(f"incident_deg must be None (white environment) or (theta_deg, phi_deg); "
-                             f"got {incident_deg!r}")
     dtype, device = _dtype_device(structure, wavelength, *(incident_deg or ()))
     lam = _wavelengths(wavelength, dtype, device)
     weights = xyz_weights(lam)  # validates the wavelengths: (W, 3), white Y = 1
+    lam = _geometry.wavelengths(lam, dtype, device)  # in nm, finite: the grid of the BRDF's body
     kw = _brdf_kwargs(structure, reflectance, transmissivity_angles)
-    directions, mask = scatterogram_directions(resolution, projection=projection, dtype=dtype, device=device)
+    directions, mask = scatterogram_directions.__wrapped__(resolution, projection=projection, dtype=dtype,
+                                                           device=device)
     wo = directions[mask]  # (K, 3)
 
     if incident_deg is None:

@@ -41,8 +41,8 @@ from ..microfacet.ggx import ggx_d_kernel, smith_g1_kernel
 from .structure import LayeredBragg
 
 from .base_interreflection import _base_return
-from .tables import (REFLECTANCE_ANGLES, REFLECTANCE_MODES, TRANSMISSIVITY_ANGLES, _check_structure, _half_vector,
-                     _tables, refract_into_host)
+from .tables import (REFLECTANCE_ANGLES, REFLECTANCE_MODES, TRANSMISSIVITY_ANGLES, _half_vector, _tables,
+                     refract_into_host)
 
 __all__ = ["single_reflection_brdf"]
 
@@ -50,6 +50,10 @@ __all__ = ["single_reflection_brdf"]
 # ----------------------------------------------------------------------------------------
 # evaluation (eq. 34)
 # ----------------------------------------------------------------------------------------
+@_checks.arguments(structure=_geometry.STRUCTURE, wi=_geometry.GRAZING_DIRECTIONS, wo=_geometry.GRAZING_DIRECTIONS,
+                   wavelength=_geometry.WAVELENGTHS, base_interreflection=_checks.FLAG,
+                   reflectance=_checks.choice(REFLECTANCE_MODES), transmissivity_angles=_checks.integer(2),
+                   reflectance_angles=_checks.integer(2), broadcast=("wi", "wo"))
 def single_reflection_brdf(
     wavelength,
     wi,
@@ -97,15 +101,8 @@ def single_reflection_brdf(
         >>> f.shape
         torch.Size([1, 2])
     """
-    structure = _check_structure(structure)
-    dtype, device = _checks.resolve_dtype_device(wi, wo, wavelength)
-    wi = _geometry.directions(wi, "wi", dtype, device, grazing=True)
-    wo = _geometry.directions(wo, "wo", dtype, device, grazing=True)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
+    lam = wavelength
     wi, wo = torch.broadcast_tensors(wi, wo)
-    if not isinstance(base_interreflection, bool):
-        raise ValueError(f"base_interreflection must be a bool; got {base_interreflection!r}")
-    _checks.check_choice(reflectance, "reflectance", REFLECTANCE_MODES)
     tables = _tables(structure, lam, transmissivity_angles, reflectance_angles, reflectance == "lut")
     rd = None
     if base_interreflection and structure.base_albedo > 0:

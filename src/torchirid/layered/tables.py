@@ -13,7 +13,7 @@ from .. import _checks
 from . import _geometry
 from ..lut import LUT
 from ..optics.fresnel import fresnel_reflectance
-from .structure import LayeredBragg, RoughBraggLayer
+from .structure import RoughBraggLayer
 from .transmission import transmissivity_lut
 
 __all__ = ["reflectance_lut"]
@@ -29,12 +29,7 @@ REFLECTANCE_ANGLES = 1441
 # ----------------------------------------------------------------------------------------
 # inputs
 # ----------------------------------------------------------------------------------------
-def _check_structure(structure):
-    if isinstance(structure, RoughBraggLayer):
-        return LayeredBragg([structure])
-    if not isinstance(structure, LayeredBragg):
-        raise ValueError(f"structure must be a LayeredBragg (or one RoughBraggLayer); got {type(structure).__name__}")
-    return structure
+_check_structure = _geometry.as_structure
 
 
 # ----------------------------------------------------------------------------------------
@@ -54,6 +49,7 @@ def refract_into_host(w: torch.Tensor, n_incident: float) -> torch.Tensor:
 coating_transmittance = _geometry.coating_transmittance
 
 
+@_checks.arguments(cos_theta=_checks.COSINE)
 def coating_reflectance(cos_theta, n_incident) -> torch.Tensor:
     """The coating's specular reflectance ``F`` (unpolarized), i.e. the weight of the Dirac
     delta :math:`f_{r,0}` of eq. 34 in the mirror direction (0 when ``n_incident = 1``).
@@ -66,9 +62,7 @@ def coating_reflectance(cos_theta, n_incident) -> torch.Tensor:
         >>> float(coating_reflectance(torch.tensor(1.0, dtype=torch.float64), 1.0))  # no coating
         0.0
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    _checks.check_cosine(c)
+    c = cos_theta
     if float(n_incident) == 1.0:
         return torch.zeros_like(c)
     return fresnel_reflectance.__wrapped__(c, torch.ones_like(c), torch.full_like(c, float(n_incident)))
@@ -77,6 +71,7 @@ def coating_reflectance(cos_theta, n_incident) -> torch.Tensor:
 # ----------------------------------------------------------------------------------------
 # tables
 # ----------------------------------------------------------------------------------------
+@_checks.arguments(layer=_geometry.LAYER, angles=_checks.integer(2), wavelength=_geometry.WAVELENGTHS)
 def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECTANCE_ANGLES) -> LUT:
     """The layer's unpolarized Yeh reflectance tabulated over the angle in the host (the "LUT"
     variant of the model, Fourneau et al. 2024 §5 / Table 2 "Model-LUT").
@@ -98,11 +93,8 @@ def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECT
         >>> torch.allclose(lut.interp(theta)[0], layer.reflectance(lam, torch.tensor(1.0, dtype=torch.float64)))
         True
     """
-    if not isinstance(layer, RoughBraggLayer):
-        raise ValueError(f"layer must be a RoughBraggLayer; got {type(layer).__name__}")
-    _checks.check_int(angles, "angles", 2)
-    dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _geometry.wavelengths(wavelength, dtype, device)
+    lam = wavelength
+    dtype, device = lam.dtype, lam.device
     theta = torch.linspace(0.0, math.pi / 2, angles, dtype=dtype, device=device)
     cos = torch.cos(theta).clamp(0.0, 1.0)
     R = layer._reflectance_kernel(lam, cos.unsqueeze(-1))  # (angles, W)
@@ -119,20 +111,22 @@ def reflectance_lut(wavelength, layer: RoughBraggLayer, *, angles: int = REFLECT
 
 
 class _LayerTables:
-    """Per-call 1-D tables of one layer at the call's wavelengths: τ(θ) when first needed
-    (a last layer over a black base never needs it), R(θ) when asked."""
+    """Per-call 1-D tables of one layer at the call's wavelengths (checked by the public function
+    that builds them, as the table sizes): τ(θ) when first needed (a last layer over a black base
+    never needs it), R(θ) when asked; ``alpha``: the layer's α as a tensor of the call's dtype."""
 
     def __init__(self, layer, lam, transmissivity_angles, reflectance_angles, use_reflectance_lut):
         self.layer = layer
         self.lam = lam
+        self.alpha = _geometry.layer_alpha(layer, lam.dtype, lam.device)
         self._angles = transmissivity_angles
         self._tau = None
-        self.R = reflectance_lut(lam, layer, angles=reflectance_angles) if use_reflectance_lut else None
+        self.R = reflectance_lut.__wrapped__(lam, layer, angles=reflectance_angles) if use_reflectance_lut else None
 
     @property
     def tau(self):
         if self._tau is None:
-            self._tau = transmissivity_lut(self.lam, self.layer, angles=self._angles)
+            self._tau = transmissivity_lut.__wrapped__(self.lam, self.layer, angles=self._angles)
         return self._tau
 
     def transmissivity(self, cos_theta: torch.Tensor) -> torch.Tensor:

@@ -53,17 +53,6 @@ def _g1(c: torch.Tensor, alpha) -> torch.Tensor:
     return 2.0 * c / (c + torch.sqrt(c * c + a2 * (1.0 - c * c)))
 
 
-def _check_layer(layer) -> RoughBraggLayer:
-    if not isinstance(layer, RoughBraggLayer):
-        raise ValueError(f"layer must be a RoughBraggLayer; got {type(layer).__name__}")
-    return layer
-
-
-def _check_nodes(nodes) -> int:
-    _checks.check_int(nodes, "nodes", 2)
-    return nodes
-
-
 def _tau_rule(layer, theta_d, weight, lam):
     cos_d = torch.cos(theta_d).clamp(0.0, 1.0)
     t = 1.0 - layer._reflectance_kernel(lam.unsqueeze(-1), cos_d)  # (S, K)
@@ -87,6 +76,8 @@ def _tau(layer: RoughBraggLayer, c: torch.Tensor, lam: torch.Tensor, nodes: int)
     return torch.where(near, tau + (exact - tau).detach(), tau)
 
 
+@_checks.arguments(layer=_geometry.LAYER, nodes=_checks.integer(2), cos_theta=_checks.COSINE,
+                   wavelength=_checks.WAVELENGTH, broadcast=("cos_theta", "wavelength"))
 def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFAULT_NODES) -> torch.Tensor:
     r"""Integrated transmissivity :math:`\tau = f_t(\theta_i)\cos\theta_i` of a rough Bragg layer
     (Fourneau et al. 2024 eq. 28), the weight of a ballistic transmission.
@@ -129,17 +120,7 @@ def integrated_transmissivity(wavelength, cos_theta, layer, *, nodes: int = DEFA
     >>> tau.shape
     torch.Size([2, 2])
     """
-    layer = _check_layer(layer)
-    nodes = _check_nodes(nodes)
-    dtype, device = _checks.resolve_dtype_device(cos_theta, wavelength)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    lam = _checks.as_real(wavelength, "wavelength", dtype, device)
-    _checks.check_cosine(c)
-    _checks.check_wavelength(lam)
-    try:
-        _checks.broadcast_shapes(c.shape, lam.shape)
-    except RuntimeError:
-        raise ValueError(f"cos_theta {tuple(c.shape)} and wavelength {tuple(lam.shape)} do not broadcast") from None
+    c, lam = cos_theta, wavelength
     # block by block over large batches (torchirid._chunks): ``nodes`` reflectances per point
     return _chunks.evaluate(_tau_block, (c, lam), _checks.broadcast_shapes(c.shape, lam.shape), width=nodes,
                             grad_inputs=layer.tensors(), layer=layer, nodes=nodes)
@@ -189,6 +170,8 @@ def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, devi
     return cos, grid, weights
 
 
+@_checks.arguments(layer=_geometry.LAYER, angles=_checks.integer(2), theta_d_cells=_checks.integer(2),
+                   wavelength=_geometry.WAVELENGTHS)
 def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
                        theta_d_cells: int = DEFAULT_THETA_D_CELLS) -> LUT:
     r"""The integrated transmissivity of eq. 28 tabulated over the incidence angle — the paper's
@@ -227,11 +210,8 @@ def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
     >>> lut(torch.tensor([0.3, 0.9], dtype=torch.float64)).shape
     torch.Size([2, 2])
     """
-    layer = _check_layer(layer)
-    for name, val in (("angles", angles), ("theta_d_cells", theta_d_cells)):
-        _checks.check_int(val, name, 2)
-    dtype, device = _checks.resolve_dtype_device(wavelength)
-    lam = _geometry.wavelengths(wavelength, dtype, device)  # (W,), finite (the table's metadata stores it)
+    lam = wavelength  # (W,), finite (the table's metadata stores it)
+    dtype, device = lam.dtype, lam.device
     plain = layer.numbers()  # tensor parameters (fitting) → numbers for the weights' cache and the metadata
     cos, grid, weights = _lut_weights(plain["alpha"], angles, theta_d_cells, dtype, str(device))
     t = 1.0 - layer._reflectance_kernel(lam, torch.cos(grid).clamp(0.0, 1.0).unsqueeze(-1))  # (cells + 1, W)
@@ -249,6 +229,7 @@ def transmissivity_lut(wavelength, layer, *, angles: int = DEFAULT_ANGLES,
     )
 
 
+@_checks.arguments(cos_theta=_checks.COSINE, alpha=_geometry.ALPHA)
 def absorption(cos_theta, alpha) -> torch.Tensor:
     r"""Absorption of a rough Bragg layer :math:`A = 1 - G_1(\theta_i)` (eq. 30): the energy the
     single-scattering microfacet model loses (Appendix C: :math:`\int F_\alpha = G_1`).
@@ -263,25 +244,31 @@ def absorption(cos_theta, alpha) -> torch.Tensor:
     >>> round(float(absorption(torch.tensor(0.5, dtype=torch.float64), 0.1)), 9)
     0.007389566
     """
-    dtype, device = _checks.resolve_dtype_device(cos_theta, alpha)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
-    _checks.check_cosine(c)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
-    return 1.0 - _g1(c, a)
+    return 1.0 - _g1(cos_theta, alpha)
 
 
-def _prepare_tau(tau, cos_theta, alpha):
-    dtype, device = _checks.resolve_dtype_device(tau, cos_theta, alpha)
-    t = _checks.as_real(tau, "tau", dtype, device)
-    c = _checks.as_real(cos_theta, "cos_theta", dtype, device)
-    a = _checks.as_real(alpha, "alpha", dtype, device)
+def _as_tau(tau, name, dtype, device) -> torch.Tensor:
+    t = _checks.as_real(tau, name, dtype, device)
     if t.dim() == 0:
-        raise ValueError("tau must have a last (wavelength) axis (*, W); got a scalar")
+        raise ValueError(f"{name} must have a last (wavelength) axis (*, W); got a scalar")
     if t.shape[-1] < 1:
-        raise ValueError("tau must have at least one wavelength on its last axis")
-    _checks.check_cosine(c)
-    _checks.check_positive(a, "alpha", unit="(GGX roughness)")
+        raise ValueError(f"{name} must have at least one wavelength on its last axis")
+    return t
+
+
+def _check_tau(t, name) -> None:
+    with torch.no_grad():
+        if bool((t < 0).any()):
+            raise ValueError(f"{name} must be >= 0 (a transmissivity); got min {t.min().item():g}")
+
+
+#: an integrated transmissivity ``(*, W)`` (wavelengths on the last axis), ≥ 0
+TAU = _checks.Arg(_as_tau, _check_tau, values=True, tensor=True)
+
+
+def _batch(t: torch.Tensor, c: torch.Tensor, a: torch.Tensor):
+    """``cos_theta`` and ``alpha`` against τ's batch shape ``tau.shape[:-1]`` (ValueError naming
+    them), each given a trailing axis of size 1 (the wavelengths)."""
     for name, x in (("cos_theta", c), ("alpha", a)):
         if x.dim() > t.dim() - 1:
             raise ValueError(
@@ -295,12 +282,32 @@ def _prepare_tau(tau, cos_theta, alpha):
             f"cos_theta {tuple(c.shape)} and alpha {tuple(a.shape)} must broadcast with tau.shape[:-1] "
             f"= {tuple(t.shape[:-1])}"
         ) from None
-    with torch.no_grad():
-        if bool((t < 0).any()):
-            raise ValueError(f"tau must be >= 0 (a transmissivity); got min {t.min().item():g}")
-    return t, c.unsqueeze(-1), a.unsqueeze(-1)
+    return c.unsqueeze(-1), a.unsqueeze(-1)
 
 
+def probability_kernel(t: torch.Tensor, c: torch.Tensor, a: torch.Tensor, multiplexed: bool) -> torch.Tensor:
+    """:func:`transmission_probability` on checked tensors of one dtype: τ ``(*, W)``, and the
+    cosine and α with their trailing axis of size 1 (the transport's kernel, per event)."""
+    num = t.mean(-1, keepdim=True) if multiplexed else t
+    p = 2.0 * num / (1.0 + _g1(c, a))
+    return torch.clamp(p, max=1.0)  # only rounding can exceed 1 when τ ≤ G1
+
+
+def weight_kernel(t: torch.Tensor, c: torch.Tensor, a: torch.Tensor, multiplexed: bool) -> torch.Tensor:
+    """:func:`transmission_weight` on checked tensors (as :func:`probability_kernel`)."""
+    half = 0.5 * (1.0 + _g1(c, a))
+    if not multiplexed:
+        return half.expand(_checks.broadcast_shapes(half.shape, t.shape[:-1] + (1,)))
+    mean = t.mean(-1, keepdim=True)
+    zero = mean <= 0  # (not ``mean > 0``: a NaN τ stays NaN)
+    ratio = torch.where(zero, torch.zeros_like(t), t / torch.where(zero, torch.ones_like(mean), mean))
+    return half * ratio
+
+
+_TAU_ARGS = {"tau": TAU, "cos_theta": _checks.COSINE, "alpha": _geometry.ALPHA, "multiplexed": _checks.FLAG}
+
+
+@_checks.arguments(**_TAU_ARGS)
 def transmission_probability(tau, cos_theta, alpha, *, multiplexed: bool = True) -> torch.Tensor:
     r"""Probability of sampling transmission through a rough Bragg layer (eq. 31):
 
@@ -324,12 +331,10 @@ def transmission_probability(tau, cos_theta, alpha, *, multiplexed: bool = True)
     >>> transmission_probability(tau, torch.tensor([1.0], dtype=torch.float64), 0.1)
     tensor([[0.5000]], dtype=torch.float64)
     """
-    t, c, a = _prepare_tau(tau, cos_theta, alpha)
-    num = t.mean(-1, keepdim=True) if multiplexed else t
-    p = 2.0 * num / (1.0 + _g1(c, a))
-    return torch.clamp(p, max=1.0)  # only rounding can exceed 1 when τ ≤ G1
+    return probability_kernel(tau, *_batch(tau, cos_theta, alpha), multiplexed)
 
 
+@_checks.arguments(**_TAU_ARGS)
 def transmission_weight(tau, cos_theta, alpha, *, multiplexed: bool = True) -> torch.Tensor:
     r"""Path weight after sampling transmission with :func:`transmission_probability`.
 
@@ -348,11 +353,4 @@ def transmission_weight(tau, cos_theta, alpha, *, multiplexed: bool = True) -> t
     >>> transmission_weight(tau, torch.tensor([1.0], dtype=torch.float64), 0.1)
     tensor([[0.8000, 1.2000]], dtype=torch.float64)
     """
-    t, c, a = _prepare_tau(tau, cos_theta, alpha)
-    half = 0.5 * (1.0 + _g1(c, a))
-    if not multiplexed:
-        return half.expand(_checks.broadcast_shapes(half.shape, t.shape[:-1] + (1,)))
-    mean = t.mean(-1, keepdim=True)
-    zero = mean <= 0  # (not ``mean > 0``: a NaN τ stays NaN)
-    ratio = torch.where(zero, torch.zeros_like(t), t / torch.where(zero, torch.ones_like(mean), mean))
-    return half * ratio
+    return weight_kernel(tau, *_batch(tau, cos_theta, alpha), multiplexed)
