@@ -1,6 +1,6 @@
-"""The small-work thread policy (issue 23.4): calls below torchirid._threads.SMALL_WORK elements
-run with one torch thread and restore the caller's count; large calls and the switched-off policy
-leave it alone."""
+"""The thread policy: calls below torchirid._threads.SMALL_WORK elements run with one torch thread
+and restore the caller's count; large calls run with the cores other processes leave free (measured:
+the tests set the measurement), at most the caller's count; the switched-off policies leave it alone."""
 
 from __future__ import annotations
 
@@ -15,12 +15,15 @@ F64 = torch.float64
 
 
 @pytest.fixture
-def two_threads():
+def two_threads(monkeypatch):
+    """Two torch threads on a two-core machine that the tests call quiet (no other process busy)."""
     before = torch.get_num_threads()
     torch.set_num_threads(2)
+    monkeypatch.setattr(_threads, "_cores", lambda: 2)
+    monkeypatch.setattr(_threads, "other_load", lambda: 0.0)
     yield
     torch.set_num_threads(before)
-    ti.options(small_work_threads=1)
+    ti.options(small_work_threads=1, large_work_threads="auto")
 
 
 def _threads_seen_by_kernel(monkeypatch, call):
@@ -88,3 +91,71 @@ def test_knob_validation():
     assert ti.options("small_work_threads") is None
     ti.options(small_work_threads=1)
     assert ti.options("small_work_threads") == 1
+
+
+def test_large_work_takes_the_free_cores(two_threads, monkeypatch):
+    import math
+
+    load = {"others": 1.0}  # one busy process beside us on two cores
+    monkeypatch.setattr(_threads, "other_load", lambda: load["others"])
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 1
+    assert torch.get_num_threads() == 2
+    load["others"] = 0.3  # rounds to no core taken
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 2
+        load["others"] = 1.2  # the neighbour starts during the fit: its next small call gives back 1
+        with _threads.limited(10):
+            assert torch.get_num_threads() == 1
+        assert torch.get_num_threads() == 1
+        load["others"] = 0.0  # and leaves: the next small call gives back both
+        with _threads.limited(10):
+            assert torch.get_num_threads() == 1
+        assert torch.get_num_threads() == 2
+    assert torch.get_num_threads() == 2
+    load["others"] = 5.0  # never fewer than one thread
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 1
+    assert torch.get_num_threads() == 2
+
+
+def test_large_work_knob(two_threads, monkeypatch):
+    import math
+
+    monkeypatch.setattr(_threads, "other_load", lambda: 1.0)
+    ti.options(large_work_threads=None)  # torch's count
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 2
+    ti.options(large_work_threads=1)
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 1
+    ti.options(large_work_threads=8)  # never more than the caller's
+    with _threads.limited(math.inf):
+        assert torch.get_num_threads() == 2
+    for bad in (-1, 1.5, True, "two"):
+        with pytest.raises(ValueError, match="large_work_threads"):
+            ti.options(large_work_threads=bad)
+    assert ti.options("large_work_threads") == 8
+    ti.options(large_work_threads="auto")
+
+
+def test_busy_elsewhere_is_the_system_minus_this_process():
+    # (wall s, system busy CPU s, this process's CPU s)
+    assert _threads.busy_elsewhere((0.0, 10.0, 1.0), (1.0, 12.0, 2.0)) == pytest.approx(1.0)
+    assert _threads.busy_elsewhere((0.0, 10.0, 1.0), (2.0, 11.0, 2.0)) == 0.0  # (never negative)
+    assert _threads.busy_elsewhere((1.0, 0.0, 0.0), (1.0, 5.0, 0.0)) == 0.0  # (no wall time)
+    sample = _threads._sample()
+    if sample is None:
+        pytest.skip("no /proc/stat here: the policy leaves the thread count alone")
+    assert len(sample) == 3 and sample[1] >= 0 and sample[2] >= 0
+    assert _threads.other_load() is None or _threads.other_load() >= 0
+
+
+def test_the_heavy_workloads_run_as_large_work():
+    from torchirid.estimation import estimate_film
+    from torchirid.fitting import match_scatterogram
+    from torchirid.realtime import fit_texture
+
+    for fn in (estimate_film, match_scatterogram, fit_texture):
+        code = fn.__code__.co_names
+        assert "limited" in code and fn.__name__ == fn.__wrapped__.__name__, fn

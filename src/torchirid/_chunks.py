@@ -150,8 +150,14 @@ def evaluate(kernel, tensors, batch, *, core=None, out_core: int = 0, width: int
     blocks = [(*(slice(i, i + 1) for i in outer), slice(begin, min(begin + step, batch[k])))
               for outer in itertools.product(*(range(n) for n in batch[:k]))
               for begin in range(0, batch[k], step)]
-    if grad:
-        return _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options)
+    with _threads.limited(total * max(1, int(width))):  # the large-work thread count (torchirid._threads)
+        if grad:
+            return _checkpointed(kernel, tensors, core, batch, blocks, k, out_core, options)
+        return _blocks(kernel, tensors, core, batch, blocks, nd, out_core, options)
+
+
+def _blocks(kernel, tensors, core, batch, blocks, nd, out_core, options):
+    """The blocks one after the other, written into the preallocated outputs."""
     out = None
     for index in blocks:
         args = [_take(t, index, nd, c) for t, c in zip(tensors, core)]

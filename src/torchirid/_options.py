@@ -32,6 +32,15 @@ def _threads_count(value):
     return value or None
 
 
+def _large_threads(value):
+    if value == "auto" or value is None:
+        return value
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(f"large_work_threads must be 'auto' (the cores other processes leave free), an int >= 1, "
+                         f"or 0 / None to leave torch's setting; got {value!r}")
+    return value or None
+
+
 #: option name → (check, read the current value, set a value)
 _OPTIONS = {
     "value_checks": (_bool("value_checks"), lambda: _checks._VALUE_CHECKS["enabled"],
@@ -39,6 +48,8 @@ _OPTIONS = {
     "chunk_size": (_chunk, lambda: _chunks._STATE["points"], lambda v: _chunks._STATE.__setitem__("points", v)),
     "small_work_threads": (_threads_count, lambda: _threads._STATE["threads"],
                            lambda v: _threads._STATE.__setitem__("threads", v)),
+    "large_work_threads": (_large_threads, lambda: _threads._STATE["large"],
+                           lambda v: _threads._STATE.__setitem__("large", v)),
     "compile": (_bool("compile"), lambda: _compile._state["enabled"],
                 lambda v: _compile._state.__setitem__("enabled", v)),
 }
@@ -74,7 +85,7 @@ def options(name: str | None = None, /, **changes):
       return them all; used as a ``with`` statement, the changed options get their previous
       values back on exit.
 
-    Four process-wide switches, each also settable from the environment at import:
+    Five process-wide switches, each also settable from the environment at import:
 
     ========================  =====================================  ==============================
     option                    values (default first)                 environment variable
@@ -82,6 +93,7 @@ def options(name: str | None = None, /, **changes):
     ``value_checks``          ``True``, ``False``                    —
     ``chunk_size``            ``"auto"``, an int ≥ 1, ``None``       ``TORCHIRID_CHUNK_SIZE``
     ``small_work_threads``    ``1``, an int ≥ 1, ``None``            ``TORCHIRID_SMALL_WORK_THREADS``
+    ``large_work_threads``    ``"auto"``, an int ≥ 1, ``None``       ``TORCHIRID_LARGE_WORK_THREADS``
     ``compile``               ``False``, ``True``                    ``TORCHIRID_COMPILE``
     ========================  =====================================  ==============================
 
@@ -96,6 +108,12 @@ def options(name: str | None = None, /, **changes):
     - ``small_work_threads``: torch threads for calls whose work is below 32 768 elements (the
       measured policy: docs/performance.md, "Threads on a shared machine"); ``None`` (or 0): leave
       torch's thread count alone.
+    - ``large_work_threads``: torch threads for larger calls (tables, colour integrals, the film
+      estimation, the scatterogram match, texture fits). ``"auto"``: the cores that other processes
+      leave free, measured from the system's CPU time since the previous large call (all of the
+      caller's threads on a quiet machine, one beside a busy process on two cores); an int: at most
+      that many; ``None`` (or 0): torch's count. Never more than the caller's
+      ``torch.get_num_threads()``.
     - ``compile``: ``torch.compile`` the elementwise kernels of large calls (a C++ compiler and
       seconds per kernel variant on first use; values agree with the eager kernels to ~1e-13).
 
@@ -105,7 +123,7 @@ def options(name: str | None = None, /, **changes):
 
     >>> import torchirid
     >>> torchirid.options()
-    {'value_checks': True, 'chunk_size': 'auto', 'small_work_threads': 1, 'compile': False}
+    {'value_checks': True, 'chunk_size': 'auto', 'small_work_threads': 1, 'large_work_threads': 'auto', 'compile': False}
     >>> with torchirid.options(value_checks=False, chunk_size=4096):
     ...     torchirid.options("chunk_size")
     4096

@@ -69,7 +69,7 @@ import time
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _checks, _threads
 from ..color import delta_e_2000, xyz_to_lab
 from ..layered.scatterograms import (
     PROJECTIONS,
@@ -108,6 +108,7 @@ def _check_harmonics(harmonics):
     return tuple(float(k) for k in h)
 
 
+@_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def match_scatterogram(
     target_xyz,

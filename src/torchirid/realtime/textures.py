@@ -43,7 +43,7 @@ from typing import Callable, Mapping
 
 import torch
 
-from .. import _checks
+from .. import _checks, _threads
 from ..color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
 from ..color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 from ..lut import LUT
@@ -429,6 +429,7 @@ def texture_lut(family: str, values: torch.Tensor, ranges, parameters: Mapping, 
                units={**units, "values": "linear sRGB (D65, white Y = 1)"})
 
 
+@_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
 def fit_texture(family: str, sizes, ranges, parameters: Mapping, *, samples: int | TextureSamples = 20_000,
                 validation: int = 20_000, iterations: int = 60, seed: int = 0, exact: Callable | None = None,
                 progress=None) -> TextureFit:
