@@ -1,4 +1,4 @@
-"""Threads on a shared machine (issue 23.4): one against two torch threads, quiet and loaded.
+"""Threads on a shared machine: one against two torch threads, quiet and loaded.
 
 Workloads, from many small ops to few large ones (float64):
 
@@ -10,8 +10,9 @@ Workloads, from many small ops to few large ones (float64):
   parallel grain of 32 768);
 * ``grid 10⁶``: the same on 10⁶ points (chunked: blocks of 32 768 points);
 
-each timed with one torch thread, two, and two with torchirid's small-work policy (one thread for
-calls below ``torchirid._threads.SMALL_WORK`` elements; the default) in alternation (paired
+each timed with one torch thread, two, and two with torchirid's policy (the default: one thread for
+calls below ``torchirid._threads.SMALL_WORK`` elements, the cores other processes leave free for
+larger ones) in alternation (paired
 rounds, median of the per-round ratio to one thread), on a quiet machine and while ``--load``
 busy processes (pure-Python loops, one core each) run beside it. A ratio > 1 means slower than
 one thread.
@@ -62,10 +63,10 @@ def timed(fn, calls):
     return (time.perf_counter() - t) / calls
 
 
-VARIANTS = {  # name: (torch threads, torchirid small-work threads)
-    "1 thread": (1, None),
-    "2 threads": (2, None),
-    "2 threads + policy": (2, 1),
+VARIANTS = {  # name: (torch threads, torchirid small-work threads, large-work threads)
+    "1 thread": (1, None, None),
+    "2 threads": (2, None, None),
+    "2 threads + policy": (2, 1, "auto"),
 }
 
 
@@ -76,11 +77,11 @@ def measure(rounds):
         fn()
         times = {v: [] for v in VARIANTS}
         for _ in range(rounds):
-            for v, (threads, small) in VARIANTS.items():
+            for v, (threads, small, large) in VARIANTS.items():
                 torch.set_num_threads(threads)
-                ti.options(small_work_threads=small)
+                ti.options(small_work_threads=small, large_work_threads=large)
                 times[v].append(timed(fn, calls))
-        ti.options(small_work_threads=1)
+        ti.options(small_work_threads=1, large_work_threads="auto")
         base = times["1 thread"]
         out[name] = {}
         for v, ts in times.items():
