@@ -85,6 +85,8 @@ def test_shapes_that_do_not_broadcast_name_the_arguments_and_the_fix():
     with pytest.raises(ValueError, match=r"wavelength\[:, None\]"):
         ti.thin_film_reflectance(lam, c, 1.33, 300.0, 1.5)
     assert ti.thin_film_reflectance(lam[:, None], c, 1.33, 300.0, 1.5).shape == (401, 3)
+    with pytest.raises(ValueError, match=r"wavelength \(shape \(401,\)\) and cos_theta \(shape \(3,\)\).*\[:, None\]"):
+        ti.bragg_reflectance(lam, c, 1.0, 1.5, 125.0, 375.0, 20)
     with pytest.raises(ValueError, match=r"wavelength \(shape \(5,\)\) and cos_theta \(shape \(3,\)\)"):
         ti.multilayer(torch.linspace(400, 800, 5), torch.rand(3), torch.tensor([1.0, 1.4, 1.5]), torch.tensor([100.0]))
 

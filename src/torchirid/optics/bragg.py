@@ -588,6 +588,10 @@ def bragg_reflectance(
     _checks.check_polarization(polarization)
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells)
     n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
+    if lam.shape != c.shape:  # (shapes that do not broadcast: a ValueError naming them, before the kernel)
+        _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
+                                 () if nh is None else nh.shape,
+                                 names=("wavelength", "cos_theta", "n1", "n2", "d1", "d2", "cells", "n_incident"))
     return bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, polarization=polarization, n_max=n_max)
 
 
