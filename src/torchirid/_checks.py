@@ -781,6 +781,23 @@ def check_float_dtype(dtype, name: str = "dtype") -> None:
         raise ValueError(f"{name} must be a floating torch dtype (torch.float32, torch.float64, ...); got {dtype!r}")
 
 
+def number(*, low: float = -math.inf, high: float = math.inf, closed: bool = False, unit: str = "") -> Arg:
+    """A Python real number (not a bool, not a tensor) inside the bounds — ``low < x`` (``≤`` when
+    ``closed``) and ``x ≤ high`` — returned as a float: the scalar settings of a fit or a table."""
+    sign = ">=" if closed else ">"
+    bounds = f" {sign} {low:g}" if low > -math.inf else ""
+    bounds += f" and <= {high:g}" if high < math.inf else ""
+    units = f" ({unit})" if unit else ""
+
+    def convert(v, name, dtype, device):
+        ok = not isinstance(v, bool) and isinstance(v, numbers.Real) and (v >= low if closed else v > low) and v <= high
+        if not ok:
+            raise ValueError(f"{name} must be a number{bounds}{units}; got {v!r}")
+        return float(v)
+
+    return Arg(convert)
+
+
 def pair(*, low: float = 0.0, high: float = math.inf, closed: bool = False, unit: str = "") -> Arg:
     """A ``(low, high)`` pair of floats within the bounds (:func:`check_range`)."""
     return Arg(lambda v, name, dtype, device: check_range(v, name, low=low, high=high, closed=closed, unit=unit))

@@ -108,6 +108,13 @@ def _check_harmonics(harmonics):
     return tuple(float(k) for k in h)
 
 
+@_checks.arguments(projection=_checks.choice(PROJECTIONS), loss=_checks.choice(_LOSSES),
+                   n1=_checks.number(low=0.0), period_range=_checks.pair() | None,
+                   delta_range=_checks.pair(low=0.0, high=1.0, closed=True), dn_range=_checks.pair() | None,
+                   alpha_range=_checks.pair() | None, n1_range=_checks.pair() | None,
+                   period_step=_checks.number(low=0.0, unit="nm"), starts=_checks.integer(1),
+                   short_iter=_checks.integer(1), max_iter=_checks.integer(0),
+                   ambiguity_de2000=_checks.number(low=0.0, closed=True, unit="CIEDE2000"), progress=_checks.PROGRESS)
 @_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
 @_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def match_scatterogram(
@@ -240,18 +247,8 @@ def match_scatterogram(
     if target.shape[0] != len(incs):
         raise ValueError(f"target_xyz holds {target.shape[0]} scatterograms but incident_deg names {len(incs)} "
                          "illuminations")
-    _checks.check_choice(projection, "projection", PROJECTIONS)
-    _checks.check_choice(loss, "loss", _LOSSES)
-    if isinstance(n1, bool) or not isinstance(n1, numbers.Real) or not n1 > 0:
-        raise ValueError(f"n1 must be a real number > 0; got {n1!r}")
     cells = _check_cells(cells)
-    ranges = {
-        "period": None if period_range is None else _checks.check_range(period_range, "period_range"),
-        "delta": _checks.check_range(delta_range, "delta_range", low=0.0, high=1.0, closed=True),
-        "dn": None if dn_range is None else _checks.check_range(dn_range, "dn_range"),
-        "alpha": None if alpha_range is None else _checks.check_range(alpha_range, "alpha_range"),
-        "n1": None if n1_range is None else _checks.check_range(n1_range, "n1_range"),
-    }
+    ranges = {"period": period_range, "delta": delta_range, "dn": dn_range, "alpha": alpha_range, "n1": n1_range}
     if ranges["n1"] is not None and not ranges["n1"][0] <= n1 <= ranges["n1"][1]:
         raise ValueError(f"n1 must lie inside n1_range {ranges['n1']}; got {n1!r}")
     start = dict(DEFAULT_INIT)
@@ -270,15 +267,7 @@ def match_scatterogram(
         if key in given:
             raise ValueError(f"init[{key!r}] = {start[key]:g} lies outside {key}_range {r}")
         start[key] = 0.5 * (r[0] + r[1]) if key == "delta" else math.sqrt(r[0] * r[1])  # a default: the middle
-    if isinstance(period_step, bool) or not isinstance(period_step, numbers.Real) or not period_step > 0:
-        raise ValueError(f"period_step must be a number > 0 (nm); got {period_step!r}")
-    starts = _checks.check_int(starts, "starts")
-    short_iter = _checks.check_int(short_iter, "short_iter")
-    max_iter = _checks.check_int(max_iter, "max_iter", 0)
     harmonics = _check_harmonics(harmonics)
-    if (isinstance(ambiguity_de2000, bool) or not isinstance(ambiguity_de2000, numbers.Real)
-            or not ambiguity_de2000 >= 0):
-        raise ValueError(f"ambiguity_de2000 must be a number >= 0 (CIEDE2000); got {ambiguity_de2000!r}")
     dtype = target.dtype
     res = target.shape[1]
     _, disc = scatterogram_directions(res, projection=projection, dtype=dtype)
@@ -297,8 +286,6 @@ def match_scatterogram(
         lam = torch.linspace(*DEFAULT_FIT_WAVELENGTHS[:2], DEFAULT_FIT_WAVELENGTHS[2], dtype=dtype)
     else:
         lam = _checks.as_real(wavelength, "wavelength", dtype, torch.device("cpu"))
-    if progress is not None and not callable(progress):
-        raise ValueError(f"progress must be None or a callable progress(done, total); got {progress!r}")
     start_units = starts if period_range is not None else 1
     count = {"done": 0, "total": (period_range is not None) + start_units + len(cells) + len(harmonics)}
 
