@@ -84,13 +84,15 @@ except (AttributeError, ValueError, OSError):  # pragma: no cover - not POSIX
     _TICK = 100
 
 
-@functools.lru_cache(maxsize=1)
 def _cores() -> int:
-    """The cores this process may run on (its affinity; read once)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
+    """The cores this process may run on (its affinity, read at import)."""
+    return _CORES
+
+
+try:
+    _CORES = len(os.sched_getaffinity(0))
+except AttributeError:  # pragma: no cover - not Linux
+    _CORES = os.cpu_count() or 1
 
 
 def _sample():
