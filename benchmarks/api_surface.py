@@ -4,8 +4,10 @@
 
 Prints the number of names in the root ``__all__``, the number of unique public names over the
 root and every public subpackage's / top-level module's ``__all__`` (subpackage names
-themselves excluded), and the "second tier": names in a public module's ``__all__`` that its
-package's ``__all__`` does not export.
+themselves excluded), the "second tier": names in a public module's ``__all__`` that its
+package's ``__all__`` does not export, and the argument checks: how many public functions declare
+their arguments (``@_checks.arguments``) and how many still open with a prologue of 8 or more
+lines of ``_checks`` calls (statements of the body that call ``_checks``, outside the return).
 """
 
 from __future__ import annotations
@@ -45,12 +47,53 @@ def surface():
     return root, unique, second
 
 
+def checks():
+    """(functions declaring their arguments, public functions, [(lines, module, name)] of those
+    whose body has >= 8 lines of statements calling _checks), over src/torchirid (not the app)."""
+    import ast
+    import pathlib
+
+    import torchirid
+
+    root = pathlib.Path(torchirid.__file__).parent
+    declared, public, long = 0, 0, []
+    for f in sorted(root.rglob("*.py")):
+        if "app" in f.relative_to(root).parts:
+            continue
+        text = f.read_text(encoding="utf-8")
+        tree = ast.parse(text)
+        names = set()
+        for node in tree.body:
+            if isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+                try:
+                    names = set(ast.literal_eval(node.value))
+                except ValueError:
+                    pass
+        for node in tree.body:
+            if not isinstance(node, ast.FunctionDef) or node.name not in names:
+                continue
+            public += 1
+            if any("arguments" in ast.unparse(d) for d in node.decorator_list):
+                declared += 1
+            body = node.body[1:] if node.body and isinstance(node.body[0], ast.Expr) else node.body
+            lines = sum(ast.get_source_segment(text, st).count("\n") + 1 for st in body
+                        if not isinstance(st, (ast.Return, ast.For, ast.With))
+                        and "_checks." in ast.get_source_segment(text, st))
+            if lines >= 8:
+                long.append((lines, str(f.relative_to(root)), node.name))
+    return declared, public, sorted(long, reverse=True)
+
+
 def main(argv=None):
     argv = sys.argv[1:] if argv is None else argv
     root, unique, second = surface()
     print(f"root __all__: {len(root)} names")
     print(f"unique public names (root + subpackages' __all__): {len(unique)}")
     print(f"names in a public module's __all__ missing from its package's: {len(second)}")
+    declared, public, long = checks()
+    print(f"public functions declaring their arguments (@_checks.arguments): {declared} of {public}")
+    print(f"public functions with a check prologue of >= 8 lines: {len(long)} "
+          + ", ".join(f"{m}:{n} ({k})" for k, m, n in long))
     if "--list" in argv:
         print("\n".join(sorted(unique)))
         print("-- second tier --")
