@@ -108,8 +108,6 @@ REPEATS = {
     "spectral.envelope.fringe_averaged_reflectance": 2,
     "thin_film_xyz_uniform": 2,
     "estimation.measurement.band_reflectance": 2,
-    # two checked colour conversions in a row
-    "xyz_to_srgb": 2,
 }
 
 

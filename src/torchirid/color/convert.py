@@ -442,4 +442,6 @@ def xyz_to_srgb(xyz) -> torch.Tensor:
         >>> [round(v, 4) for v in xyz_to_srgb(torch.tensor([0.2, 0.3, 0.1], dtype=torch.float64)).tolist()]
         [0.406, 0.6446, 0.2616]
     """
-    return linear_srgb_to_srgb(xyz_to_linear_srgb(xyz))
+    xyz = _as_tensor(xyz, "xyz")
+    _check_channels(xyz, "xyz", "X, Y, Z")
+    return _via_kornia("linear_rgb_to_rgb", _via_kornia("xyz_to_rgb", xyz))  # (checked once, here)
