@@ -197,6 +197,8 @@ def test_no_private_name_crosses_a_subpackage():
 SHARED_KERNELS = {
     # the colour-matching tables as NumPy, and the observer/illuminant name checks
     "torchirid.color.colorimetry": ("weighted_cmfs_numpy", "check_illuminant", "check_observer"),
+    # the colour weights of a wavelength grid that the caller built itself (no checks)
+    "torchirid.color.convert": ("xyz_weights_kernel",),
     # the complex interface amplitudes, admittances and normal wavenumbers of a stack
     "torchirid.optics.fresnel": ("admittance", "interface", "normal_wavenumber"),
     # Yeh's closed form on prepared tensors (no checks): the envelope colour evaluates it per node;

@@ -101,12 +101,8 @@ def test_shapes_that_do_not_broadcast_name_the_arguments_and_the_fix():
 REPEATS = {
     # spectral colours: the mirror's checks (prepare_bragg_mirror) plus the colour weights of
     # their own wavelength grid (xyz_weights, which also checks a user's grid is increasing)
-    "bragg_xyz spectral": 2,
-    "bragg_xyz auto": 2,
-    "bragg_xyz sampled": 2,
     "spectral.bragg_xyz_piecewise paper weights": 2,
     "spectral.envelope.fringe_averaged_reflectance": 2,
-    "thin_film_xyz_uniform": 2,
     "estimation.measurement.band_reflectance": 2,
 }
 

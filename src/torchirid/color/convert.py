@@ -166,6 +166,12 @@ def xyz_weights(wavelength, *, observer: str = "CIE 1931 2", illuminant: str = "
     return _weights(w, observer, illuminant)
 
 
+def xyz_weights_kernel(wavelength: torch.Tensor, observer: str, illuminant: str) -> torch.Tensor:
+    """:func:`xyz_weights` on a checked grid (a 1-D, strictly increasing tensor in nm, ≥ 2 samples)
+    and checked names: what a colour function calls on the wavelength grid it builds itself."""
+    return _weights(wavelength, observer, illuminant)
+
+
 def spectrum_to_xyz(
     spectrum,
     wavelength,

@@ -63,7 +63,7 @@ import torch
 from .. import _checks
 from .._chunks import evaluate as _chunk_evaluate, get_chunk_size as _chunk_size
 from .._quadrature import gauss_legendre01
-from ..color.convert import xyz_weights
+from ..color.convert import xyz_weights_kernel
 from ..microfacet.ggx import reflect_kernel, smith_g1_kernel
 from ..optics.thin_film import thin_film_reflectance
 from .sensitivity import ILLUMINANT, OBSERVER
@@ -358,9 +358,10 @@ def thin_film_xyz_uniform(cos_theta_o, alpha, n_film, thickness, n_substrate, *,
         lam = torch.linspace(360.0, 830.0, 471, dtype=dtype, device=device)
     else:
         lam = wavelength
-        if lam.ndim != 1:
-            raise ValueError(f"wavelength must be 1-D; got shape {tuple(lam.shape)}")
-    W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (W, 3)
+        if lam.ndim != 1 or lam.numel() < 2 or not bool((lam[1:] > lam[:-1]).all()):
+            raise ValueError(f"wavelength must be a 1-D, strictly increasing grid of >= 2 samples (nm); got "
+                             f"shape {tuple(lam.shape)}")
+    W = xyz_weights_kernel(lam, observer, illuminant)  # (W, 3)
     nf, d, ns, n0 = n_film, thickness, n_substrate, n_incident
     film_shape = _checks.broadcast_shapes(nf.shape, d.shape, ns.shape, names=("n_film", "thickness", "n_substrate"))
     nf, d, ns = (t.expand(film_shape).reshape(-1) for t in (nf, d, ns))

@@ -59,7 +59,8 @@ import warnings
 import torch
 
 from .. import _checks, _chunks, _threads
-from ..color.convert import xyz_weights
+from ..color.colorimetry import check_illuminant, check_observer
+from ..color.convert import xyz_weights_kernel
 from ..optics.bragg import bragg_reflectance_kernel, prepare_bragg_mirror
 from .envelope import bragg_xyz_envelope
 from .piecewise import bragg_xyz_piecewise
@@ -181,6 +182,8 @@ def bragg_xyz(
         _checks.check_int(samples, "samples", 2)
     if not samples_per_fringe > 0:
         raise ValueError(f"samples_per_fringe must be > 0; got {samples_per_fringe!r}")
+    check_observer(observer)
+    check_illuminant(illuminant)
     # the mirror checked once here (its values too), then the unchecked reflectance kernel per block
     dtype, c, n1t, n2t, d1t, d2t, nh, N = prepare_bragg_mirror(cos_theta, n1, n2, d1, d2, cells, n_incident)
     device = c.device
@@ -191,7 +194,7 @@ def bragg_xyz(
             warnings.warn(f"bragg_xyz: the spectrum needs more than max_samples={max_samples} samples to "
                           "converge (very many cells); the colour is not converged", RuntimeWarning, stacklevel=2)
     lam = _wavelengths(method, samples, (lo, hi), dtype, device)
-    W = xyz_weights(lam, observer=observer, illuminant=illuminant)  # (K, 3), Y column sums to 1
+    W = xyz_weights_kernel(lam, observer, illuminant)  # (K, 3), Y column sums to 1 (the grid is ours)
 
     def trailing(t):  # mirror parameters gain a wavelength axis
         return t.unsqueeze(-1) if t.ndim else t
