@@ -99,8 +99,8 @@ def test_shapes_that_do_not_broadcast_name_the_arguments_and_the_fix():
 #: a composed function that calls another checked public function. Each is debt — lower a count
 #: when it is fixed (the test below fails until the entry is updated).
 REPEATS = {
-    # spectral colours: the mirror's checks (prepare_bragg_mirror) plus the colour weights of
-    # their own wavelength grid (xyz_weights, which also checks a user's grid is increasing)
+    # the piecewise and envelope colours: the embedded mirror's checks plus one checked public call;
+    # the estimation's band model: its reflectance through the checked thin-film function
     "spectral.bragg_xyz_piecewise paper weights": 2,
     "spectral.envelope.fringe_averaged_reflectance": 2,
     "estimation.measurement.band_reflectance": 2,
