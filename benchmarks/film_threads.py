@@ -14,8 +14,13 @@ then the same while ``--load`` busy processes (pure-Python loops, one core each)
 Figure: per condition, the median over rounds of default / min(1 thread, N threads) of the same
 round, with [min–max].
 
-Run: ``.venv/bin/python benchmarks/film_threads.py`` (~10 min at 256 × 256;
-``--size 128`` for a quicker look).
+``--workload match`` times ``match_scatterogram`` (the jewel beetle's green scatterograms at two
+incidences, ``--size`` pixels a side, a local refinement from a nearby start) and ``--workload
+texture`` ``realtime.fit_texture`` (a thin-film texture of 16 × 32 texels from 20 000 samples)
+the same way.
+
+Run: ``.venv/bin/python benchmarks/film_threads.py`` (~15 min at 256 × 256;
+``--size 128`` for a quicker look); ``--workload match --size 24``, ``--workload texture``.
 """
 
 from __future__ import annotations
@@ -49,20 +54,44 @@ def configurations(cores):
     return {"default": default, "1 thread": fixed(1), f"{cores} threads": fixed(cores)}
 
 
-def run(cube, setup):
+def workload(name, size):
+    """The call to time, built once (its inputs are not timed)."""
+    if name == "film":
+        cube = synthetic_cube("mgf2_400", height=size, width=size)
+        label = f"estimate_film on a {size} × {size} × {cube.cube.shape[2]}-angle cube"
+        return label, lambda: estimate_film(cube.cube, cube.wavelength, cube.cos_theta, cube.sample.n_substrate)
+    if name == "match":
+        from torchirid.fitting import match_scatterogram, render_targets
+        from torchirid.presets import jewel_beetle
+
+        lam = torch.linspace(380.0, 780.0, 41, dtype=torch.float64)
+        incs = [(0.0, 0.0), (40.0, 0.0)]
+        target = render_targets(jewel_beetle("green"), incs, resolution=size, wavelength=lam)
+        label = f"match_scatterogram on two {size} × {size} scatterograms (local refinement)"
+        return label, lambda: match_scatterogram(target, incident_deg=incs, n1=1.59, cells=(8,), period_range=None,
+                                                 wavelength=lam, init={"period": 166.0, "delta": 0.51, "dn": 0.08,
+                                                                       "alpha": 0.07}, short_iter=8, max_iter=25)
+    from torchirid.realtime import fit_texture
+
+    label = "fit_texture('thin_film', (16, 32)) from 20 000 samples"
+    return label, lambda: fit_texture("thin_film", (16, 32), ((0.2, 1.0), (100.0, 400.0)),
+                                      {"n_film": 1.33, "n_substrate": 1.5}, samples=20_000, iterations=60)
+
+
+def run(call, setup):
     with setup():
         t = time.perf_counter()
-        est = estimate_film(cube.cube, cube.wavelength, cube.cos_theta, cube.sample.n_substrate)
-        return time.perf_counter() - t, est
+        out = call()
+        return time.perf_counter() - t, out
 
 
-def measure(cube, rounds, cores):
+def measure(call, rounds, cores):
     configs = configurations(cores)
     times = {k: [] for k in configs}
     for r in range(rounds):
         order = list(configs) if r % 2 == 0 else list(reversed(configs))
         for name in order:
-            dt, _ = run(cube, configs[name])
+            dt, _ = run(call, configs[name])
             times[name].append(dt)
         print(f"  round {r + 1}: " + ", ".join(f"{k} {v[-1]:.1f} s" for k, v in times.items()), flush=True)
     others = [k for k in configs if k != "default"]
@@ -72,15 +101,17 @@ def measure(cube, rounds, cores):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--size", type=int, default=256, help="cube height and width (pixels)")
+    ap.add_argument("--workload", choices=("film", "match", "texture"), default="film")
+    ap.add_argument("--size", type=int, default=256, help="cube (or scatterogram) height and width, pixels")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--load", type=int, default=1, help="busy processes in the loaded condition")
     ap.add_argument("--only", choices=("quiet", "loaded"), help="one condition only")
     args = ap.parse_args(argv)
     cores = len(os.sched_getaffinity(0))
-    cube = synthetic_cube("mgf2_400", height=args.size, width=args.size)
-    print(f"estimate_film on a {args.size} × {args.size} × {cube.cube.shape[2]}-angle cube, {cores} cores, "
-          f"{args.rounds} paired rounds; torch {torch.__version__}")
+    label, call = workload(args.workload, args.size)
+    if args.workload != "film":
+        call()  # (a warm-up, untimed: caches and tables filled on first use)
+    print(f"{label}, {cores} cores, {args.rounds} paired rounds; torch {torch.__version__}")
     for condition in ("quiet", "loaded"):
         if args.only and condition != args.only:
             continue
@@ -90,7 +121,7 @@ def main(argv=None):
             time.sleep(1.0)
         try:
             print(f"{condition}:" + (f" {args.load} busy process(es) beside it" if busy else ""))
-            times, ratios = measure(cube, args.rounds, cores)
+            times, ratios = measure(call, args.rounds, cores)
         finally:
             for p in busy:
                 p.kill()

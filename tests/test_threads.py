@@ -98,6 +98,7 @@ def test_large_work_takes_the_free_cores(two_threads, monkeypatch):
 
     load = {"others": 1.0}  # one busy process beside us on two cores
     monkeypatch.setattr(_threads, "other_load", lambda: load["others"])
+    monkeypatch.setattr(_threads, "SAMPLE_S", 0.0)  # (re-decide at every small call, not every 0.2 s)
     with _threads.limited(math.inf):
         assert torch.get_num_threads() == 1
     assert torch.get_num_threads() == 2

@@ -225,7 +225,7 @@ class limited:
             if _LARGE["depth"] == 0:
                 current = torch.get_num_threads()
                 n = large_work_threads(current)
-                _LARGE["saved"], _LARGE["now"] = current, n
+                _LARGE["saved"], _LARGE["now"], _LARGE["at"] = current, n, time.monotonic()
                 if n != current:
                     torch.set_num_threads(n)
             _LARGE["depth"] += 1
@@ -239,8 +239,11 @@ class limited:
                 _STATE["depth"] -= 1
                 if _STATE["depth"] == 0:
                     restore = _STATE["saved"]
-                    if _LARGE["depth"] > 0:  # back to the large workload: its count, re-decided
-                        restore = _LARGE["now"] = large_work_threads(_LARGE["saved"])
+                    if _LARGE["depth"] > 0:  # back to the large workload: its count, re-decided each SAMPLE_S
+                        now = time.monotonic()
+                        if now - _LARGE["at"] >= SAMPLE_S:
+                            _LARGE["now"], _LARGE["at"] = large_work_threads(_LARGE["saved"]), now
+                        restore = _LARGE["now"]
                     if restore is not None and restore != torch.get_num_threads():
                         torch.set_num_threads(restore)
                     _STATE["saved"] = None
@@ -255,7 +258,7 @@ class limited:
 
 
 #: the large-work level of :class:`limited`: nesting depth, the caller's count, the count now
-_LARGE = {"depth": 0, "saved": None, "now": None}
+_LARGE = {"depth": 0, "saved": None, "now": None, "at": 0.0}
 
 
 def large_work(fn):
