@@ -205,15 +205,25 @@ def positive_length(text: str) -> float:
     return _length(text, allow_zero=False)
 
 
-def count(text: str) -> int:
-    """A whole number >= 1."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
-    return value
+def whole_number(minimum: int, why: str = ""):
+    """The argparse type of a whole number >= ``minimum`` (``why``: a reason added to the message
+    of a value below it, e.g. "a gradient needs two angles")."""
+    reason = f" ({why})" if why else ""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {minimum}{reason}, got {value}")
+        return value
+
+    return parse
+
+
+#: a whole number >= 1
+count = whole_number(1)
 
 
 def index(text: str):

@@ -21,16 +21,6 @@ def _ratio(text: str) -> float:
     return value
 
 
-def _strip_count(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 2, got {text!r}") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 2 (a gradient needs two angles), got {value}")
-    return value
-
-
 def add_parser(subparsers):
     """Register ``gradients`` on an argparse subparsers object (``func=run``); returns its parser."""
     gp = _args.add_command_parser(
@@ -72,7 +62,7 @@ def add_parser(subparsers):
     g.add_argument("--polarization", choices=_args.POLARIZATIONS, default="unpolarized",
                    help="'unpolarized' is the mean of the s and p reflectances")
     g = gp.add_argument_group("grid and output")
-    g.add_argument("--angles", type=_strip_count, default=None, metavar="COUNT",
+    g.add_argument("--angles", type=_args.whole_number(2, "a gradient needs two angles"), default=None, metavar="COUNT",
                    help="number of incidence angles θ of each colour strip, evenly spaced from 0 to 90° inclusive "
                         "(default: 90; 16 with --preview)")
     g.add_argument("--out", default="out", metavar="DIR", help="output directory (created if missing)")

@@ -74,7 +74,7 @@ def add_parser(subparsers):
     p.add_argument("--samples", type=_args.count, default=8192,
                    help="paths per direction pair in all (default 8192); the standard error falls as 1/√samples")
     p.add_argument("--blocks", type=_args.count, default=16, help="independent seeded blocks (default 16)")
-    p.add_argument("--seed", type=_seed, default=0,
+    p.add_argument("--seed", type=_args.whole_number(0), default=0,
                    help="seed of the whole estimate, a whole number >= 0 (default 0); another seed, another estimate "
                         "within the standard error")
     p.add_argument("--transmission", choices=("filter", "microfacet"), default="filter",
@@ -85,19 +85,6 @@ def add_parser(subparsers):
     _args.add_output_options(p, figures=False)
     p.set_defaults(func=run, parser=p)
     return p
-
-
-def _seed(text: str) -> int:
-    """A whole number >= 0 (``--seed 0`` is the default seed)."""
-    import argparse
-
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
 
 
 def _direction(theta: float, phi: float, option: str):
