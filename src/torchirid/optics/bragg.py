@@ -101,12 +101,16 @@ def prepare_bragg_mirror(cos_theta, n1, n2, d1, d2, cells, n_incident=None):
     return dtype, c, n1, n2, d1, d2, nh, N
 
 
+#: the arguments whose shapes broadcast (named in the error of those that do not)
+_ARGUMENTS = ("wavelength", "cos_theta", "n1", "n2", "d1", "d2", "cells", "n_incident")
+
+
 def bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, *, polarization, n_max=None):
     """:func:`bragg_reflectance` of checked arguments (:func:`prepare_bragg_mirror`, a wavelength
     tensor in nm of their dtype, a valid ``polarization``; ``n_max``: the largest cell count if known
     as a Python int), with no checks: block by block over large batches (``torchirid._chunks``)."""
     batch = _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
-                                     () if nh is None else nh.shape)
+                                     () if nh is None else nh.shape, names=_ARGUMENTS)
     return _chunks.evaluate(_bragg_core, (lam, c, n1, n2, d1, d2, nh, N), batch, polarization=polarization,
                             n_max=n_max)
 
@@ -588,10 +592,6 @@ def bragg_reflectance(
     _checks.check_polarization(polarization)
     dtype, lam, c, n1, n2, d1, d2, nh, N = _prepare(wavelength, cos_theta, n1, n2, d1, d2, n_incident, cells)
     n_max = int(cells) if isinstance(cells, int) and not isinstance(cells, bool) else None
-    if lam.shape != c.shape:  # (shapes that do not broadcast: a ValueError naming them, before the kernel)
-        _checks.broadcast_shapes(lam.shape, c.shape, n1.shape, n2.shape, d1.shape, d2.shape, N.shape,
-                                 () if nh is None else nh.shape,
-                                 names=("wavelength", "cos_theta", "n1", "n2", "d1", "d2", "cells", "n_incident"))
     return bragg_reflectance_kernel(lam, c, n1, n2, d1, d2, nh, N, polarization=polarization, n_max=n_max)
 
 

@@ -175,18 +175,20 @@ def multilayer(wavelength, cos_theta, indices, thicknesses, *, polarization: str
     """
     check_stack_shape(indices, thicknesses)
     _checks.check_real_index(indices[..., 0], "indices[..., 0] (incident medium)")
-    _checks.broadcast_shapes(wavelength.shape, cos_theta.shape, indices.shape[:-1], thicknesses.shape[:-1],
-                             names=("wavelength", "cos_theta", "indices[..., 0]", "thicknesses[..., 0]"))
     return multilayer_kernel(wavelength, cos_theta, indices, thicknesses, polarization)
 
 
 def multilayer_kernel(lam, c, n, d, polarization: str):
     """:func:`multilayer` on checked tensors (same dtype and device, broadcastable, a valid stack):
     block by block over large batches without a gradient (torchirid._chunks)."""
-    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1])
+    batch = _checks.broadcast_shapes(lam.shape, c.shape, n.shape[:-1], d.shape[:-1], names=_ARGUMENTS)
     # block by block over large batches (torchirid._chunks); n and d carry one trailing stack axis
     return _chunks.evaluate(_multilayer_core, (lam, c, n, d), batch, core=(0, 0, 1, 1),
                             polarization=polarization)
+
+
+#: the arguments whose shapes broadcast (named in the error of those that do not)
+_ARGUMENTS = ("wavelength", "cos_theta", "indices[..., 0]", "thicknesses[..., 0]")
 
 
 def _multilayer_core(lam, c, n, d, *, polarization):
