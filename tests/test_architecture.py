@@ -33,6 +33,7 @@ RANKS = {
     # shared internals: the version and the cache registry below the rest
     "_version": 0, "_cache": 0,
     "_checks": 0.5, "_compile": 0.5, "_quadrature": 0.5, "_io": 0.5, "_lut_file": 0.5,
+    "_autograd": 0.6,  # inference mode / autograd around public calls (uses _checks.traceable)
     "_threads": 0.6,  # the small-work thread policy (uses _checks.traceable)
     "_chunks": 0.75,  # block-wise evaluation (uses _checks.traceable, _threads)
     "_options": 0.8,

@@ -285,7 +285,7 @@ print("\\n".join(failed))
 def test_caches_filled_in_inference_mode_serve_autograd():
     """A fresh process whose first calls run in ``torch.inference_mode()`` (tables, quadratures and
     colour data get cached then) must still differentiate every case afterwards: cached tensors
-    are built outside inference mode (``_checks.normal_tensors``)."""
+    are built outside inference mode (``_autograd.normal_tensors``)."""
     import pathlib
     import subprocess
     import sys

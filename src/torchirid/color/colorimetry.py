@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _autograd
 from .._checks import names
 from .._cache import cached
 from . import _tables
@@ -157,19 +157,19 @@ def _tensors(wl, v, dtype, device):
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _cmfs_tensor(observer: str, space: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_cmfs_numpy(observer, space), dtype, device)
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _illuminant_tensor(name: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*_illuminant_numpy(name), dtype, device)
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _product_tensor(observer: str, illuminant: str, dtype: torch.dtype, device: torch.device):
     return _tensors(*weighted_cmfs_numpy(observer, illuminant), dtype, device)
 
@@ -187,7 +187,7 @@ def _white_numpy(illuminant: str, observer: str) -> np.ndarray:
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _white_tensor(illuminant: str, observer: str, dtype: torch.dtype, device: torch.device) -> torch.Tensor:
     return torch.as_tensor(_white_numpy(illuminant, observer), dtype=torch.float64).to(dtype=dtype, device=device)
 

@@ -34,7 +34,7 @@ from __future__ import annotations
 import torch
 import torch.nn.functional as F
 
-from .. import _checks
+from .. import _autograd, _checks
 from .._cache import cached
 from .colorimetry import _product_tensor, _white_tensor, check_illuminant, check_observer
 
@@ -398,7 +398,7 @@ def linear_srgb_to_xyz(rgb) -> torch.Tensor:
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _srgb_to_xyz_matrix(dtype, device) -> torch.Tensor:
     m = xyz_to_linear_srgb(torch.eye(3, dtype=torch.float64)).T  # column k: the image of XYZ basis vector k
     return torch.linalg.inv(m).to(dtype=dtype, device=device)

@@ -60,7 +60,7 @@ from dataclasses import dataclass, field
 
 import torch
 
-from .. import _checks, _threads
+from .. import _autograd, _threads
 from .dispersion import INDEX_MODELS, REFERENCE_WAVELENGTH, index_model
 from .index_search import ORDER_SHIFTS, scan_sample, select_index_model
 from .noise import noise_check
@@ -147,7 +147,7 @@ def _peak_stage(st: FilmProblem):
 
 
 @_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
-@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
+@_autograd.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def estimate_film(cube, wavelength, cos_theta, n_substrate, *, index_model_name: str = DEFAULT_INDEX_MODEL,
                   bandwidth=4.0, passband: str = "box", polarization: str = "unpolarized", n_incident=1.0,
                   n_range=(1.2, 3.5), thickness_range=(20.0, 2000.0), smoothness: float = 0.0, sample: int = 512,

@@ -11,7 +11,7 @@ import math
 
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from ._validation import band_settings, cube_axes, real_index, value_range
 from .dispersion import index_model
 from .measurement import band_terms
@@ -59,7 +59,7 @@ def _band_model(terms, d):
 
 
 
-@_checks.fits_with_autograd  # (its Jacobian is one reverse-mode pass)
+@_autograd.fits_with_autograd  # (its Jacobian is one reverse-mode pass)
 def lm_jacobian(y, d, terms, dterms=None):
     r"""Residual and its exact Jacobian for one Levenberg–Marquardt step, pixels ``y`` ``(p, A, B)``.
 

@@ -42,7 +42,7 @@ from typing import NamedTuple
 
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from ._validation import band_settings, cube_axes, real_index, weight
 from .dispersion import INDEX_MODELS, index_model
 from .gauss_newton import MAX_THICKNESS_STEP, _smooth_terms, d_only_gauss_newton, lm_jacobian, model_terms
@@ -299,7 +299,7 @@ def _order_check(fit, theta, d, sse):
 
 
 
-@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
+@_autograd.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def refine_film(cube, wavelength, cos_theta, n_substrate, thickness_init, index_init, *, index_model_name="constant",
                 bandwidth=4.0, passband="box", polarization="unpolarized", n_incident=1.0, smoothness: float = 0.0,
                 iterations: int = 12, fit_index: bool = True, order_check: bool = True, tol: float = 1e-7,

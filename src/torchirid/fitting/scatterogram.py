@@ -69,7 +69,7 @@ import time
 import numpy as np
 import torch
 
-from .. import _checks, _threads
+from .. import _autograd, _checks, _threads
 from ..color import delta_e_2000, xyz_to_lab
 from ..layered.scatterograms import (
     PROJECTIONS,
@@ -116,7 +116,7 @@ def _check_harmonics(harmonics):
                    short_iter=_checks.integer(1), max_iter=_checks.integer(0),
                    ambiguity_de2000=_checks.number(low=0.0, closed=True, unit="CIEDE2000"), progress=_checks.PROGRESS)
 @_threads.large_work  # (the free cores on a shared machine: torchirid._threads)
-@_checks.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
+@_autograd.fits_with_autograd  # (autograd inside: a caller's inference mode must not switch it off)
 def match_scatterogram(
     target_xyz,
     mask=None,

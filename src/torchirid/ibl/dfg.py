@@ -22,7 +22,7 @@ import importlib.resources
 
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from ..lut import LUT
 from ..microfacet.ggx import reflect_kernel, sample_ggx_vndf, smith_g1
 from .._cache import cached
@@ -90,7 +90,7 @@ def dfg_lut(resolution: int = 32, *, samples: int = 1024, dtype: torch.dtype = t
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(dtype, device) -> LUT:
     path = importlib.resources.files("torchirid").joinpath(*_DFG_FILE)
     with importlib.resources.as_file(path) as p:

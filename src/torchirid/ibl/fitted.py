@@ -40,7 +40,7 @@ import math
 
 import torch
 
-from .. import _checks, _chunks
+from .. import _autograd, _checks, _chunks
 from ..lut import LUT
 from .filtered import _ARGS, _series_xyz
 from .fourier import check_film_above_incident, fourier_terms
@@ -179,7 +179,7 @@ def _table_masking(lut: LUT) -> str:
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _shipped(masking, dtype, device) -> LUT:
     path = light_mixture_path(masking)
     with importlib.resources.as_file(path) as p:

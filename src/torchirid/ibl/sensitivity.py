@@ -48,7 +48,7 @@ import re
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
 from .._shipped import read_or_build
@@ -112,7 +112,7 @@ def _quadrature_numpy(observer: str, illuminant: str) -> tuple[np.ndarray, np.nd
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _quadrature(observer, illuminant, dtype, device):
     lam, w = _quadrature_numpy(observer, illuminant)
     return (torch.as_tensor(1.0 / lam, dtype=dtype, device=device),
@@ -310,7 +310,7 @@ def fourier_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str = "D6
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype, device=device)
@@ -463,7 +463,7 @@ def prefiltered_sensitivity_path(observer: str = "CIE 1931 2", illuminant: str =
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _prefiltered_cached(observer, illuminant, dtype, device) -> LUT:
     if dtype != torch.float64 or device != torch.device("cpu"):
         return _prefiltered_cached(observer, illuminant, torch.float64, torch.device("cpu")).to(dtype=dtype,

@@ -122,7 +122,7 @@ from typing import Callable
 
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from .._cache import cache_dict
 from . import _geometry
 from ..microfacet.brdf import microfacet_brdf
@@ -192,7 +192,7 @@ class _Layer:
         lut = _TABLES.get(self._key)
         if lut is None:
             # (outside inference mode: a table cached by a call in inference mode must serve autograd calls)
-            lut = _checks.normal_tensors(transmissivity_lut.__wrapped__)(self.lam, self.layer, **self.tau_kw)
+            lut = _autograd.normal_tensors(transmissivity_lut.__wrapped__)(self.lam, self.layer, **self.tau_kw)
             while len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
             _TABLES[self._key] = lut

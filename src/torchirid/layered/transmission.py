@@ -25,7 +25,7 @@ import math
 
 import torch
 
-from .. import _checks, _chunks
+from .. import _autograd, _checks, _chunks
 from . import _geometry
 from ..lut import LUT
 from .filter import _hat_weights, _normal_cap, _quadrature, _quadrature_cos
@@ -151,7 +151,7 @@ def _lut_cosines(alpha: float, angles: int, dtype, device) -> torch.Tensor:
 
 
 @cached(maxsize=8)
-@_checks.normal_tensors  # (a first call in inference mode must not cache inference tensors)
+@_autograd.normal_tensors  # (a first call in inference mode must not cache inference tensors)
 def _lut_weights(alpha: float, angles: int, cells: int, dtype: torch.dtype, device: str):
     """(cos nodes increasing, θd grid, product weights (nodes, cells + 1)); layer-independent, cached."""
     cos = _lut_cosines(alpha, angles, dtype, device)

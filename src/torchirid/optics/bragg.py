@@ -44,7 +44,7 @@ import math
 
 import torch
 
-from .. import _checks, _chunks, _compile
+from .. import _autograd, _checks, _chunks, _compile
 from .fresnel import interface, normal_wavenumber, same_medium
 
 __all__ = ["bragg_reflectance", "bragg_dispersion", "bragg_envelope"]
@@ -559,7 +559,7 @@ def _needs_general(c, n1, n2, nh):
     return evanescent
 
 
-@_checks.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
+@_autograd.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
 def bragg_reflectance(
     wavelength, cos_theta, n1, n2, d1, d2, cells, *, n_incident=None, polarization: str = "unpolarized"
 ) -> torch.Tensor:

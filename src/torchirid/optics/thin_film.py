@@ -20,13 +20,13 @@ import math
 
 import torch
 
-from .. import _checks, _chunks
+from .. import _autograd, _checks, _chunks
 from .fresnel import _normal_wavenumber, interface, nudge_critical
 
 __all__ = ["thin_film_reflectance"]
 
 
-@_checks.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
+@_autograd.inference_when_small  # (a few points without a gradient: no autograd bookkeeping)
 @_checks.arguments(wavelength=_checks.WAVELENGTH, cos_theta=_checks.COSINE, n_film=_checks.INDEX,
                    thickness=_checks.THICKNESS, n_substrate=_checks.INDEX, n_incident=_checks.INCIDENT_INDEX,
                    polarization=_checks.POLARIZATION)
@@ -103,7 +103,7 @@ def _thin_film_core(lam, c, nf, d, ns, n0, *, polarization):
                             (r01 + ge2) / torch.where(degenerate, torch.ones_like(den), den))
     else:
         gamma = (r01 + ge2) / den
-    if gamma.numel() <= _checks.SMALL_CALL:  # |r|² per polarization: few ops on a few points
+    if gamma.numel() <= _autograd.SMALL_CALL:  # |r|² per polarization: few ops on a few points
         R = torch.view_as_real(gamma).square().sum(-1)
     else:  # (a reduction over re, im is slow on a large batch)
         R = gamma.real ** 2 + gamma.imag ** 2

@@ -58,7 +58,7 @@ import warnings
 
 import torch
 
-from .. import _checks, _chunks, _threads
+from .. import _autograd, _checks, _chunks, _threads
 from ..color.colorimetry import check_illuminant, check_observer
 from ..color.convert import xyz_weights_kernel
 from ..optics.bragg import bragg_reflectance_kernel, prepare_bragg_mirror
@@ -92,7 +92,7 @@ def _colours(*args, **kwargs) -> int:
 
 
 # a few colours are many small ops: one torch thread (torchirid._threads; measured there)
-@_checks.inference_when_no_grad  # (no gradient wanted: every method runs in inference mode)
+@_autograd.inference_when_no_grad  # (no gradient wanted: every method runs in inference mode)
 @_threads.limited_by(_colours)
 def bragg_xyz(
     cos_theta,

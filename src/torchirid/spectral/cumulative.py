@@ -62,7 +62,7 @@ import re
 import numpy as np
 import torch
 
-from .. import _checks
+from .. import _autograd, _checks
 from ..color.colorimetry import weighted_cmfs_numpy, check_illuminant, check_observer
 from ..lut import LUT
 from .._shipped import read_or_build
@@ -324,7 +324,7 @@ def _load_or_build(observer: str, illuminant: str, lo: float, hi: float) -> LUT:
 
 
 @cached(maxsize=None)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _cached(observer: str, illuminant: str, lo: float, hi: float, dtype: torch.dtype,
             device: torch.device) -> LUT:
     if dtype == torch.float64 and device == torch.device("cpu"):

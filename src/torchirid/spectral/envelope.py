@@ -36,7 +36,7 @@ import math
 
 import torch
 
-from .. import _checks, _chunks
+from .. import _autograd, _checks, _chunks
 from ..optics.bragg import yeh_reflectance_kernel
 from .cumulative import shipped_cumulative_cmf_lut
 from .piecewise import _check_domain, _embedded_mirror, _envelope, _fringe_mean, _parts
@@ -46,7 +46,7 @@ __all__ = ["bragg_xyz_envelope"]
 
 
 @cached(maxsize=64)
-@_checks.normal_tensors
+@_autograd.normal_tensors
 def _hat_weights(samples, observer, illuminant, lo, hi, dtype, device):
     omega_min, omega_max = 2 * math.pi / hi, 2 * math.pi / lo
     table = shipped_cumulative_cmf_lut(observer, illuminant, (lo, hi), dtype=torch.float64, device="cpu")
