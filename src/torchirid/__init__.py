@@ -19,6 +19,7 @@ subpackages, whose ``__all__`` is their whole public surface:
 - :mod:`torchirid.ibl` — thin-film colour, also for image-based lighting (Belcour–Barla, Kneiphof);
 - :mod:`torchirid.estimation` — film index and thickness from hyperspectral cubes;
 - :mod:`torchirid.fitting` — matching layered Bragg materials to scatterograms;
+- :mod:`torchirid.design` — inverse design of coatings and structural colours for a target;
 - :mod:`torchirid.realtime` — textures and GLSL for shaders;
 - :mod:`torchirid.presets` — the papers' structures (jewel beetles, Hirayama's coatings, Kobayashi's films);
 - :mod:`torchirid.materials`, :mod:`torchirid.lut`, :mod:`torchirid.export`.
@@ -43,6 +44,7 @@ __all__ = [
     "__version__",
     # subpackages
     "color",
+    "design",
     "estimation",
     "export",
     "fitting",
@@ -96,7 +98,7 @@ __all__ = [
 ]
 
 _SUBPACKAGES = frozenset(
-    ("color", "estimation", "export", "fitting", "ibl", "layered", "lut", "materials", "microfacet", "optics",
+    ("color", "design", "estimation", "export", "fitting", "ibl", "layered", "lut", "materials", "microfacet", "optics",
      "presets", "realtime", "spectral", "scale"))
 
 #: entry point → the subpackage that defines it
@@ -135,7 +137,7 @@ def __dir__():
 
 
 if TYPE_CHECKING:  # the names for static tools; at run time they load on first use
-    from . import color, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, realtime
+    from . import color, design, estimation, export, fitting, ibl, layered, lut, materials, microfacet, optics, realtime
     from . import presets, spectral
     from .color import delta_e, spectrum_to_xyz, xyz_to_lab, xyz_to_srgb
     from .estimation import estimate_film, read_cube

@@ -1,0 +1,118 @@
+r"""Needle optimisation (Tikhonravov, Trubetskov & DeBell, *Appl. Opt.* 35, 5493 (1996)).
+
+A needle is a layer of zero thickness of material :math:`m` inserted at depth :math:`z` of the
+stack. Its thickness derivative
+
+.. math:: P(m, z) = \left.\frac{∂M}{∂δ}\right|_{δ = 0}
+
+says whether growing it lowers the merit :math:`M`. Here it is not derived by hand: every
+candidate insertion — each material of the problem at ``positions`` depths inside every layer and
+at every interface — is one row of a batch of stacks whose needle has thickness 0, and one
+backward pass through the batched merit gives all the :math:`P(m, z)` at once. The stage then
+
+1. inserts the needle where :math:`P` is most negative,
+2. refines every thickness by L-BFGS-B (:func:`~torchirid.design.optimise.refine`),
+3. removes layers that shrank below ``min_thickness`` (or to 0) and merges equal neighbours,
+
+and repeats until no needle lowers the merit (:math:`P ≥ 0` everywhere, to ``1e-9`` of the
+merit per nm), the problem's ``max_layers`` is reached, or the budget is spent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from .merit import Evaluator
+from .problem import Layer, Problem
+
+#: depths probed inside each layer (evenly spread, besides its two interfaces)
+POSITIONS = 8
+
+
+def _materials(problem: Problem) -> list:
+    out = []
+    for layer in problem.layers:
+        for m in layer.candidates:
+            if m not in out:
+                out.append(m)
+    return out
+
+
+def _subproblem(problem: Problem, layers: list[Layer]) -> Problem:
+    return Problem(layers, problem.targets, incident=problem.incident, exit=problem.exit,
+                   max_total_thickness=problem.max_total_thickness, robust=problem.robust)
+
+
+def needle_derivatives(problem: Problem, materials: list, thicknesses: list, palette: list,
+                       positions: int = POSITIONS):
+    """``(P, where)``: the merit's derivative for every candidate needle (per nm) and, per row,
+    ``(layer, depth in nm, palette index)``."""
+    rows, stacks, mats = [], [], []
+    mi = [palette.index(m) for m in materials]
+    L = len(materials)
+    for j in range(L):
+        depths = np.linspace(0.0, thicknesses[j], positions + 2)
+        for z in depths:
+            for k in range(len(palette)):
+                # a needle of the layer's own material, or at an interface of its neighbour's,
+                # only moves that interface: the refinement already did that
+                if k == mi[j] or (z == 0 and j > 0 and k == mi[j - 1]) or (
+                        z == thicknesses[j] and j + 1 < L and k == mi[j + 1]):
+                    continue
+                d = thicknesses[:j] + [float(z), 0.0, thicknesses[j] - float(z)] + thicknesses[j + 1:]
+                m = mi[:j] + [mi[j], k, mi[j]] + mi[j + 1:]
+                rows.append((j, float(z), k))
+                stacks.append(d)
+                mats.append(m)
+    layers = [Layer(list(palette) if len(palette) > 1 else palette[0], (0.0, 1e6)) for _ in range(L + 2)]
+    ev = Evaluator(_subproblem(problem, layers))
+    x = torch.tensor(stacks, dtype=ev.dtype, requires_grad=True)
+    choice = torch.tensor(mats, dtype=torch.long) if len(palette) > 1 else None
+    ev.merit(x, choice).sum().backward()
+    needle = torch.tensor([j + 1 for j, _, _ in rows])
+    P = x.grad[torch.arange(len(rows)), needle].numpy()
+    return P, rows, ev.evaluations
+
+
+def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
+    """The needle stage from the stack ``x`` (free thicknesses) / ``ch`` (choices) of ``ev``;
+    returns (materials, thicknesses, merit)."""
+    from .optimise import _clean, _stack, refine
+
+    materials, thicknesses = _stack(ev, x, ch)
+    materials, thicknesses = _clean(materials, thicknesses, 0.0)
+    palette = _materials(problem)
+    upper = max([float(ev.upper.max())] if len(ev.upper) else [max(thicknesses)])
+    max_layers = problem.max_layers or len(problem.layers)
+    merit = np.inf
+    seen = set()
+    while True:
+        sub = Evaluator(_subproblem(problem, [Layer(m, (0.0, upper)) for m in materials]))
+        xs, ms = refine(sub, np.asarray(thicknesses, dtype=float)[None], None, run)
+        ev.evaluations += sub.evaluations
+        materials, thicknesses = _clean(materials, xs[0].tolist(), problem.min_thickness)
+        merit = float(ms[0])
+        run.record(merit)
+        key = (tuple(map(repr, materials)), round(merit, 12))
+        if run.out_of_budget() or len(materials) + 2 > max_layers or not materials or key in seen:
+            break  # budget, layer count, or a needle that the refinement removed again
+        seen.add(key)
+        P, rows, count = needle_derivatives(problem, materials, thicknesses, palette)
+        ev.evaluations += count
+        best = int(np.argmin(P))
+        if not P[best] < -1e-9 * max(abs(merit), 1e-12):
+            break
+        j, z, k = rows[best]
+        materials, thicknesses = _insert(materials, thicknesses, j, z, palette[k])
+    return materials, thicknesses, merit
+
+
+def _insert(materials, thicknesses, j: int, z: float, material):
+    """The stack with a zero-thickness ``material`` at depth ``z`` of layer ``j`` (an empty piece of
+    the split layer, at an interface, is left out)."""
+    d = thicknesses[j]
+    pieces = [(materials[j], z), (material, 0.0), (materials[j], d - z)]
+    pieces = [p for i, p in enumerate(pieces) if i == 1 or p[1] > 0]
+    return (materials[:j] + [m for m, _ in pieces] + materials[j + 1:],
+            thicknesses[:j] + [t for _, t in pieces] + thicknesses[j + 1:])
