@@ -47,6 +47,8 @@ RANKS = {
     # products
     "ibl": 4, "estimation": 4, "export": 4,
     "fitting": 5,
+    # inverse design: optimisers over the optics and colour of stacks
+    "design": 5,
     # the papers' structures: built from optics, layered and estimation
     "presets": 4.5,
     # scale-out above the products: distributes library calls (table builds, Monte Carlo, fits)
@@ -207,6 +209,9 @@ SHARED_KERNELS = {
     "torchirid.optics.bragg": ("yeh_reflectance_kernel", "prepare_bragg_mirror", "bragg_reflectance_kernel"),
     # Kobayashi's samples: synthetic_cube renders them by name; torchirid.presets publishes them
     "torchirid.estimation.synthetic": ("SAMPLES",),
+    # a stack's interface terms computed once and its response to many thickness sets (the design
+    # optimisers' populations)
+    "torchirid.optics.transfer": ("stack_pieces", "stack_response"),
     # GGX D, Smith G1 and the mirror direction without the argument checks (inner loops of quadratures)
     "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel", "reflect_kernel"),
 }

@@ -19,7 +19,7 @@ Example (a 10-layer quarter-wave mirror at 600 nm, PyMoosh's ``bragg`` problem):
     >>> from torchirid import design
     >>> p = design.Problem([design.Layer(m, (0, 214.3)) for m in (1.8, 1.4) * 5],
     ...                    [design.SpectralTarget("R", [600.0], value=1.0, polarization="s", p=1)],
-    ...                    incident=1.0, exit=1.8)
+    ...                    n_incident=1.0, n_substrate=1.8)
     >>> d = design.optimise(p, seed=0)
     >>> round(d.merit, 9)  # 1 − R of the quarter-wave stack
     0.164855772
@@ -30,10 +30,10 @@ batched evaluation), :mod:`~torchirid.design.optimise`, :mod:`~torchirid.design.
 the AM1.5G weighting needs pvlib (``pip install 'torchirid[design]'``).
 """
 
-from .optimise import Design, optimise
 from .problem import ColourTarget, Layer, Problem, Robust, SpectralTarget
+from .search import Design, optimise
 from .spec import read_spec
-from .tolerance import Tolerance, tolerance
+from .tolerancing import Tolerance, tolerance
 
 __all__ = [
     "ColourTarget",

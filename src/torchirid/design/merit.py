@@ -25,11 +25,8 @@ import math
 import numpy as np
 import torch
 
-from .._checks import complex_dtype, polarization_terms
-from ..optics._transfer_fast import reflect_transmit
-from ..optics._transfer_scan import fits, reflect_transmit_scan
-from ..optics.fresnel import admittance
-from ..optics.transfer import interface_amplitudes, stack_normal_wavenumbers
+from .._checks import complex_dtype
+from ..optics.transfer import stack_pieces, stack_response
 from .problem import ColourTarget, Problem, SpectralTarget
 
 #: the penalty per relative excess over ``max_total_thickness``
@@ -75,20 +72,11 @@ class _Condition:
     def __init__(self, tables: list[torch.Tensor], lam: torch.Tensor, c: torch.Tensor, polarization: str):
         self.tables = tables
         self.lam, self.c, self.polarization = lam, c, polarization
+        self.u = (1 / lam)[:, None]
         self.fixed = all(t.shape[0] == 1 for t in tables)
         if self.fixed:
             n = torch.stack([t[0] for t in tables], dim=-1)  # [W, L+2]
-            self.pieces = self._pieces(n[:, None, :])  # [P, W, A, L+1], [W, A, L]
-
-    def _pieces(self, n: torch.Tensor):
-        """Interface amplitudes ``r``, scaled ``|t|²`` ``[P, *B, W, A, L+1]`` and ``2π q`` of the films
-        ``[*B, W, A, L]`` for indices ``n [*B, W, 1, L+2]``."""
-        q, nc = stack_normal_wavenumbers(self.c, n, complex_dtype(self.lam.dtype))
-        eta = torch.stack([admittance(q, nc, pol) for pol in polarization_terms(self.polarization)])
-        r, t2 = interface_amplitudes(eta[..., :-1], eta[..., 1:])
-        flux = eta[..., -1].real / eta[..., 0].real  # Re(η_B)/η_A: T from |τ|² (θ < 90°: η_A > 0)
-        t2 = torch.cat([t2[..., :-1], t2[..., -1:] * flux[..., None]], dim=-1)
-        return r, t2, (2 * math.pi) * q[..., 1:-1]
+            self.pieces = stack_pieces(c, n[:, None, :], polarization)  # [P, W, A, L+1], [W, A, L]
 
     def response(self, d: torch.Tensor, choice: list[torch.Tensor] | None):
         """(R, T) ``[B, W, A]`` of thicknesses ``d [B, L]`` (materials ``choice``: one ``[B]`` index
@@ -96,21 +84,12 @@ class _Condition:
         B = d.shape[0]
         if self.fixed:
             r, t2, kq = self.pieces
-            r, t2 = r[:, None], t2[:, None]  # [P, 1, W, A, L+1]
         else:
             n = torch.stack([t[ch] if t.shape[0] > 1 else t[0].expand(B, -1)
                              for t, ch in zip(self.tables, choice)], dim=-1)  # [B, W, L+2]
-            r, t2, kq = self._pieces(n[:, :, None, :])
-        k = kq * d[:, None, None, :]
+            r, t2, kq = stack_pieces(self.c, n[:, :, None, :], self.polarization)
         batch = (B, self.lam.shape[0], self.c.shape[0])
-        u = (1 / self.lam)[:, None]
-        out = reflect_transmit_scan(r, t2, k, u, batch) if fits(k.shape[-1], r.shape[0], batch) else None
-        R, T = reflect_transmit(r, t2, k, u, batch) if out is None else out
-        if R.shape[0] == 2:
-            R, T = (R[0] + R[1]) * 0.5, (T[0] + T[1]) * 0.5
-        else:
-            R, T = R[0], T[0]
-        return R.clamp(0, 1), T.clamp(0, 1)
+        return stack_response(r, t2, kq, d[:, None, None, :], self.u, batch)
 
 
 class Evaluator:
@@ -133,7 +112,7 @@ class Evaluator:
                                  dtype=dtype, device=self.device)
         self.choosing = [j for j, layer in enumerate(layers) if len(layer.candidates) > 1]
         self.counts = [len(layers[j].candidates) for j in self.choosing]
-        positions = [(problem.incident,)] + [layer.candidates for layer in layers] + [(problem.exit,)]
+        positions = [(problem.n_incident,)] + [layer.candidates for layer in layers] + [(problem.n_substrate,)]
         self.conditions = []
         self.targets = problem.targets
         for t in problem.targets:
@@ -247,5 +226,5 @@ class Evaluator:
         m = self.plain_merit(dd, ch).reshape(B, S)
         if self.robust.objective == "mean":
             return m.mean(-1)
-        worst = max(1, int(math.ceil(self.robust.alpha * S)))
+        worst = max(1, math.ceil(self.robust.alpha * S))
         return m.topk(worst, dim=-1).values.mean(-1)

@@ -11,7 +11,7 @@ at every interface — is one row of a batch of stacks whose needle has thicknes
 backward pass through the batched merit gives all the :math:`P(m, z)` at once. The stage then
 
 1. inserts the needle where :math:`P` is most negative,
-2. refines every thickness by L-BFGS-B (:func:`~torchirid.design.optimise.refine`),
+2. refines every thickness by L-BFGS-B (:func:`~torchirid.design.local.refine`),
 3. removes layers that shrank below ``min_thickness`` (or to 0) and merges equal neighbours,
 
 and repeats until no needle lowers the merit (:math:`P ≥ 0` everywhere, to ``1e-9`` of the
@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from .local import clean, refine, stack_of
 from .merit import Evaluator
 from .problem import Layer, Problem
 
@@ -40,7 +41,7 @@ def _materials(problem: Problem) -> list:
 
 
 def _subproblem(problem: Problem, layers: list[Layer]) -> Problem:
-    return Problem(layers, problem.targets, incident=problem.incident, exit=problem.exit,
+    return Problem(layers, problem.targets, n_incident=problem.n_incident, n_substrate=problem.n_substrate,
                    max_total_thickness=problem.max_total_thickness, robust=problem.robust)
 
 
@@ -78,10 +79,8 @@ def needle_derivatives(problem: Problem, materials: list, thicknesses: list, pal
 def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
     """The needle stage from the stack ``x`` (free thicknesses) / ``ch`` (choices) of ``ev``;
     returns (materials, thicknesses, merit)."""
-    from .optimise import _clean, _stack, refine
-
-    materials, thicknesses = _stack(ev, x, ch)
-    materials, thicknesses = _clean(materials, thicknesses, 0.0)
+    materials, thicknesses = stack_of(ev, x, ch)
+    materials, thicknesses = clean(materials, thicknesses, 0.0)
     palette = _materials(problem)
     upper = max([float(ev.upper.max())] if len(ev.upper) else [max(thicknesses)])
     max_layers = problem.max_layers or len(problem.layers)
@@ -91,7 +90,7 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
         sub = Evaluator(_subproblem(problem, [Layer(m, (0.0, upper)) for m in materials]))
         xs, ms = refine(sub, np.asarray(thicknesses, dtype=float)[None], None, run)
         ev.evaluations += sub.evaluations
-        materials, thicknesses = _clean(materials, xs[0].tolist(), problem.min_thickness)
+        materials, thicknesses = clean(materials, xs[0].tolist(), problem.min_thickness)
         merit = float(ms[0])
         run.record(merit)
         key = (tuple(map(repr, materials)), round(merit, 12))

@@ -2,8 +2,8 @@ r"""What a design problem is: a stack with free parameters and the targets it mu
 
 A :class:`Problem` holds
 
-* the stack, from the incident side down: ``incident`` medium, :class:`Layer` ``layers``,
-  ``exit`` medium. A material is a number (a constant index ``n`` or ``n + iκ``), a named
+* the stack, from the incident side down: the incident medium ``n_incident``, :class:`Layer`
+  ``layers``, the exit medium ``n_substrate`` (what the layers sit on). A material is a number (a constant index ``n`` or ``n + iκ``), a named
   material of :mod:`torchirid.materials` (``"TiO2"``, ``"SiO2"``, ``"glass"``, ``"Ag"`` …, or a
   ``(shelf, book, page)`` of the refractiveindex.info database), a user table (a mapping with
   ``wavelength`` in nm, ``n`` and optionally ``k``, interpolated linearly, no extrapolation), or
@@ -30,8 +30,9 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -82,7 +83,7 @@ def check_material(material, key: str):
     if isinstance(material, dict):
         unknown = set(material) - {"wavelength", "n", "k"}
         if unknown:
-            raise SpecError(f"{key}.{sorted(unknown)[0]}", "unknown key of a material table "
+            raise SpecError(f"{key}.{min(unknown)}", "unknown key of a material table "
                             "(a table has wavelength (nm), n and optionally k)")
         try:
             lam = np.asarray(material["wavelength"], dtype=float)
@@ -139,7 +140,7 @@ class Layer:
     material: Any
     thickness: float | tuple[float, float]
 
-    def check(self, key: str) -> "Layer":
+    def check(self, key: str) -> Layer:
         if isinstance(self.material, (list, tuple)) and not (
                 isinstance(self.material, tuple) and len(self.material) == 3
                 and all(isinstance(s, str) for s in self.material)):
@@ -242,7 +243,7 @@ class SpectralTarget:
     p: float = 2.0
     importance: float = 1.0
 
-    def check(self, key: str) -> "SpectralTarget":
+    def check(self, key: str) -> SpectralTarget:
         if self.quantity not in QUANTITIES:
             raise SpecError(f"{key}.quantity", f"one of {', '.join(QUANTITIES)}; got {self.quantity!r}")
         lam = _wavelengths(self.wavelength, f"{key}.wavelength")
@@ -296,7 +297,7 @@ class ColourTarget:
     importance: float = 1.0
     wavelength_step: float = 5.0
 
-    def check(self, key: str) -> "ColourTarget":
+    def check(self, key: str) -> ColourTarget:
         from ..color import ILLUMINANTS, OBSERVERS
 
         c = _cosines(self.cos_theta, f"{key}.cos_theta")
@@ -322,7 +323,7 @@ class ColourTarget:
     @property
     def wavelength(self) -> tuple[float, ...]:
         """The integration grid, nm."""
-        count = int(round((780.0 - 360.0) / self.wavelength_step)) + 1
+        count = round((780.0 - 360.0) / self.wavelength_step) + 1
         return tuple(np.linspace(360.0, 780.0, count).tolist())
 
 
@@ -351,7 +352,7 @@ class Robust:
     alpha: float = 0.1
     seed: int = 0
 
-    def check(self, key: str, layers: int) -> "Robust":
+    def check(self, key: str, layers: int) -> Robust:
         s = np.atleast_1d(np.asarray(self.sigma, dtype=float))
         if s.size == 1:
             s = np.full(layers, float(s[0]))
@@ -380,15 +381,15 @@ class Problem:
         >>> from torchirid import design
         >>> p = design.Problem(layers=[design.Layer(1.8, (0, 214)), design.Layer(1.4, (0, 214))],
         ...                    targets=[design.SpectralTarget("R", [600.0], value=1.0, p=1)],
-        ...                    incident=1.0, exit=1.8)
+        ...                    n_incident=1.0, n_substrate=1.8)
         >>> p.free_thicknesses
         2
     """
 
     layers: Sequence[Layer]
     targets: Sequence[SpectralTarget | ColourTarget]
-    incident: Any = 1.0
-    exit: Any = 1.52
+    n_incident: Any = 1.0
+    n_substrate: Any = 1.52
     min_thickness: float = 0.0
     max_total_thickness: float | None = None
     max_layers: int | None = None
@@ -407,10 +408,10 @@ class Problem:
             if not isinstance(layer, Layer):
                 raise SpecError(f"layers[{i}]", f"a design.Layer; got {type(layer).__name__}")
             checked.append(layer.check(f"layers[{i}]"))
-        incident = check_material(self.incident, "incident")
+        incident = check_material(self.n_incident, "n_incident")
         if _is_number(incident) and complex(incident).imag != 0:
-            raise SpecError("incident", "the incident medium must be lossless (real index)")
-        exit_ = check_material(self.exit, "exit")
+            raise SpecError("n_incident", "the incident medium must be lossless (real index)")
+        exit_ = check_material(self.n_substrate, "n_substrate")
         targets = self.targets
         if isinstance(targets, (SpectralTarget, ColourTarget)):
             targets = [targets]
@@ -434,14 +435,14 @@ class Problem:
         # every wavelength a target asks for lies inside every material's range
         lam = [w for t in tchecked for w in t.wavelength]
         lo, hi = min(lam), max(lam)
-        mats = [("incident", incident), ("exit", exit_)] + [
+        mats = [("n_incident", incident), ("n_substrate", exit_)] + [
             (f"layers[{i}].material", m) for i, layer in enumerate(checked) for m in layer.candidates]
         for key, m in mats:
             a, b = material_range(m)
             if lo < a or hi > b:
                 raise SpecError(key, f"defined over {a:g}–{b:g} nm; the targets need {lo:g}–{hi:g} nm")
-        for name, value in (("layers", tuple(checked)), ("targets", tuple(tchecked)), ("incident", incident),
-                            ("exit", exit_), ("robust", robust), ("min_thickness", float(self.min_thickness)),
+        for name, value in (("layers", tuple(checked)), ("targets", tuple(tchecked)), ("n_incident", incident),
+                            ("n_substrate", exit_), ("robust", robust), ("min_thickness", float(self.min_thickness)),
                             ("_checked", True)):
             object.__setattr__(self, name, value)
 

@@ -290,6 +290,10 @@ def read_spec(source) -> tuple[Problem, dict, dict | None]:
             kwargs[name] = _number(spec, name, "", float)
     if "max_layers" in spec:
         kwargs["max_layers"] = _number(spec, "max_layers", "", int)
-    problem = Problem(layers, targets, incident=incident, exit=exit_, robust=robust,
-                      name=str(spec.get("name", "")), **kwargs)
+    try:
+        problem = Problem(layers, targets, n_incident=incident, n_substrate=exit_, robust=robust,
+                          name=str(spec.get("name", "")), **kwargs)
+    except SpecError as err:  # the file's names of the two media
+        key = {"n_incident": "incident", "n_substrate": "exit"}.get(err.key, err.key)
+        raise SpecError(key, str(err).split(": ", 1)[1]) from None
     return problem, options, tolerance

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import torch
 
-__all__ = ["reflect_transmit_scan", "fits"]
+__all__ = ["fits", "reflect_transmit_scan"]
 
 #: longest stack reduced as a matrix product (entries ≤ 2^L stay far inside float32's range)
 MAX_FILMS = 96

@@ -32,6 +32,7 @@ import torch
 
 from .. import _checks, _chunks
 from ._transfer_fast import reflect_transmit
+from ._transfer_scan import fits, reflect_transmit_scan
 from .fresnel import admittance, interface, normal_wavenumber, nudge_critical
 
 __all__ = ["multilayer"]
@@ -123,6 +124,37 @@ def stack_wavenumbers(lam, c, n, d):
     phi = (2 * math.pi) * q[..., 1:-1] * d / lam[..., None]
     e1 = torch.exp(1j * phi)
     return q, e1, e1 * e1, nc_b
+
+
+def stack_pieces(c: torch.Tensor, n: torch.Tensor, polarization: str):
+    """What a stack of fixed indices contributes before its thicknesses: the interface amplitudes
+    ``r`` and ``|t|²`` ``[P, *batch, L+1]`` (the last scaled by ``Re η_B / η_A``, so that
+    :func:`stack_response` returns T) and ``2π q`` of the films ``[*batch, L]``, for checked
+    cosines ``c`` (0 < c ≤ 1) and indices ``n [..., L+2]`` broadcasting against ``c``.
+
+    The design optimisers compute these once per problem and call :func:`stack_response` for
+    every population of thicknesses."""
+    q, nc = stack_normal_wavenumbers(c, n, _checks.complex_dtype(c.dtype))
+    eta = stack_admittances(q, nc, polarization)
+    r, t2 = interface_amplitudes(eta[..., :-1], eta[..., 1:])
+    flux = eta[..., -1].real / eta[..., 0].real  # eq. 6: T = Re(η_B)/η_A |τ|² (c > 0: η_A > 0)
+    t2 = torch.cat([t2[..., :-1], t2[..., -1:] * flux[..., None]], dim=-1)
+    return r, t2, (2 * math.pi) * q[..., 1:-1]
+
+
+def stack_response(r: torch.Tensor, t2: torch.Tensor, kq: torch.Tensor, d: torch.Tensor, u: torch.Tensor, batch):
+    """(R, T) ``[*batch]`` (mean over the polarizations of ``r``) of the pieces of
+    :func:`stack_pieces`, thicknesses ``d [..., L]`` and ``u = 1/λ``; ``batch`` is the broadcast
+    shape of ``kq[..., 0] * d[..., 0]``, ``u`` and the pieces' batch.
+
+    Small batches (≤ ``_transfer_scan.MAX_POINTS`` points) take the tree of 2×2 products, larger
+    ones (and any point where that leaves the normal range) the film loop of :func:`multilayer`."""
+    r = align_polarization_axis(r, batch)
+    t2 = align_polarization_axis(t2, batch)
+    k = kq * d
+    out = reflect_transmit_scan(r, t2, k, u, batch) if fits(k.shape[-1], r.shape[0], batch) else None
+    R, T = reflect_transmit(r, t2, k, u, batch) if out is None else out
+    return _polarization_mean(R).clamp(0, 1), _polarization_mean(T).clamp(0, 1)
 
 
 def _polarization_mean(x: torch.Tensor) -> torch.Tensor:

@@ -18,8 +18,8 @@ import numpy as np
 import torch
 
 from .merit import Evaluator
-from .optimise import Design
-from .problem import ColourTarget, Layer, Problem, SpecError
+from .problem import ColourTarget, Problem, SpecError
+from .search import Design
 
 __all__ = ["Tolerance", "tolerance"]
 
@@ -74,7 +74,7 @@ def tolerance(design: Design | Problem, *, sigma=1.0, relative: bool = False, sa
     Example (a quarter-wave mirror's reflectance barely moves under 1 nm errors):
         >>> from torchirid import design
         >>> p = design.Problem([design.Layer(m, 600 / (4 * m)) for m in (1.8, 1.4) * 5],
-        ...                    [design.SpectralTarget("R", [600.0], p=1)], incident=1.0, exit=1.8)
+        ...                    [design.SpectralTarget("R", [600.0], p=1)], n_incident=1.0, n_substrate=1.8)
         >>> t = design.tolerance(p, sigma=1.0, samples=500)
         >>> t.yield_fraction
         1.0
@@ -92,7 +92,7 @@ def tolerance(design: Design | Problem, *, sigma=1.0, relative: bool = False, sa
         sig = _sigma(sigma, relative, L)
     except SpecError as err:
         raise ValueError(str(err)) from None
-    fixed = Problem(list(problem.layers), problem.targets, incident=problem.incident, exit=problem.exit,
+    fixed = Problem(list(problem.layers), problem.targets, n_incident=problem.n_incident, n_substrate=problem.n_substrate,
                     max_total_thickness=problem.max_total_thickness)
     ev = Evaluator(fixed)
     d0 = ev.base[None]

@@ -24,14 +24,16 @@ from __future__ import annotations
 
 import json
 import math
-import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import torch
 
+from .local import Run, clean, refine, stack_of
 from .merit import Evaluator
+from .needle import needle_search
 from .problem import Layer, Problem, material_label
 
 __all__ = ["Design", "optimise"]
@@ -45,8 +47,7 @@ REFINE = 4
 ROUND_ITERATIONS = 60
 #: rounds without improvement (relative 1e-9) that end the global stage
 PATIENCE = 3
-#: L-BFGS-B's relative merit tolerance (its gradient tolerance is 1e-3 of it)
-FTOL = 1e-12
+
 
 
 @dataclass
@@ -83,12 +84,12 @@ class Design:
         """The design as a problem with every thickness fixed (for analysis)."""
         p = self.problem
         return Problem([Layer(m, float(d)) for m, d in zip(self.materials, self.thicknesses)], p.targets,
-                       incident=p.incident, exit=p.exit, robust=p.robust, name=p.name)
+                       n_incident=p.n_incident, n_substrate=p.n_substrate, robust=p.robust, name=p.name)
 
     def to_dict(self) -> dict:
         """What ``design.json`` holds."""
-        return {"layers": self.layers, "incident": material_label(self.problem.incident),
-                "exit": material_label(self.problem.exit), "merit": float(self.merit),
+        return {"layers": self.layers, "incident": material_label(self.problem.n_incident),
+                "exit": material_label(self.problem.n_substrate), "merit": float(self.merit),
                 "seconds": float(self.seconds), "evaluations": int(self.evaluations),
                 "total_thickness_nm": float(sum(self.thicknesses)), "method": self.method,
                 "history": [[float(s), int(e), float(m)] for s, e, m in self.history]}
@@ -99,31 +100,6 @@ class Design:
             with open(path, "w") as f:
                 f.write(text + "\n")
         return text
-
-
-class _Run:
-    """Book-keeping of one optimisation: clock, budget, history, progress."""
-
-    def __init__(self, ev: Evaluator, time_limit, max_evaluations, progress):
-        self.ev, self.progress = ev, progress
-        self.start = time.perf_counter()
-        self.time_limit = math.inf if time_limit is None else float(time_limit)
-        self.max_evaluations = math.inf if max_evaluations is None else int(max_evaluations)
-        self.best = math.inf
-        self.history: list = []
-
-    def elapsed(self) -> float:
-        return time.perf_counter() - self.start
-
-    def out_of_budget(self) -> bool:
-        return self.elapsed() >= self.time_limit or self.ev.evaluations >= self.max_evaluations
-
-    def record(self, merit: float) -> None:
-        if merit < self.best:
-            self.best = merit
-            self.history.append((self.elapsed(), self.ev.evaluations, merit))
-            if self.progress is not None:
-                self.progress(self.ev.evaluations, merit)
 
 
 def _merit_numpy(ev: Evaluator, F: int):
@@ -142,53 +118,7 @@ def _merit_numpy(ev: Evaluator, F: int):
     return f
 
 
-def refine(ev: Evaluator, x: np.ndarray, choice: np.ndarray | None, run: _Run, *, maxiter: int = 500):
-    """L-BFGS-B on the candidates ``x [k, F]`` together (materials fixed); returns (x, merits)."""
-    from scipy.optimize import minimize
-
-    k, F = x.shape
-    if F == 0:
-        with torch.inference_mode():
-            m = ev.merit(torch.as_tensor(x, dtype=ev.dtype), _choice(ev, choice)).cpu().numpy()
-        return x, m
-    ch = _choice(ev, choice)
-    lower = np.tile(ev.lower, k)
-    upper = np.tile(ev.upper, k)
-    last = {}
-
-    def fg(flat):
-        t = torch.tensor(flat.reshape(k, F), dtype=ev.dtype, device=ev.device, requires_grad=True)
-        m = ev.merit(t, ch)
-        m.sum().backward()
-        last["m"] = m.detach().cpu().numpy()
-        run.record(float(last["m"].min()))
-        if run.out_of_budget():
-            raise _Stop
-        return float(m.detach().sum()), t.grad.cpu().numpy().ravel()
-
-    x0 = np.clip(x, ev.lower, ev.upper).ravel()
-    try:
-        res = minimize(fg, x0, jac=True, method="L-BFGS-B", bounds=list(zip(lower, upper)),
-                       options={"maxiter": maxiter, "ftol": FTOL, "gtol": FTOL*1e-3, "maxcor": 20})
-        x = res.x.reshape(k, F)
-    except _Stop:
-        pass
-    with torch.inference_mode():
-        m = ev.merit(torch.as_tensor(x, dtype=ev.dtype, device=ev.device), ch).cpu().numpy()
-    return x, m
-
-
-class _Stop(Exception):
-    """Raised inside an objective when the budget is spent."""
-
-
-def _choice(ev: Evaluator, choice):
-    if choice is None or not ev.choosing:
-        return None
-    return torch.as_tensor(np.rint(choice), dtype=torch.long, device=ev.device)
-
-
-def global_search(ev: Evaluator, run: _Run, rng: np.random.Generator, *, population: int | None = None,
+def global_search(ev: Evaluator, run: Run, rng: np.random.Generator, *, population: int | None = None,
                   generations: int = GENERATIONS, refine_count: int = REFINE, rtol: float = 1e-9,
                   patience: int = PATIENCE, goal: float | None = None, round_iterations: int = ROUND_ITERATIONS):
     """Rounds of SciPy DE + batched gradient refinement; returns (x [F], choice [C] or None, merit)."""
@@ -247,7 +177,7 @@ def global_search(ev: Evaluator, run: _Run, rng: np.random.Generator, *, populat
     return x[:F], (np.rint(x[F:]).astype(int) if C else None), best[1]
 
 
-def multistart(ev: Evaluator, run: _Run, rng: np.random.Generator, *, starts: int = 32):
+def multistart(ev: Evaluator, run: Run, rng: np.random.Generator, *, starts: int = 32):
     """Gradient refinement from ``starts`` random stacks at once; materials drawn at random."""
     F = len(ev.free)
     x = ev.lower + rng.random((starts, F)) * (ev.upper - ev.lower)
@@ -287,7 +217,7 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
     Example (a 4-layer mirror at 600 nm):
         >>> from torchirid import design
         >>> p = design.Problem([design.Layer(m, (0, 214)) for m in (1.8, 1.4, 1.8, 1.4)],
-        ...                    [design.SpectralTarget("R", [600.0], p=1)], incident=1.0, exit=1.8)
+        ...                    [design.SpectralTarget("R", [600.0], p=1)], n_incident=1.0, n_substrate=1.8)
         >>> d = design.optimise(p, seed=0)
         >>> [round(t, 1) for t in d.thicknesses]  # quarter waves: 600 / (4 n)
         [83.3, 107.1, 83.3, 107.1]
@@ -304,13 +234,11 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
         raise TypeError("progress must be callable as progress(evaluations, best_merit)")
     ev = Evaluator(problem, dtype=dtype, device=device)
     rng = np.random.default_rng(seed)
-    run = _Run(ev, time_limit, max_evaluations, progress)
+    run = Run(ev, time_limit, max_evaluations, progress)
     with torch.random.fork_rng(devices=[]):
         torch.manual_seed(seed)
         grow = problem.max_layers is not None and problem.max_layers > len(problem.layers)
         if method == "needle":
-            from .needle import needle_search
-
             x0 = (ev.lower + ev.upper) / 2
             ch0 = np.zeros(len(ev.choosing), dtype=int) if ev.choosing else None
             materials, thicknesses, merit = needle_search(problem, ev, run, x0, ch0)
@@ -325,47 +253,19 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
                     x2, ch2, merit2 = global_search(ev, run, rng, population=population, goal=goal)
                     if merit2 < merit:
                         x, ch, merit = x2, ch2, merit2
-            materials, thicknesses = _stack(ev, x, ch)
+            materials, thicknesses = stack_of(ev, x, ch)
             if method == "auto" and grow and not run.out_of_budget():
-                from .needle import needle_search
-
-                materials, thicknesses, merit = needle_search(problem, ev, run, x, ch)
-        materials, thicknesses = _clean(materials, thicknesses, problem.min_thickness)
+                    materials, thicknesses, merit = needle_search(problem, ev, run, x, ch)
+        materials, thicknesses = clean(materials, thicknesses, problem.min_thickness)
         merit = _final_merit(problem, materials, thicknesses, dtype, device)
     return Design(problem, materials, thicknesses, merit, run.elapsed(), ev.evaluations, run.history, method)
 
 
-def _stack(ev: Evaluator, x, ch):
-    layers = ev.problem.layers
-    d = ev.thicknesses(torch.as_tensor(np.asarray(x, dtype=float)[None], dtype=ev.dtype))[0].tolist()
-    mats = [layer.candidates[0] for layer in layers]
-    for i, j in enumerate(ev.choosing):
-        mats[j] = layers[j].candidates[int(ch[i])]
-    return mats, d
-
-
-def _clean(materials, thicknesses, min_thickness: float):
-    """Drop layers thinner than ``min_thickness`` (when it is > 0; zero-thickness ones too) and
-    merge equal neighbours; with ``min_thickness = 0`` the stack is kept as it is."""
-    if min_thickness <= 0:
-        return list(materials), [float(d) for d in thicknesses]
-    out_m, out_d = [], []
-    for m, d in zip(materials, thicknesses):
-        if d <= 0 or d < min_thickness:
-            continue
-        if out_m and out_m[-1] == m:
-            out_d[-1] += d
-        else:
-            out_m.append(m)
-            out_d.append(float(d))
-    return out_m, out_d
-
-
 def _final_merit(problem: Problem, materials, thicknesses, dtype, device) -> float:
     if not materials:
-        materials, thicknesses = [problem.exit], [0.0]
+        materials, thicknesses = [problem.n_substrate], [0.0]
     fixed = Problem([Layer(m, float(d)) for m, d in zip(materials, thicknesses)], problem.targets,
-                    incident=problem.incident, exit=problem.exit, robust=problem.robust,
+                    n_incident=problem.n_incident, n_substrate=problem.n_substrate, robust=problem.robust,
                     max_total_thickness=problem.max_total_thickness)
     ev = Evaluator(fixed, dtype=dtype, device=device)
     with torch.inference_mode():
