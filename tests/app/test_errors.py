@@ -42,6 +42,7 @@ PARSE_ERRORS = {
     "build-table": ["thin_film_reflectance", "--axis", "wavelength=nan:700:5"],
     "fit-batch": ["film", "c.npz", "--timeout", "nan"],
     "montecarlo": ["--incident", "nan", "0", "--exit", "30", "0"],
+    "design": ["spec.toml", "--time-limit", "nan"],
     "explore": ["--port", "nan"],
 }
 
@@ -58,6 +59,7 @@ LATE_ERRORS = {
     "build-table": (["thin_film_reflectance", "--axis", "wavelength=400:700:5", "--set", "bogus=1"], "bogus"),
     "fit-batch": (["film", "c.npz", "--set", "bogus=1"], "bogus"),
     "montecarlo": (["--incident", "95", "0", "--exit", "30", "0"], "THETA"),
+    "design": (["missing-spec.toml"], "missing-spec"),
     "explore": (["--port", "70000"], "port"),
 }
 
@@ -131,6 +133,8 @@ ERROR_CLASSES = {
     "montecarlo": {k: ["--incident", "30", "0", "--exit", "30", "0", *extra]
                    for k, extra in (("nan", ["--wavelengths", "400", "nan", "5"]), ("negative", ["--samples", "-5"]),
                                     ("unit", ["--wavelengths", "4e-7", "7e-7", "5"]))},
+    "design": {"nan": ["s.toml", "--time-limit", "nan"], "negative": ["s.toml", "--seed", "-1"],
+               "unit": None},  # lengths are in the spec: tests/app/test_design_command.py
     "explore": {"nan": ["--port", "nan"], "negative": ["--port", "-1"], "unit": None},  # no lengths to give in metres
 }
 

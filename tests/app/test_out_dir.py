@@ -22,6 +22,7 @@ ARGS = {
     "build-table": ["thin_film_reflectance", "--axis", "wavelength=400:700:3"],
     "fit-batch": ["film", "c.npz"],
     "montecarlo": ["--incident", "30", "0", "--exit", "30", "180"],
+    "design": ["spec.toml"],
     "explore": [],
 }
 

@@ -21,15 +21,15 @@ import sys
 
 from .._version import __version__
 from . import _args
-from .commands import (build_table, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram,
-                       spectrum, thin_film)
+from .commands import (build_table, design, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere,
+                       scatterogram, spectrum, thin_film)
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: The subcommands, in the order of ``torchirid --help``: modules with ``NAME``,
 #: ``add_parser(subparsers)`` and ``run(args) -> int``.
 COMMANDS = (spectrum, gradients, scatterogram, film_table, render_sphere, thin_film, fit_film, build_table, fit_batch,
-            montecarlo, explore)
+            montecarlo, design, explore)
 
 #: the subcommands whose ``--out`` is a file (the others write into an ``--out`` folder)
 FILE_OUTPUTS = frozenset({"fit-batch", "montecarlo"})
@@ -56,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
             "  torchirid render-sphere                  # Hirayama 2000 Fig. 8: coated rough spheres\n"
             "  torchirid film-table --stack teapot --check  # Hirayama 2000 §5: k_r/k_t table → LUT .npz\n"
             "  torchirid fit-film CUBE.npz --out fit/   # Kobayashi: film n and thickness map from a hyperspectral cube\n"
+            "  torchirid design examples/design/mirror.toml --out mirror/  # inverse design of a stack from a TOML spec\n"
             "  torchirid spectrum --help                # all options"
         ),
     )
