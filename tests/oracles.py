@@ -23,6 +23,8 @@ Contents
     the explicit layer list of the Bragg mirror used throughout the tests.
 ``material_nk``, ``MATERIALS``
     tabulated metals / silicon from the refractiveindex.info database (offline).
+``colour_lab``
+    CIELAB of a reflectance spectrum by colour-science (``sd_to_XYZ``, integration method).
 ``HIRAYAMA_TABLE1``, ``HIRAYAMA_FIG8``, ``hirayama_stack``
     the multilayer examples of Hirayama et al. 2000 (Table 1 / Fig. 8) as data.
 ``mpmath_stack_RT``, ``mpmath_bragg_RT``, ``mpmath_bragg_R``
@@ -255,6 +257,9 @@ MATERIALS = {
     # W: Rakić et al. 1998 Lorentz-Drude fit (247.97-12398 nm). The "Werner" page (REELS,
     # 2009) also covers the visible but disagrees strongly with optical measurements
     # (550 nm: Werner 1.34+5.23i, Rakic-LD 3.46+2.76i, Weaver 1975 3.52+2.74i).
+    # the dielectrics of the design tests (torchirid.materials uses the same pages)
+    "TiO2": ("main", "TiO2", "Siefke", "T. Siefke et al., Adv. Opt. Mater. 4, 1780 (2016)"),
+    "SiO2": ("main", "SiO2", "Malitson", "I. H. Malitson, J. Opt. Soc. Am. 55, 1205 (1965)"),
     "W": ("main", "W", "Rakic-LD",
           "A. D. Rakić, A. B. Djurišić, J. M. Elazar, M. L. Majewski, Appl. Opt. 37, 5271 (1998)"),
 }
@@ -296,7 +301,12 @@ def material_nk(name: str, wavelength_nm) -> np.ndarray:
         raise ValueError(f"wavelength_nm must be within [{lo}, {hi}] nm for {key} "
                          f"({MATERIALS[key][2]}), got min {wl.min()}, max {wl.max()}")
     n = np.asarray(mat.get_refractive_index(wl, unit="nm"), dtype=float)
-    k = np.asarray(mat.get_extinction_coefficient(wl, unit="nm"), dtype=float)
+    try:
+        k = np.asarray(mat.get_extinction_coefficient(wl, unit="nm"), dtype=float)
+    except Exception as err:  # a lossless page (a dispersion formula for n only)
+        if type(err).__name__ != "NoExtinctionCoefficient":
+            raise
+        k = np.zeros_like(n)
     return (n + 1j * k).astype(complex).reshape(wl.shape)
 
 
@@ -636,3 +646,20 @@ def quarter_wave_T(n1, n2, cells, n_incident=None, dps: int = 50, as_mpf: bool =
         T = 4 * h * m1 * q / (h + m1 * q) ** 2
         T = +T
     return T if as_mpf else float(T)
+
+
+def colour_lab(wavelength_nm, reflectance, illuminant: str = "D65", observer: str = "CIE 1931 2") -> np.ndarray:
+    """CIELAB (L* of the perfect reflector = 100) of a reflectance spectrum, by colour-science:
+    ``sd_to_XYZ(..., method="Integration")`` on the given samples, then ``XYZ_to_Lab`` relative
+    to the white those same CMFs and illuminant give the perfect reflector (its xy, not the
+    4-decimal tabulated chromaticity). ``observer``: "CIE 1931 2" or "CIE 1964 10"."""
+    import colour
+
+    cmfs_name = {"CIE 1931 2": "CIE 1931 2 Degree Standard Observer",
+                 "CIE 1964 10": "CIE 1964 10 Degree Standard Observer"}[observer]
+    sd = colour.SpectralDistribution(dict(zip(np.asarray(wavelength_nm, float), np.asarray(reflectance, float))))
+    cmfs = colour.MSDS_CMFS[cmfs_name]
+    spd = colour.SDS_ILLUMINANTS[illuminant]
+    xyz = colour.sd_to_XYZ(sd, cmfs, spd, method="Integration") / 100
+    white = colour.sd_to_XYZ(colour.sd_ones(cmfs.shape), cmfs, spd, method="Integration") / 100
+    return np.asarray(colour.XYZ_to_Lab(xyz, colour.XYZ_to_xy(white)))

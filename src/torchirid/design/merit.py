@@ -20,6 +20,7 @@ the mean, or the mean of the worst ``alpha`` fraction (CVaR).
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -126,7 +127,23 @@ class Evaluator:
             g = torch.Generator(device="cpu").manual_seed(self.robust.seed)
             self.errors = torch.randn(self.robust.samples, self.L, generator=g, dtype=dtype).to(self.device)
             self.errors *= torch.tensor(self.robust.sigma, dtype=dtype, device=self.device)
-        self.evaluations = 0
+        self._count = [0]
+        self.use_robust = True
+
+    @property
+    def evaluations(self) -> int:
+        """Candidates evaluated (shared with :meth:`nominal`'s view)."""
+        return self._count[0]
+
+    @evaluations.setter
+    def evaluations(self, value: int) -> None:
+        self._count[0] = value
+
+    def nominal(self) -> "Evaluator":
+        """A view that evaluates without the robust errors (counting into the same total)."""
+        view = copy.copy(self)
+        view.use_robust = False
+        return view
 
     def _target_weights(self, t):
         dt, dev = self.dtype, self.device
@@ -218,7 +235,7 @@ class Evaluator:
         B = x.shape[0]
         self.evaluations += B
         d = self.thicknesses(x)
-        if self.robust is None or not robust:
+        if self.robust is None or not robust or not self.use_robust:
             return self.plain_merit(d, choice)
         S = self.errors.shape[0]
         dd = self.perturbed(d, self.errors, self.robust.relative).reshape(B * S, self.L)

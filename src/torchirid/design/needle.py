@@ -84,27 +84,37 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
     palette = _materials(problem)
     upper = max([float(ev.upper.max())] if len(ev.upper) else [max(thicknesses)])
     max_layers = problem.max_layers or len(problem.layers)
-    merit = np.inf
+    best = (materials, thicknesses, np.inf)
     seen = set()
     while True:
         sub = Evaluator(_subproblem(problem, [Layer(m, (0.0, upper)) for m in materials]))
-        xs, ms = refine(sub, np.asarray(thicknesses, dtype=float)[None], None, run)
+        xs, _ = refine(sub, np.asarray(thicknesses, dtype=float)[None], None, run)
         ev.evaluations += sub.evaluations
         materials, thicknesses = clean(materials, xs[0].tolist(), problem.min_thickness)
-        merit = float(ms[0])
+        if not materials:
+            break
+        merit = _merit(problem, materials, thicknesses)  # of the stack as returned (cleaned)
         run.record(merit)
+        if merit < best[2]:
+            best = (materials, thicknesses, merit)
         key = (tuple(map(repr, materials)), round(merit, 12))
-        if run.out_of_budget() or len(materials) + 2 > max_layers or not materials or key in seen:
+        if run.out_of_budget() or len(materials) + 2 > max_layers or key in seen:
             break  # budget, layer count, or a needle that the refinement removed again
         seen.add(key)
         P, rows, count = needle_derivatives(problem, materials, thicknesses, palette)
         ev.evaluations += count
-        best = int(np.argmin(P))
-        if not P[best] < -1e-9 * max(abs(merit), 1e-12):
+        i = int(np.argmin(P))
+        if not P[i] < -1e-9 * max(abs(merit), 1e-12):
             break
-        j, z, k = rows[best]
+        j, z, k = rows[i]
         materials, thicknesses = _insert(materials, thicknesses, j, z, palette[k])
-    return materials, thicknesses, merit
+    return best
+
+
+def _merit(problem: Problem, materials, thicknesses) -> float:
+    ev = Evaluator(_subproblem(problem, [Layer(m, float(d)) for m, d in zip(materials, thicknesses)]))
+    with torch.inference_mode():
+        return float(ev.merit(torch.zeros(1, 0, dtype=ev.dtype))[0])
 
 
 def _insert(materials, thicknesses, j: int, z: float, material):

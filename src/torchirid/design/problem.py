@@ -80,6 +80,8 @@ def check_material(material, key: str):
         except ValueError as err:
             raise SpecError(key, str(err)) from None
         return material
+    if isinstance(material, tuple) and len(material) == 4 and material[0] == "table":
+        return material  # a table checked before
     if isinstance(material, dict):
         unknown = set(material) - {"wavelength", "n", "k"}
         if unknown:
@@ -141,9 +143,7 @@ class Layer:
     thickness: float | tuple[float, float]
 
     def check(self, key: str) -> Layer:
-        if isinstance(self.material, (list, tuple)) and not (
-                isinstance(self.material, tuple) and len(self.material) == 3
-                and all(isinstance(s, str) for s in self.material)):
+        if isinstance(self.material, list) or (isinstance(self.material, tuple) and not _is_material_tuple(self.material)):
             if len(self.material) == 0:
                 raise SpecError(f"{key}.material", "an empty list of candidates")
             mats = tuple(check_material(m, f"{key}.material[{i}]") for i, m in enumerate(self.material))
@@ -174,6 +174,13 @@ class Layer:
     @property
     def free(self) -> bool:
         return isinstance(self.thickness, tuple)
+
+
+def _is_material_tuple(m: tuple) -> bool:
+    """A (shelf, book, page) of the database, or a checked ("table", λ, n, k) — not candidates."""
+    if isinstance(m, Candidates):
+        return False
+    return (len(m) == 3 and all(isinstance(s, str) for s in m)) or (len(m) == 4 and m[0] == "table")
 
 
 def _check_nm(t: float, key: str) -> None:
