@@ -211,7 +211,7 @@ SHARED_KERNELS = {
     "torchirid.estimation.synthetic": ("SAMPLES",),
     # a stack's interface terms computed once and its response to many thickness sets (the design
     # optimisers' populations)
-    "torchirid.optics.transfer": ("stack_pieces", "stack_response"),
+    "torchirid.optics.transfer": ("stack_pieces", "stack_response", "stack_fluxes"),
     # GGX D, Smith G1 and the mirror direction without the argument checks (inner loops of quadratures)
     "torchirid.microfacet.ggx": ("ggx_d_kernel", "smith_g1_kernel", "reflect_kernel"),
 }

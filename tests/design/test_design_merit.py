@@ -181,3 +181,24 @@ def test_thickness_penalty():
     inside, outside = ev.merit(torch.tensor([[250.0], [330.0]], dtype=F64)).tolist()
     plain = ev.plain_merit(torch.tensor([[330.0]], dtype=F64)).item() - 100 * 30 / 300
     assert outside - plain == pytest.approx(10.0) and inside < 1
+
+
+def test_absorptance_of_a_named_layer_equals_tmm():
+    import tmm
+
+    lam = [450.0, 550.0, 650.0]
+    p = design.Problem([design.Layer(2.0 + 0.3j, (0, 200), name="absorber"), design.Layer(1.46, (0, 200)),
+                        design.Layer(0.15 + 3.5j, 15.0)],
+                       [design.SpectralTarget("A", lam, value=0.0, cos_theta=[1.0, 0.5], layer="absorber", p=1),
+                        design.SpectralTarget("A", lam, value=0.0, layer=2, p=1)], n_substrate=1.52)
+    ev = Evaluator(p)
+    m = ev.target_merits(ev.thicknesses(torch.tensor([[80.0, 120.0]], dtype=F64)))[0]
+    for t, (layer, cosines) in enumerate(((1, [1.0, 0.5]), (3, [1.0]))):
+        ref = np.mean([sum(tmm.absorp_in_each_layer(tmm.coh_tmm(
+            pol, [1.0, 2.0 + 0.3j, 1.46, 0.15 + 3.5j, 1.52], [np.inf, 80, 120, 15, np.inf], math.acos(c), w))[layer]
+            for pol in "sp") / 2 for w in lam for c in cosines])
+        assert m[t].item() == pytest.approx(ref, abs=1e-13)
+    with pytest.raises(ValueError, match="targets\\[0\\].layer: no layer named 'film'"):
+        design.Problem(p.layers, [design.SpectralTarget("A", lam, layer="film")])
+    with pytest.raises(ValueError, match="targets\\[0\\].layer: only an absorptance"):
+        design.Problem(p.layers, [design.SpectralTarget("R", lam, layer=0)])

@@ -76,3 +76,37 @@ def test_pieces_and_response_equal_multilayer(polarization, B):
     Rm, Tm = torchirid.multilayer(lam[:, None], c, n, d[:, None, None, :], polarization=polarization)
     torch.testing.assert_close(R, Rm, rtol=1e-12, atol=1e-14)
     torch.testing.assert_close(T, Tm, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("polarization", ["s", "p"])
+def test_stack_fluxes_equal_tmm_absorption_per_layer(polarization):
+    import math
+
+    import numpy as np
+    import tmm
+
+    from torchirid.optics.transfer import stack_fluxes
+
+    n = [1.0, 2.0 + 0.3j, 1.46, 0.15 + 3.5j, 1.8, 1.52 + 0.01j]
+    d = [80.0, 120.0, 15.0, 60.0]
+    for lam, c in ((500.0, 1.0), (620.0, 0.6), (700.0, 0.2)):
+        F = stack_fluxes(torch.tensor(c, dtype=torch.float64), torch.tensor(n, dtype=torch.complex128),
+                         torch.tensor(d, dtype=torch.float64), torch.tensor(1 / lam, dtype=torch.float64), polarization)
+        res = tmm.coh_tmm(polarization, n, [np.inf, *d, np.inf], math.acos(c), lam)
+        np.testing.assert_allclose((F[:-1] - F[1:]).numpy(), tmm.absorp_in_each_layer(res)[1:-1], atol=1e-13)
+        assert F[0].item() == pytest.approx(1 - res["R"], abs=1e-13)
+        assert F[-1].item() == pytest.approx(res["T"], abs=1e-13)
+
+
+def test_stack_fluxes_through_a_thick_absorber_stay_finite():
+    """30 µm of an absorber inside the stack (fields grow e^{Im δ} ~ e^{60} upwards): rescaled
+    film by film, the fluxes stay finite; it absorbs all that enters it, nothing crosses it."""
+    from torchirid.optics.transfer import stack_fluxes
+
+    n = torch.tensor([1.0, 1.46, 4.0 + 0.2j, 1.46, 1.5], dtype=torch.complex128)
+    d = torch.tensor([100.0, 30000.0, 100.0], dtype=torch.float64)
+    F = stack_fluxes(torch.tensor(1.0, dtype=torch.float64), n, d, torch.tensor(1 / 600.0, dtype=torch.float64), "s")
+    assert torch.isfinite(F).all()
+    R, _ = torchirid.multilayer(torch.tensor(600.0, dtype=torch.float64), 1.0, n, d, polarization="s")
+    assert F[0].item() == pytest.approx(1 - R.item(), abs=1e-12)
+    assert F[2].item() < 1e-40 and (F[1] - F[2]).item() == pytest.approx(F[1].item(), rel=1e-12)

@@ -16,6 +16,9 @@ import torch
 
 from .merit import Evaluator
 
+#: L-BFGS-B's memory (its cost per iteration grows with memory × variables: 16 candidates × 20
+#: thicknesses refined together make that cost show)
+MAXCOR = 10
 #: L-BFGS-B's relative merit tolerance (its gradient tolerance is 1e-3 of it)
 FTOL = 1e-12
 
@@ -72,7 +75,7 @@ def refine(ev: Evaluator, x: np.ndarray, choice: np.ndarray | None, run: Run, *,
     x0 = np.clip(x, ev.lower, ev.upper).ravel()
     try:
         res = minimize(fg, x0, jac=True, method="L-BFGS-B", bounds=list(zip(lower, upper)),
-                       options={"maxiter": maxiter, "ftol": FTOL, "gtol": FTOL * 1e-3, "maxcor": 20})
+                       options={"maxiter": maxiter, "ftol": FTOL, "gtol": FTOL * 1e-3, "maxcor": MAXCOR})
         x = res.x.reshape(k, F)
     except _Stop:
         pass

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 
 from .._checks import complex_dtype
-from ..optics.transfer import stack_pieces, stack_response
+from ..optics.transfer import stack_fluxes, stack_pieces, stack_response
 from .problem import ColourTarget, Problem, SpectralTarget
 
 #: the penalty per relative excess over ``max_total_thickness``
@@ -78,6 +78,19 @@ class _Condition:
         if self.fixed:
             n = torch.stack([t[0] for t in tables], dim=-1)  # [W, L+2]
             self.pieces = stack_pieces(c, n[:, None, :], polarization)  # [P, W, A, L+1], [W, A, L]
+
+    def indices(self, B: int, choice):
+        """The indices ``[B or 1, W, L+2]`` of every stack position."""
+        if self.fixed:
+            return torch.stack([t[0] for t in self.tables], dim=-1)[None]
+        return torch.stack([t[ch] if t.shape[0] > 1 else t[0].expand(B, -1)
+                            for t, ch in zip(self.tables, choice)], dim=-1)
+
+    def absorptance(self, d: torch.Tensor, choice, layer: int) -> torch.Tensor:
+        """The power absorbed in film ``layer`` ``[B, W, A]`` (``stack_fluxes``)."""
+        n = self.indices(d.shape[0], choice)[:, :, None, :]  # [B, W, 1, L+2]
+        F = stack_fluxes(self.c, n, d[:, None, None, :], self.u, self.polarization)
+        return (F[..., layer] - F[..., layer + 1]).clamp(0, 1)
 
     def response(self, d: torch.Tensor, choice: list[torch.Tensor] | None):
         """(R, T) ``[B, W, A]`` of thicknesses ``d [B, L]`` (materials ``choice``: one ``[B]`` index
@@ -184,9 +197,12 @@ class Evaluator:
     def target_merits(self, d: torch.Tensor, choice=None) -> torch.Tensor:
         """Each target's merit ``[B, targets]`` (before ``importance``) for thicknesses ``d [B, L]``."""
         out = []
-        for t, (R, T), (w, v) in zip(self.targets, self.responses(d, choice), self._weights):
+        for t, (R, T), (w, v), cond in zip(self.targets, self.responses(d, choice), self._weights, self.conditions):
             if isinstance(t, SpectralTarget):
-                X = R if t.quantity == "R" else T if t.quantity == "T" else 1 - R - T
+                if t.layer is not None:
+                    X = cond.absorptance(d, self.positions(choice, d.shape[0]), t.layer)
+                else:
+                    X = R if t.quantity == "R" else T if t.quantity == "T" else 1 - R - T
                 dev = (X - v[:, None]).abs()  # [B, W, A]
                 dev = dev ** t.p if t.p != 1 else dev
                 m = (dev * w[:, None]).sum(1).mean(-1)

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -50,6 +50,19 @@ class SpecError(ValueError):
     def __init__(self, key: str, message: str):
         super().__init__(f"{key}: {message}")
         self.key = key
+
+
+def _layer_index(layer, layers, key: str) -> int:
+    if isinstance(layer, str):
+        named = [i for i, x in enumerate(layers) if x.name == layer]
+        if len(named) != 1:
+            names = sorted({x.name for x in layers if x.name})
+            raise SpecError(key, f"{'no' if not named else 'more than one'} layer named {layer!r} "
+                            f"(named: {', '.join(names) or 'none'})")
+        return named[0]
+    if not 0 <= layer < len(layers):
+        raise SpecError(key, f"a layer index in 0–{len(layers) - 1}; got {layer}")
+    return layer
 
 
 class Candidates(tuple):
@@ -137,10 +150,12 @@ class Layer:
             ``{"wavelength": [nm], "n": [...], "k": [...]}``, or a list of those (the
             optimiser picks one).
         thickness: nm; a number (fixed) or ``(min, max)`` (free in ``[min, max]``).
+        name: a name for a :class:`SpectralTarget` of its absorptance (``layer=``).
     """
 
     material: Any
     thickness: float | tuple[float, float]
+    name: str = ""
 
     def check(self, key: str) -> Layer:
         if isinstance(self.material, list) or (isinstance(self.material, tuple) and not _is_material_tuple(self.material)):
@@ -163,7 +178,9 @@ class Layer:
             t = (lo, hi) if lo < hi else lo
         else:
             raise SpecError(f"{key}.thickness", f"a thickness in nm or a [min, max] pair; got {t!r}")
-        return Layer(mat, t)
+        if not isinstance(self.name, str):
+            raise SpecError(f"{key}.name", f"a string; got {self.name!r}")
+        return Layer(mat, t, self.name)
 
     @property
     def candidates(self) -> tuple:
@@ -226,8 +243,9 @@ def _importance(s, key: str) -> float:
 
 @dataclass(frozen=True)
 class SpectralTarget:
-    """R, T or A = 1 − R − T (the power absorbed in the films; with lossless films and an
-    absorbing exit medium, T is what that medium absorbs) against wavelength.
+    """R, T or A against wavelength. A is the power absorbed in the films, 1 − R − T, or with
+    ``layer`` the power absorbed in that one layer (with lossless films and an absorbing exit
+    medium, T is what that medium absorbs).
 
     Args:
         quantity: ``"R"``, ``"T"`` or ``"A"``.
@@ -239,6 +257,8 @@ class SpectralTarget:
             (``"AM1.5G photon flux"``: ASTM G173 global tilt, from pvlib, × λ/(hc)).
         p: the power of the merit's p-mean (1: mean absolute deviation; 2: RMS).
         importance: this target's factor in the total merit.
+        layer: for ``"A"``: the index (0 = the first layer below the incident medium) or the
+            ``name`` of the absorbing layer; None: all the films.
     """
 
     quantity: str
@@ -249,6 +269,7 @@ class SpectralTarget:
     weight: Any = 1.0
     p: float = 2.0
     importance: float = 1.0
+    layer: int | str | None = None
 
     def check(self, key: str) -> SpectralTarget:
         if self.quantity not in QUANTITIES:
@@ -264,9 +285,15 @@ class SpectralTarget:
             weight = _per_wavelength(self.weight, len(lam), f"{key}.weight", low=0.0, high=math.inf)
             if not any(w > 0 for w in (weight if isinstance(weight, tuple) else (weight,))):
                 raise SpecError(f"{key}.weight", "at least one weight must be > 0")
+        layer = self.layer
+        if layer is not None:
+            if self.quantity != "A":
+                raise SpecError(f"{key}.layer", "only an absorptance target (quantity 'A') names a layer")
+            if not isinstance(layer, (int, str)) or isinstance(layer, bool):
+                raise SpecError(f"{key}.layer", f"a layer index or name; got {layer!r}")
         return SpectralTarget(self.quantity, lam, value, _cosines(self.cos_theta, f"{key}.cos_theta"),
                               _polarization(self.polarization, f"{key}.polarization"), weight,
-                              _power(self.p, f"{key}.p"), _importance(self.importance, f"{key}.importance"))
+                              _power(self.p, f"{key}.p"), _importance(self.importance, f"{key}.importance"), layer)
 
 
 def _per_wavelength(v, count: int, key: str, *, low: float, high: float):
@@ -429,6 +456,9 @@ class Problem:
             if not isinstance(t, (SpectralTarget, ColourTarget)):
                 raise SpecError(f"targets[{i}]", f"a SpectralTarget or ColourTarget; got {type(t).__name__}")
             tchecked.append(t.check(f"targets[{i}]"))
+        for i, t in enumerate(tchecked):
+            if isinstance(t, SpectralTarget) and t.layer is not None:
+                tchecked[i] = replace(t, layer=_layer_index(t.layer, checked, f"targets[{i}].layer"))
         if not _is_number(self.min_thickness) or not self.min_thickness >= 0:
             raise SpecError("min_thickness", f"≥ 0 nm; got {self.min_thickness!r}")
         if self.max_total_thickness is not None and (not _is_number(self.max_total_thickness)

@@ -20,6 +20,7 @@ naming the key (``layers[2].thickness``)::
     goal = 0.01                    # stop when the merit is at most this
 
     [[layers]]                     # incident side first
+    name = "top"                   # optional: for an absorptance target's layer = "top"
     material = "TiO2"              # a number, a name, ["TiO2", "ZnS"] (a choice),
                                    # or {wavelength = [...], n = [...], k = [...]}
     thickness = [10.0, 200.0]      # [min, max] (free) or a number (fixed), nm
@@ -31,7 +32,7 @@ naming the key (``layers[2].thickness``)::
 
     [[targets]]
     type = "spectral"              # spectral (default) | colour
-    quantity = "R"                 # R | T | A
+    quantity = "R"                 # R | T | A (A: with layer = "name" or index, that layer's)
     wavelength = {start = 400.0, stop = 700.0, count = 61}   # or a list, or {start, stop, step}
     value = 1.0                    # or one per wavelength
     angle_deg = [0.0]
@@ -76,8 +77,9 @@ _TOP = {"name", "incident", "exit", "min_thickness", "max_total_thickness", "max
         "targets", "robust", "tolerance"}
 _OPTIMISER = {"method": str, "seed": int, "time_limit": float, "max_evaluations": int, "goal": float,
               "population": int}
-_LAYER = {"material", "pattern", "repeat", "thickness"}
-_SPECTRAL = {"type", "quantity", "wavelength", "value", "angle_deg", "polarization", "weight", "p", "importance"}
+_LAYER = {"material", "pattern", "repeat", "thickness", "name"}
+_SPECTRAL = {"type", "quantity", "wavelength", "value", "angle_deg", "polarization", "weight", "p", "importance",
+             "layer"}
 _COLOUR = {"type", "lab", "angle_deg", "illuminant", "observer", "polarization", "p", "importance",
            "wavelength_step"}
 _ROBUST = {"sigma", "relative", "samples", "objective", "alpha", "seed"}
@@ -204,7 +206,10 @@ def _layers(entries) -> list[Layer]:
         m = e["material"]
         m = [_material(v, f"{key}.material[{j}]") for j, v in enumerate(m)] if isinstance(m, list) else \
             _material(m, f"{key}.material")
-        out.extend([Layer(m, t).check(key)] * repeat)
+        name = e.get("name", "")
+        if name and repeat > 1:
+            raise SpecError(f"{key}.name", "a named layer is one layer (repeat = 1)")
+        out.extend([Layer(m, t, name).check(key)] * repeat)
     return out
 
 
@@ -227,7 +232,7 @@ def _targets(entries) -> list:
             t = SpectralTarget(e["quantity"], _wavelength(e["wavelength"], f"{key}.wavelength"), e.get("value", 1.0),
                                _angles(e.get("angle_deg", 0.0), f"{key}.angle_deg"),
                                e.get("polarization", "unpolarized"), e.get("weight", 1.0), e.get("p", 2.0),
-                               e.get("importance", 1.0))
+                               e.get("importance", 1.0), e.get("layer"))
         else:
             _known(e, _COLOUR, key)
             if "lab" not in e:

@@ -157,6 +157,49 @@ def stack_response(r: torch.Tensor, t2: torch.Tensor, kq: torch.Tensor, d: torch
     return _polarization_mean(R).clamp(0, 1), _polarization_mean(T).clamp(0, 1)
 
 
+def stack_fluxes(c: torch.Tensor, n: torch.Tensor, d: torch.Tensor, u: torch.Tensor, polarization: str) -> torch.Tensor:
+    r"""Net power crossing each interface downwards, as a fraction of the incident power:
+    ``F [*batch, L+1]`` (mean over the polarizations), ``F_0 = 1 − R``, ``F_L = T``; film ``j``
+    absorbs ``F_j − F_{j+1}``. For checked cosines ``c`` (0 < c ≤ 1), indices ``n [..., L+2]``,
+    thicknesses ``d [..., L]`` and ``u = 1/λ``, broadcasting together.
+
+    The tangential fields ``(E, H)`` (``H = ±ηE`` for the down- and up-going waves) are carried
+    from a unit transmitted wave in the exit medium up through each film's characteristic matrix
+
+    .. math:: \begin{pmatrix} E \\ H \end{pmatrix}_{top} = \begin{pmatrix} \cos δ & -i \sin δ / η \\
+              -i η \sin δ & \cos δ \end{pmatrix} \begin{pmatrix} E \\ H \end{pmatrix}_{bottom},
+              \qquad δ = 2π q d / λ,
+
+    the growing direction for absorbing films (no cancellation), rescaled after every film (the
+    scales kept as logarithms); then :math:`F_j = \mathrm{Re}(E_j H_j^*) / (η_0 |a|^2)` with the
+    incident amplitude :math:`a = (E_0 + H_0/η_0)/2`."""
+    q, nc = stack_normal_wavenumbers(c, n, _checks.complex_dtype(c.dtype))
+    L = q.shape[-1] - 2
+    phase = (2 * math.pi) * q[..., 1:-1] * d * u[..., None]  # δ_j [..., L]
+    out = 0
+    terms = _checks.polarization_terms(polarization)
+    for pol in terms:
+        eta = admittance(q, nc, pol)
+        E = torch.ones_like(eta[..., -1])
+        H = eta[..., -1]
+        log_scale = [torch.zeros_like(E.real)]
+        fields = [(E, H)]
+        for j in range(L - 1, -1, -1):
+            cs, sn, e = torch.cos(phase[..., j]), torch.sin(phase[..., j]), eta[..., j + 1]
+            E, H = cs * E - 1j * sn / e * H, -1j * e * sn * E + cs * H
+            m = torch.maximum(E.abs(), H.abs())
+            E, H = E / m, H / m
+            log_scale.append(log_scale[-1] + torch.log(m))
+            fields.append((E, H))
+        eta0 = eta[..., 0].real
+        a2 = ((E + H / eta0) * 0.5).abs() ** 2
+        top = log_scale[-1]
+        flux = [(Ej * Hj.conj()).real * torch.exp(2 * (s - top)) / (eta0 * a2)
+                for (Ej, Hj), s in zip(fields, log_scale)]
+        out = out + torch.stack(flux[::-1], dim=-1)
+    return out / len(terms)
+
+
 def _polarization_mean(x: torch.Tensor) -> torch.Tensor:
     """Mean over the leading polarization axis (1 or 2 entries): ``(x_s + x_p) / 2``, one add on
     the batch instead of a reduction."""
