@@ -39,7 +39,12 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
+# one thread everywhere (set before NumPy loads its BLAS): every code in the comparison runs on one
+# core, and a second BLAS thread fighting other tenants' work would time the machine, not the code
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import numpy as np  # noqa: E402
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -380,7 +385,6 @@ def main(argv=None) -> None:
     ap.add_argument("--out", default=str(ROOT / "benchmarks/results/design"))
     args = ap.parse_args(argv)
     torch.set_num_threads(1)
-    os.environ.setdefault("OMP_NUM_THREADS", "1")
     seeds = list(range(args.seeds))
     rows = []
 

@@ -31,7 +31,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from .local import Run, clean, refine, stack_of
+from .. import _threads
+from .local import Run, clean, one_blas_thread, refine, stack_of
 from .merit import Evaluator
 from .needle import needle_search
 from .problem import Layer, Problem, material_label
@@ -48,8 +49,9 @@ GENERATIONS = 40
 REFINE = 16
 #: L-BFGS-B iterations of each round's refinement (the final one runs to convergence)
 ROUND_ITERATIONS = 30
-#: rounds without improvement (relative 1e-9) that end the global stage
-PATIENCE = 3
+#: rounds without improvement (relative 1e-9) that end the global stage (2: no early stop in 8
+#: seeds of the 10-, 20- and 40-layer mirrors, 23 % less time than 3 on the 20-layer one)
+PATIENCE = 2
 
 
 
@@ -242,7 +244,9 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
     ev = Evaluator(problem, dtype=dtype, device=device)
     rng = np.random.default_rng(seed)
     run = Run(ev, time_limit, max_evaluations, progress)
-    with torch.random.fork_rng(devices=[]):
+    # a long run of small ops (populations, a few candidates): torch's small-work thread count
+    # (torchirid._threads) and one BLAS thread for SciPy's NumPy side
+    with torch.random.fork_rng(devices=[]), one_blas_thread(), _threads.limited(0):
         torch.manual_seed(seed)
         grow = problem.max_layers is not None and problem.max_layers > len(problem.layers)
         if method == "needle":
