@@ -44,12 +44,12 @@ from pathlib import Path
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
-import numpy as np  # noqa: E402
+import numpy as np
 import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks import design_peers as peers  # noqa: E402
-from torchirid import design  # noqa: E402
+from benchmarks import design_peers as peers
+from torchirid import design
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -301,8 +301,8 @@ BENCHES = {"bragg": bench_bragg, "chirped": bench_chirped, "pv": bench_pv, "colo
 
 
 def report(rows) -> str:
-    lines = ["| problem | peer (same run) | peer cost, median [range] | peer s | torchirid cost | torchirid s | "
-             "time ratio (median [range]) |", "|---|---|---|---|---|---|---|"]
+    lines = [("| problem | peer (same run) | peer cost, median [range] | peer s | torchirid cost | torchirid s | "
+              "time ratio (median [range]) |"), "|---|---|---|---|---|---|---|"]
     by = {}
     for r in rows:
         by.setdefault(r["problem"], []).append(r)
@@ -351,30 +351,47 @@ def report(rows) -> str:
 
 
 def figure(rows, path: Path) -> None:
+    """Best merit (by the peer's cost where the peer scores it) against wall time, every seed, one
+    panel per problem: torchirid and PyMoosh's QODE (and the other peers' final points)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [("bragg20", "qode"), ("chirped40", "qode"), ("pv10", "qode"), ("colour6", None)]
-    fig, axes = plt.subplots(1, 4, figsize=(16, 3.6))
-    for ax, (name, peer) in zip(axes, panels):
+    names = [n for n in ("bragg10", "bragg20", "bragg40", "chirped20", "chirped40", "chirped60", "pv10", "pv20",
+                         "colour6") if any(r["problem"] == n for r in rows)]
+    cols = 3
+    fig, axes = plt.subplots((len(names) + cols - 1) // cols, cols, figsize=(13, 3.4 * ((len(names) + 2) // 3)),
+                             squeeze=False)
+    marks = {"nevergrad_TwoPointsDE": ("s", "C2", "nevergrad TwoPointsDE"),
+             "cuda_thinfilm_de": ("^", "C3", "cuda-thinfilm DE"), "difftmm_adam": ("v", "C4", "difftmm + Adam")}
+    for ax, name in zip(axes.flat, names):
         rs = [r for r in rows if r["problem"] == name]
+        labelled = set()
         for r in rs:
-            if peer and peer in r and r[peer].get("history"):
-                h = np.array(r[peer]["history"], dtype=float)
-                ax.step(h[:, 0], h[:, 2], where="post", color="0.6", lw=1,
-                        label="PyMoosh QODE" if r is rs[0] else None)
-            h = np.array((r["ours"] if "ours" in r else r)["history"], dtype=float)
-            if len(h):
-                ax.step(h[:, 0], h[:, 2], where="post", color="C0", lw=1, label="torchirid" if r is rs[0] else None)
+            for who, colour, label in (("qode", "0.55", "PyMoosh QODE"), ("ours", "C0", "torchirid")):
+                src = r.get(who) if name != "colour6" else (r if who == "ours" else None)
+                if not src or not src.get("history"):
+                    continue
+                h = np.array(src["history"], dtype=float)
+                ax.step(h[:, 0], h[:, 2], where="post", color=colour, lw=1,
+                        label=None if label in labelled else label)
+                labelled.add(label)
+            for k, (m, colour, label) in marks.items():
+                if k in r:
+                    ax.plot(r[k]["seconds"], r[k]["cost"], m, color=colour, ms=5,
+                            label=None if label in labelled else label)
+                    labelled.add(label)
         if name.startswith("bragg"):
-            ax.axhline(peers.BRAGG_OPTIMA[20], color="k", ls=":", lw=0.8, label="quarter-wave optimum")
-        ax.set(xscale="log", yscale="log", title=name, xlabel="wall time (s)", ylabel="best merit (peer's cost)")
+            ax.axhline(peers.BRAGG_OPTIMA[int(name[5:])], color="k", ls=":", lw=0.8, label="quarter-wave optimum")
+        ax.set(xscale="log", yscale="log", title=name, xlabel="wall time (s)",
+               ylabel="ΔE2000 merit" if name == "colour6" else "best cost")
         ax.legend(fontsize=7)
+    for ax in list(axes.flat)[len(names):]:
+        ax.remove()
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=100)
 
 
 def main(argv=None) -> None:
@@ -383,7 +400,16 @@ def main(argv=None) -> None:
     ap.add_argument("--only", default=",".join(BENCHES))
     ap.add_argument("--quick", action="store_true", help="fewer problems, peers and draws")
     ap.add_argument("--out", default=str(ROOT / "benchmarks/results/design"))
+    ap.add_argument("--report-only", action="store_true", help="rewrite the table and figure from OUT.json")
     args = ap.parse_args(argv)
+    out = Path(args.out)
+    if args.report_only:
+        allrows = json.loads(out.with_suffix(".json").read_text())
+        table = report(allrows)
+        out.with_suffix(".md").write_text(table + "\n")
+        print(table)
+        figure(allrows, ROOT / "docs/figures/design_merit_time.png")
+        return
     torch.set_num_threads(1)
     seeds = list(range(args.seeds))
     rows = []
@@ -395,7 +421,6 @@ def main(argv=None) -> None:
         t0 = time.perf_counter()
         rows += BENCHES[name](seeds, args.quick, log)
         log(f"[{name}: {time.perf_counter() - t0:.0f} s]")
-    out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     old = json.loads(out.with_suffix(".json").read_text()) if out.with_suffix(".json").exists() else []
     keep = [r for r in old if r["problem"] not in {x["problem"] for x in rows}]

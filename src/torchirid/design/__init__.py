@@ -24,9 +24,9 @@ Example (a 10-layer quarter-wave mirror at 600 nm, PyMoosh's ``bragg`` problem):
     >>> round(d.merit, 9)  # 1 − R of the quarter-wave stack
     0.164855772
 
-Details: :mod:`torchirid.design.problem` (the merit), :mod:`~torchirid.design.merit` (the
-batched evaluation), :mod:`~torchirid.design.optimise`, :mod:`~torchirid.design.needle`,
-:mod:`~torchirid.design.tolerance`, :mod:`~torchirid.design.spec` (the TOML keys). Needs SciPy;
+Details: ``torchirid.design.problem`` (the merit), ``torchirid.design.merit`` (the
+batched evaluation), :mod:`~torchirid.design.optimise`, ``torchirid.design.needle``,
+:mod:`~torchirid.design.tolerance`, ``torchirid.design.spec`` (the TOML keys). Needs SciPy;
 the AM1.5G weighting needs pvlib (``pip install 'torchirid[design]'``).
 """
 

@@ -1,9 +1,9 @@
 r"""Local refinement by exact gradients, and the book-keeping every optimiser stage shares.
 
-:func:`refine` runs SciPy's L-BFGS-B (box bounds = the thickness bounds) on ``k`` candidates at
+``refine`` runs SciPy's L-BFGS-B (box bounds = the thickness bounds) on ``k`` candidates at
 once: their merits are summed, so that the gradient of the sum is each candidate's own gradient
 (the candidates stay independent) and one batched forward and backward pass through the merit
-serves them all. :class:`Run` holds the clock, the budget (time, evaluations) and the history.
+serves them all. ``Run`` holds the clock, the budget (time, evaluations) and the history.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 r"""The merit of many candidate stacks in one tensor call, and its gradient.
 
-:class:`Evaluator` compiles a checked :class:`~torchirid.design.problem.Problem`: the indices
+``Evaluator`` compiles a checked :class:`~torchirid.design.Problem`: the indices
 of every material (every candidate of a layer with a choice) at every target's wavelengths are
 read once; for a stack whose materials are fixed, so are the interface amplitudes and the
 normal wavenumbers of every film at every (λ, θ, polarization), so that a candidate costs only
@@ -8,12 +8,12 @@ its film phases :math:`φ_j = 2π q_j d_j / λ` and Hirayama's recursion (the ke
 :func:`torchirid.multilayer`, ``optics._transfer_fast``) — for a whole population ``[B, L]`` at
 once, with autograd through it when a gradient is wanted.
 
-The merit (module :mod:`torchirid.design.problem`) is
+The merit (module ``torchirid.design.problem``) is
 
 .. math:: M = \sum_t s_t M_t + 100\,\frac{\max(0, \sum_j d_j − D_{max})}{D_{max}},
 
 the last term only with ``max_total_thickness`` (:math:`D_{max}`): any excess costs more than
-any target can gain. Under :class:`~torchirid.design.problem.Robust` errors every candidate is
+any target can gain. Under :class:`~torchirid.design.Robust` errors every candidate is
 evaluated at ``samples`` perturbed stacks (the same draws for every candidate) and its merit is
 the mean, or the mean of the worst ``alpha`` fraction (CVaR).
 """
@@ -111,7 +111,7 @@ class Evaluator:
 
     A candidate is its free thicknesses ``x [B, F]`` (nm, the free layers in stack order) and,
     when layers choose among materials, ``choice [B, C]`` (the index of each such layer's
-    candidate). :meth:`merit` returns ``[B]``; ``evaluations`` counts candidates.
+    candidate). ``merit`` returns ``[B]``; ``evaluations`` counts candidates.
     """
 
     def __init__(self, problem: Problem, *, dtype: torch.dtype = torch.float64, device=None):
@@ -145,7 +145,7 @@ class Evaluator:
 
     @property
     def evaluations(self) -> int:
-        """Candidates evaluated (shared with :meth:`nominal`'s view)."""
+        """Candidates evaluated (shared with ``nominal``'s view)."""
         return self._count[0]
 
     @evaluations.setter

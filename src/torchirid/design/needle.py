@@ -11,7 +11,7 @@ at every interface — is one row of a batch of stacks whose needle has thicknes
 backward pass through the batched merit gives all the :math:`P(m, z)` at once. The stage then
 
 1. inserts the needle where :math:`P` is most negative,
-2. refines every thickness by L-BFGS-B (:func:`~torchirid.design.local.refine`),
+2. refines every thickness by L-BFGS-B (``refine``),
 3. removes layers that shrank below ``min_thickness`` (or to 0) and merges equal neighbours,
 
 and repeats until no needle lowers the merit (:math:`P ≥ 0` everywhere, to ``1e-9`` of the

@@ -74,7 +74,7 @@ def _is_number(x) -> bool:
 
 
 def check_material(material, key: str):
-    """The material in a canonical, hashable form, or a :class:`SpecError` naming ``key``.
+    """The material in a canonical, hashable form, or a ``SpecError`` naming ``key``.
 
     Numbers stay numbers (κ ≥ 0, n > 0), names and database tuples are looked up now (so that
     an unknown name fails before any work), tables become ``("table", λ, n, k)`` tuples.
@@ -408,7 +408,7 @@ class Robust:
 class Problem:
     """A stack with free parameters and the targets it must meet (see the module docstring).
 
-    Built checked: every entry is validated here (a :class:`SpecError`, a ``ValueError``,
+    Built checked: every entry is validated here (a ``SpecError``, a ``ValueError``,
     names the entry), materials are looked up, wavelength ranges compared with the materials'.
 
     Example (a quarter-wave mirror at 600 nm):

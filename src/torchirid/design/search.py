@@ -4,7 +4,7 @@ r"""Optimisers over the batched merit: a global stage, exact-gradient refinement
 
 1. **Global stage** — SciPy's :func:`~scipy.optimize.differential_evolution` (``best1bin``,
    Latin-hypercube start, ``vectorized=True``: each generation is one tensor call of
-   :class:`~torchirid.design.merit.Evaluator` on the whole population; discrete material choices are
+   ``Evaluator`` on the whole population; discrete material choices are
    its integer variables), run in rounds of ``generations`` generations. After each round the
    best ``refine`` members are refined by exact gradients and put back into the population (a
    Lamarckian step), and the next round starts from that population.
@@ -12,7 +12,7 @@ r"""Optimisers over the batched merit: a global stage, exact-gradient refinement
    gradient from autograd through the recursion; the ``refine`` candidates are refined together
    (one batched call per iteration; their merits are summed, which keeps them independent).
 3. **Needles** (``method="needle"``, or ``"auto"`` when ``max_layers`` exceeds the starting
-   layer count) — :mod:`torchirid.design.needle`.
+   layer count) — ``torchirid.design.needle``.
 
 The global stage ends when two successive rounds return the same refined best (to ``rtol``), or at
 ``max_evaluations`` / ``time_limit``. Seeded: the same seed gives the same design (on the same

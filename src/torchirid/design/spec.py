@@ -2,7 +2,7 @@ r"""A design problem written as TOML (what ``torchirid design SPEC.toml`` reads)
 
 Units: nm for wavelengths and thicknesses, degrees for angles (the file speaks like the command
 line; the library takes cos θ). Every key is checked; an unknown key, a bound with min > max, a
-thickness in metres, an unknown material raise :class:`~torchirid.design.problem.SpecError`
+thickness in metres, an unknown material raise ``SpecError``
 naming the key (``layers[2].thickness``)::
 
     name = "dielectric mirror"

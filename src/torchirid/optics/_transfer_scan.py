@@ -14,7 +14,7 @@ batch costs (the design optimisers evaluate a population or a few candidates, wi
 thousands of times). The price is a film axis in memory (``[L, P, *batch, 2, 2]``) and no
 renormalisation: every entry of :math:`M_j` is at most 1 in modulus, so the product's entries are
 at most :math:`2^L`; the caller uses it for L ≤ ``MAX_FILMS`` and batches below
-``MAX_POINTS`` and falls back to :func:`~torchirid.optics._transfer_fast.reflect_transmit`
+``MAX_POINTS`` and falls back to ``reflect_transmit``
 otherwise, and whenever :math:`|D|^2` leaves the normal range (the 0/0 states that kernel guards).
 """
 

@@ -129,10 +129,10 @@ def stack_wavenumbers(lam, c, n, d):
 def stack_pieces(c: torch.Tensor, n: torch.Tensor, polarization: str):
     """What a stack of fixed indices contributes before its thicknesses: the interface amplitudes
     ``r`` and ``|t|²`` ``[P, *batch, L+1]`` (the last scaled by ``Re η_B / η_A``, so that
-    :func:`stack_response` returns T) and ``2π q`` of the films ``[*batch, L]``, for checked
+    ``stack_response`` returns T) and ``2π q`` of the films ``[*batch, L]``, for checked
     cosines ``c`` (0 < c ≤ 1) and indices ``n [..., L+2]`` broadcasting against ``c``.
 
-    The design optimisers compute these once per problem and call :func:`stack_response` for
+    The design optimisers compute these once per problem and call ``stack_response`` for
     every population of thicknesses."""
     q, nc = stack_normal_wavenumbers(c, n, _checks.complex_dtype(c.dtype))
     eta = stack_admittances(q, nc, polarization)
@@ -144,7 +144,7 @@ def stack_pieces(c: torch.Tensor, n: torch.Tensor, polarization: str):
 
 def stack_response(r: torch.Tensor, t2: torch.Tensor, kq: torch.Tensor, d: torch.Tensor, u: torch.Tensor, batch):
     """(R, T) ``[*batch]`` (mean over the polarizations of ``r``) of the pieces of
-    :func:`stack_pieces`, thicknesses ``d [..., L]`` and ``u = 1/λ``; ``batch`` is the broadcast
+    ``stack_pieces``, thicknesses ``d [..., L]`` and ``u = 1/λ``; ``batch`` is the broadcast
     shape of ``kq[..., 0] * d[..., 0]``, ``u`` and the pieces' batch.
 
     Small batches (≤ ``_transfer_scan.MAX_POINTS`` points) take the tree of 2×2 products, larger
