@@ -50,7 +50,7 @@ def test_every_public_name_has_a_page_entry(build):
     import torchirid
 
     missing = []
-    for pkg in ("optics", "microfacet", "layered", "spectral", "color", "ibl", "estimation", "fitting", "realtime",
+    for pkg in ("optics", "microfacet", "layered", "spectral", "color", "ibl", "estimation", "fitting", "design", "realtime",
                 "scale", "materials", "lut", "export"):
         page = (html / "api" / f"{pkg}.html").read_text(encoding="utf-8")
         module = getattr(torchirid, pkg, None) or __import__(f"torchirid.{pkg}", fromlist=["x"])

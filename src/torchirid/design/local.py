@@ -34,6 +34,24 @@ class Run:
         self.max_evaluations = math.inf if max_evaluations is None else int(max_evaluations)
         self.best = math.inf
         self.history: list = []
+        self.recording = True
+
+    @contextlib.contextmanager
+    def stage(self, fraction: float, *, recording: bool = True):
+        """A stage that may spend at most ``fraction`` of what is left of the budget (time and
+        evaluations), and whose merits enter the history and the progress only if ``recording``
+        (a nominal stage before a robust one: its merits are not the problem's)."""
+        saved = self.time_limit, self.max_evaluations, self.recording
+        if self.time_limit < math.inf:
+            self.time_limit = self.elapsed() + fraction * (self.time_limit - self.elapsed())
+        if self.max_evaluations < math.inf:
+            left = self.max_evaluations - self.ev.evaluations
+            self.max_evaluations = self.ev.evaluations + int(fraction * left)
+        self.recording = recording
+        try:
+            yield
+        finally:
+            self.time_limit, self.max_evaluations, self.recording = saved
 
     def elapsed(self) -> float:
         return time.perf_counter() - self.start
@@ -42,7 +60,7 @@ class Run:
         return self.elapsed() >= self.time_limit or self.ev.evaluations >= self.max_evaluations
 
     def record(self, merit: float) -> None:
-        if merit < self.best:
+        if self.recording and merit < self.best:
             self.best = merit
             self.history.append((self.elapsed(), self.ev.evaluations, merit))
             if self.progress is not None:
@@ -136,3 +154,19 @@ def clean(materials, thicknesses, min_thickness: float):
             out_m.append(m)
             out_d.append(float(d))
     return out_m, out_d
+
+
+def refine_stack(problem, materials: list, thicknesses: list, run: Run, *, lower: float = 0.0):
+    """Refine every thickness of a stack (its materials fixed), each in ``[lower, upper]`` with
+    ``upper`` the largest bound of the problem; returns (materials, thicknesses)."""
+    from .problem import Layer, Problem
+
+    upper = max([layer.thickness[1] if layer.free else layer.thickness for layer in problem.layers] +
+                [float(max(thicknesses))])
+    sub = Problem([Layer(m, (lower, upper)) for m in materials], problem.targets, n_incident=problem.n_incident,
+                  n_substrate=problem.n_substrate, max_total_thickness=problem.max_total_thickness,
+                  robust=problem.robust)
+    ev = Evaluator(sub)
+    xs, _ = refine(ev, np.clip(np.asarray(thicknesses, dtype=float), lower, upper)[None], None, run)
+    run.ev.evaluations += ev.evaluations
+    return list(materials), xs[0].tolist()

@@ -11,8 +11,10 @@ at every interface — is one row of a batch of stacks whose needle has thicknes
 backward pass through the batched merit gives all the :math:`P(m, z)` at once. The stage then
 
 1. inserts the needle where :math:`P` is most negative,
-2. refines every thickness by L-BFGS-B (``refine``),
-3. removes layers that shrank below ``min_thickness`` (or to 0) and merges equal neighbours,
+2. refines every thickness by L-BFGS-B (``refine``), each layer but the new needle bounded below by
+   ``min_thickness``,
+3. removes the needle if it stayed below ``min_thickness`` (and any zero-thickness layer), merges
+   equal neighbours, and refines again what is left,
 
 and repeats until no needle lowers the merit (:math:`P ≥ 0` everywhere, to ``1e-9`` of the
 merit per nm), the problem's ``max_layers`` is reached, or the budget is spent.
@@ -23,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .local import clean, refine, stack_of
+from .local import clean, refine, refine_stack, stack_of
 from .merit import Evaluator
 from .problem import Layer, Problem
 
@@ -86,11 +88,19 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
     max_layers = problem.max_layers or len(problem.layers)
     best = (materials, thicknesses, np.inf)
     seen = set()
+    tmin = problem.min_thickness
+    needle = None  # the index of the needle just inserted: the one layer that may start below tmin
     while True:
-        sub = Evaluator(_subproblem(problem, [Layer(m, (0.0, upper)) for m in materials]))
-        xs, _ = refine(sub, np.asarray(thicknesses, dtype=float)[None], None, run)
-        ev.evaluations += sub.evaluations
-        materials, thicknesses = clean(materials, xs[0].tolist(), problem.min_thickness)
+        lower = [0.0 if (i == needle or tmin <= 0) else tmin for i in range(len(materials))]
+        sub = Evaluator(_subproblem(problem, [Layer(m, (lo, upper)) for m, lo in zip(materials, lower)]))
+        with run.stage(1.0, recording=False):  # the history holds the stacks as returned (below)
+            xs, _ = refine(sub, np.maximum(np.asarray(thicknesses, dtype=float), lower)[None], None, run)
+            ev.evaluations += sub.evaluations
+            refined = (list(materials), xs[0].tolist())
+            materials, thicknesses = clean(*refined, tmin)
+            if (materials, thicknesses) != refined and materials:
+                # the needle stayed under min_thickness and went: the rest refined again
+                materials, thicknesses = refine_stack(problem, materials, thicknesses, run, lower=tmin)
         if not materials:
             break
         merit = _merit(problem, materials, thicknesses)  # of the stack as returned (cleaned)
@@ -108,6 +118,7 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
             break
         j, z, k = rows[i]
         materials, thicknesses = _insert(materials, thicknesses, j, z, palette[k])
+        needle = j + 1 if 0 < z else j  # where _insert put it (a split at z = 0 puts it first)
     return best
 
 

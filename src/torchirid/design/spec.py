@@ -22,7 +22,8 @@ naming the key (``layers[2].thickness``)::
     [[layers]]                     # incident side first
     name = "top"                   # optional: for an absorptance target's layer = "top"
     material = "TiO2"              # a number, a name, ["TiO2", "ZnS"] (a choice),
-                                   # or {wavelength = [...], n = [...], k = [...]}
+                                   # {wavelength = [...], n = [...], k = [...]}, {file = "nk.csv"}
+                                   # (nm, n[, k] rows) or {page = ["main", "TiO2", "Devore-o"]}
     thickness = [10.0, 200.0]      # [min, max] (free) or a number (fixed), nm
 
     [[layers]]
@@ -109,6 +110,12 @@ def _known(table: dict, allowed: set, key: str) -> None:
 
 
 def _material(value, key: str):
+    if isinstance(value, dict) and "page" in value:  # a database page: {page = [shelf, book, page]}
+        _known(value, {"page"}, key)
+        page = value["page"]
+        if not (isinstance(page, list) and len(page) == 3 and all(isinstance(x, str) for x in page)):
+            raise SpecError(f"{key}.page", "[shelf, book, page] of the refractiveindex.info database")
+        return tuple(page)
     if isinstance(value, dict) and "file" in value:
         _known(value, {"file"}, key)
         try:
@@ -255,7 +262,8 @@ def read_spec(source) -> tuple[Problem, dict, dict | None]:
         that table).
 
     Raises:
-        SpecError: (a ``ValueError``) naming the key at fault.
+        ValueError: (``SpecError``) whose message starts with the key at fault
+            (``layers[2].thickness: ...``).
 
     Example:
         >>> from torchirid.design import read_spec
