@@ -296,8 +296,30 @@ def bench_forward(seeds, quick, log):
     return rows
 
 
+def bench_needle(seeds, quick, log):
+    """Needle optimisation on chirped(20) (broadband: inserted layers pay off): cuda-thinfilm's
+    ``needle_optimization`` (5 insertions from a seeded random start) against torchirid's
+    ``method="needle"`` (up to 30 layers, from the middle of the bounds), both scored by PyMoosh on
+    the stacks they return (``cost_stack``)."""
+    pp = peers.chirped(20)
+    prob = to_problem(pp, max_layers=30)
+    rows = []
+    for s in seeds[:3]:
+        c = peers.run_cuda_thinfilm(pp, 5, s, method="needle")
+        d = design.optimise(prob, method="needle", seed=s)
+        idx = [complex(m) if isinstance(m, complex) else float(m) for m in d.materials]
+        cost = pp.cost_stack(idx, d.thicknesses)
+        row = {"problem": "needle_chirped20", "seed": s,
+               "cuda_thinfilm_needle": {"cost": c["cost"], "seconds": c["seconds"], "layers": len(c["x"])},
+               "ours": {"cost": cost, "seconds": d.seconds, "layers": len(d.thicknesses), "history": d.history}}
+        log(f"needle chirped20 seed {s}: cuda-thinfilm {c['cost']:.5f} ({len(c['x'])} layers, {c['seconds']:.1f} s) "
+            f"| ours {cost:.5f} ({len(d.thicknesses)} layers, {d.seconds:.1f} s)")
+        rows.append(row)
+    return rows
+
+
 BENCHES = {"bragg": bench_bragg, "chirped": bench_chirped, "pv": bench_pv, "colour": bench_colour,
-           "tolerance": bench_tolerance, "robust": bench_robust, "forward": bench_forward}
+           "tolerance": bench_tolerance, "needle": bench_needle, "robust": bench_robust, "forward": bench_forward}
 
 
 def report(rows) -> str:
@@ -338,6 +360,13 @@ def report(rows) -> str:
                 if xs:
                     lines.append(f"| {name} | {k} | {med([x['cost'] for x in xs]):.6f} | "
                                  f"{med([x['seconds'] for x in xs]):.2f} | | | |")
+        elif name.startswith("needle"):
+            c = [r["cuda_thinfilm_needle"] for r in rs]
+            o = [r["ours"] for r in rs]
+            lines.append(f"| {name} | cuda-thinfilm needle (5 insertions) | {med([x['cost'] for x in c]):.5f} "
+                         f"({med([x['layers'] for x in c]):.0f} layers) | {med([x['seconds'] for x in c]):.1f} | "
+                         f"{med([x['cost'] for x in o]):.5f} ({med([x['layers'] for x in o]):.0f} layers) | "
+                         f"{med([x['seconds'] for x in o]):.1f} | |")
         elif name.startswith("pv"):
             o = [r["ours"] for r in rs]
             for k, label in (("qode", "PyMoosh QODE, 150 evals"), ("cuda_thinfilm_de", "cuda-thinfilm DE, 3000"),
