@@ -660,6 +660,10 @@ def colour_lab(wavelength_nm, reflectance, illuminant: str = "D65", observer: st
     sd = colour.SpectralDistribution(dict(zip(np.asarray(wavelength_nm, float), np.asarray(reflectance, float))))
     cmfs = colour.MSDS_CMFS[cmfs_name]
     spd = colour.SDS_ILLUMINANTS[illuminant]
-    xyz = colour.sd_to_XYZ(sd, cmfs, spd, method="Integration") / 100
-    white = colour.sd_to_XYZ(colour.sd_ones(cmfs.shape), cmfs, spd, method="Integration") / 100
+    import warnings
+
+    with warnings.catch_warnings():  # colour aligns the spectrum to its CMFs' 1 nm grid, and says so
+        warnings.simplefilter("ignore", colour.utilities.ColourRuntimeWarning)
+        xyz = colour.sd_to_XYZ(sd, cmfs, spd, method="Integration") / 100
+        white = colour.sd_to_XYZ(colour.sd_ones(cmfs.shape), cmfs, spd, method="Integration") / 100
     return np.asarray(colour.XYZ_to_Lab(xyz, colour.XYZ_to_xy(white)))
