@@ -238,3 +238,16 @@ def test_the_reflectance_map_is_the_library_reflectance(page):
             R = ti.thin_film_reflectance(lam[:, None], cos, n, d, [1.0, 1.52, complex(2.0, 0.5)][base])
         got = (px[..., 1] / 255.0) ** 2  # grey level = √R in 8 bits: half a step moves R by ≤ 0.004
         np.testing.assert_allclose(got, R.numpy(), rtol=0, atol=4.5e-3)
+
+
+def test_explore_serve_stops_on_sigint_even_when_started_with_it_ignored(tmp_path):
+    """A child of a process that ignores SIGINT (a background job, a test runner's worker) inherits
+    that; Python then installs no KeyboardInterrupt handler and Ctrl-C would never stop the server."""
+    proc = subprocess.Popen([sys.executable, "-m", "torchirid", "explore", "--out", str(tmp_path / "page"), "--serve",
+                             "--port", "0", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    try:
+        assert any(re.search(r"on (http://\S+/)", line) for line in proc.stdout)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=20) == 0

@@ -35,6 +35,7 @@ def add_parser(subparsers):
 @_args.reports_bad_arguments(NAME)
 def run(args) -> int:
     """Write the page; with ``--serve`` serve it until interrupted. Exit status 0; 1 (cannot write or bind); 2 (bad argument)."""
+    import signal
     import sys
     import time
     from pathlib import Path
@@ -60,6 +61,11 @@ def run(args) -> int:
         server, url = serve(out, host=args.host, port=args.port)
     except OSError as e:
         return _args.fail(NAME, f"cannot serve on {args.host}:{args.port}: {e}", status=1)
+    # Ctrl-C (SIGINT) stops the server even when this process was started with SIGINT ignored or
+    # blocked (a background job, a test runner's worker): Python then installs no handler of its own
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     print(f"serving {out} on {url} (Ctrl-C stops)", flush=True)
     try:
         while True:
