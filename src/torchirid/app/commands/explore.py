@@ -66,8 +66,8 @@ def run(args) -> int:
     signal.signal(signal.SIGINT, signal.default_int_handler)
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-    print(f"serving {out} on {url} (Ctrl-C stops)", flush=True)
-    try:
+    try:  # the announcement inside: a Ctrl-C right after it is still a clean stop
+        print(f"serving {out} on {url} (Ctrl-C stops)", flush=True)
         while True:
             time.sleep(3600)
     except KeyboardInterrupt:
