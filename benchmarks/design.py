@@ -322,6 +322,17 @@ BENCHES = {"bragg": bench_bragg, "chirped": bench_chirped, "pv": bench_pv, "colo
            "tolerance": bench_tolerance, "needle": bench_needle, "robust": bench_robust, "forward": bench_forward}
 
 
+def _other_peers(name: str, rs) -> list[str]:
+    """Table rows of the peers run beside QODE (median cost [range], median seconds)."""
+    out = []
+    for k in ("nevergrad_TwoPointsDE", "cuda_thinfilm_de", "difftmm_adam"):
+        xs = [r[k] for r in rs if k in r]
+        if xs:
+            out.append(f"| {name} | {k} | {med([x['cost'] for x in xs]):.6g} [{spread([x['cost'] for x in xs])}] "
+                       f"| {med([x['seconds'] for x in xs]):.2f} | | | |")
+    return out
+
+
 def report(rows) -> str:
     lines = [("| problem | peer (same run) | peer cost, median [range] | peer s | torchirid cost | torchirid s | "
               "time ratio (median [range]) |"), "|---|---|---|---|---|---|---|"]
@@ -341,11 +352,7 @@ def report(rows) -> str:
                          f"{med([x['cost'] for x in o]):.9g} [{spread([x['cost'] for x in o])}] | "
                          f"{med([x['seconds'] for x in o]):.3f} (goal: {med([x['seconds'] for x in og]):.3f}) | "
                          f"{med(ratio):.3f} [{spread(ratio)}]; goal {med(ratio_g):.3f} [{spread(ratio_g)}] |")
-            for k in ("nevergrad_TwoPointsDE", "cuda_thinfilm_de", "difftmm_adam"):
-                xs = [r[k] for r in rs if k in r]
-                if xs:
-                    lines.append(f"| {name} | {k} | {med([x['cost'] for x in xs]):.6g} [{spread([x['cost'] for x in xs])}] "
-                                 f"| {med([x['seconds'] for x in xs]):.2f} | | | |")
+            lines += _other_peers(name, rs)
         elif name.startswith("chirped"):
             q = [r["qode"] for r in rs]
             o = [r["ours"] for r in rs]
@@ -355,11 +362,7 @@ def report(rows) -> str:
                          f"{med([x['seconds'] for x in q]):.1f} | {med([x['cost'] for x in o]):.6f} "
                          f"[{spread([x['cost'] for x in o])}] | {med([x['seconds'] for x in o]):.2f} | "
                          f"{med(ratio):.3f} |")
-            for k in ("nevergrad_TwoPointsDE", "cuda_thinfilm_de", "difftmm_adam"):
-                xs = [r[k] for r in rs if k in r]
-                if xs:
-                    lines.append(f"| {name} | {k} | {med([x['cost'] for x in xs]):.6f} | "
-                                 f"{med([x['seconds'] for x in xs]):.2f} | | | |")
+            lines += _other_peers(name, rs)
         elif name.startswith("needle"):
             c = [r["cuda_thinfilm_needle"] for r in rs]
             o = [r["ours"] for r in rs]

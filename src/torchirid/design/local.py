@@ -16,6 +16,7 @@ import numpy as np
 import torch
 
 from .merit import Evaluator
+from .problem import Layer
 
 #: L-BFGS-B's memory (its cost per iteration grows with memory × variables: 16 candidates × 20
 #: thicknesses refined together make that cost show)
@@ -159,14 +160,20 @@ def clean(materials, thicknesses, min_thickness: float):
 def refine_stack(problem, materials: list, thicknesses: list, run: Run, *, lower: float = 0.0):
     """Refine every thickness of a stack (its materials fixed), each in ``[lower, upper]`` with
     ``upper`` the largest bound of the problem; returns (materials, thicknesses)."""
-    from .problem import Layer, Problem
-
     upper = max([layer.thickness[1] if layer.free else layer.thickness for layer in problem.layers] +
                 [float(max(thicknesses))])
-    sub = Problem([Layer(m, (lower, upper)) for m in materials], problem.targets, n_incident=problem.n_incident,
-                  n_substrate=problem.n_substrate, max_total_thickness=problem.max_total_thickness,
-                  robust=problem.robust)
-    ev = Evaluator(sub)
+    ev = Evaluator(problem.with_layers([Layer(m, (lower, upper)) for m in materials]))
     xs, _ = refine(ev, np.clip(np.asarray(thicknesses, dtype=float), lower, upper)[None], None, run)
     run.ev.evaluations += ev.evaluations
     return list(materials), xs[0].tolist()
+
+
+def stack_merit(problem, materials: list, thicknesses: list, dtype: torch.dtype = torch.float64, device=None) -> float:
+    """The merit of a stack with every thickness fixed (under the problem's thickness errors when
+    it has them); an empty stack is the bare exit medium."""
+    if not materials:
+        materials, thicknesses = [problem.n_substrate], [0.0]
+    ev = Evaluator(problem.with_layers([Layer(m, float(d)) for m, d in zip(materials, thicknesses)]),
+                   dtype=dtype, device=device)
+    with torch.inference_mode():
+        return float(ev.merit(torch.zeros(1, 0, dtype=dtype, device=ev.device))[0])

@@ -76,13 +76,13 @@ class _Condition:
         self.u = (1 / lam)[:, None]
         self.fixed = all(t.shape[0] == 1 for t in tables)
         if self.fixed:
-            n = torch.stack([t[0] for t in tables], dim=-1)  # [W, L+2]
-            self.pieces = stack_pieces(c, n[:, None, :], polarization)  # [P, W, A, L+1], [W, A, L]
+            self.n = torch.stack([t[0] for t in tables], dim=-1)[None]  # [1, W, L+2]
+            self.pieces = stack_pieces(c, self.n[0, :, None, :], polarization)  # [P, W, A, L+1], [W, A, L]
 
     def indices(self, B: int, choice):
         """The indices ``[B or 1, W, L+2]`` of every stack position."""
         if self.fixed:
-            return torch.stack([t[0] for t in self.tables], dim=-1)[None]
+            return self.n
         return torch.stack([t[ch] if t.shape[0] > 1 else t[0].expand(B, -1)
                             for t, ch in zip(self.tables, choice)], dim=-1)
 
@@ -99,9 +99,7 @@ class _Condition:
         if self.fixed:
             r, t2, kq = self.pieces
         else:
-            n = torch.stack([t[ch] if t.shape[0] > 1 else t[0].expand(B, -1)
-                             for t, ch in zip(self.tables, choice)], dim=-1)  # [B, W, L+2]
-            r, t2, kq = stack_pieces(self.c, n[:, :, None, :], self.polarization)
+            r, t2, kq = stack_pieces(self.c, self.indices(B, choice)[:, :, None, :], self.polarization)
         batch = (B, self.lam.shape[0], self.c.shape[0])
         return stack_response(r, t2, kq, d[:, None, None, :], self.u, batch)
 
@@ -152,7 +150,7 @@ class Evaluator:
     def evaluations(self, value: int) -> None:
         self._count[0] = value
 
-    def nominal(self) -> "Evaluator":
+    def nominal(self) -> Evaluator:
         """A view that evaluates without the robust errors (counting into the same total)."""
         view = copy.copy(self)
         view.use_robust = False
@@ -194,21 +192,24 @@ class Evaluator:
         pos = self.positions(choice, d.shape[0])
         return [cond.response(d, pos) for cond in self.conditions]
 
-    def target_merits(self, d: torch.Tensor, choice=None) -> torch.Tensor:
-        """Each target's merit ``[B, targets]`` (before ``importance``) for thicknesses ``d [B, L]``."""
+    def target_merits(self, d: torch.Tensor, choice=None, responses=None) -> torch.Tensor:
+        """Each target's merit ``[B, targets]`` (before ``importance``) for thicknesses ``d [B, L]``
+        (``responses``: those of :meth:`responses` for ``d`` when the caller has them)."""
+        pos = self.positions(choice, d.shape[0])
         out = []
-        for t, (R, T), (w, v), cond in zip(self.targets, self.responses(d, choice), self._weights, self.conditions):
-            if isinstance(t, SpectralTarget):
-                if t.layer is not None:
-                    X = cond.absorptance(d, self.positions(choice, d.shape[0]), t.layer)
-                else:
-                    X = R if t.quantity == "R" else T if t.quantity == "T" else 1 - R - T
-                dev = (X - v[:, None]).abs()  # [B, W, A]
-                dev = dev ** t.p if t.p != 1 else dev
-                m = (dev * w[:, None]).sum(1).mean(-1)
-                out.append(m if t.p == 1 else m ** (1 / t.p))
+        for i, (t, (w, v), cond) in enumerate(zip(self.targets, self._weights, self.conditions)):
+            if isinstance(t, SpectralTarget) and t.layer is not None:
+                X = cond.absorptance(d, pos, t.layer)  # R and T not needed
             else:
-                out.append(self.colour_differences(t, R, w, v).pow(t.p).mean(-1).pow(1 / t.p))
+                R, T = responses[i] if responses is not None else cond.response(d, pos)
+                if isinstance(t, ColourTarget):
+                    out.append(self.colour_differences(t, R, w, v).pow(t.p).mean(-1).pow(1 / t.p))
+                    continue
+                X = R if t.quantity == "R" else T if t.quantity == "T" else 1 - R - T
+            dev = (X - v[:, None]).abs()  # [B, W, A]
+            dev = dev ** t.p if t.p != 1 else dev
+            m = (dev * w[:, None]).sum(1).mean(-1)
+            out.append(m if t.p == 1 else m ** (1 / t.p))
         return torch.stack(out, dim=-1)
 
     @staticmethod
@@ -230,10 +231,10 @@ class Evaluator:
                                   observer=t.observer) if isinstance(t, ColourTarget) else None)
         return out
 
-    def plain_merit(self, d: torch.Tensor, choice=None) -> torch.Tensor:
+    def plain_merit(self, d: torch.Tensor, choice=None, responses=None) -> torch.Tensor:
         """The merit ``[B]`` of thicknesses ``d [B, L]``, without thickness errors."""
         s = torch.tensor([t.importance for t in self.targets], dtype=self.dtype, device=self.device)
-        m = (self.target_merits(d, choice) * s).sum(-1)
+        m = (self.target_merits(d, choice, responses) * s).sum(-1)
         dmax = self.problem.max_total_thickness
         if dmax is not None:
             m = m + THICKNESS_PENALTY * torch.relu(d.sum(-1) - dmax) / dmax

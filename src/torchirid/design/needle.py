@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
-from .local import clean, refine, refine_stack, stack_of
+from .local import clean, refine, refine_stack, stack_merit, stack_of
 from .merit import Evaluator
 from .problem import Layer, Problem
 
@@ -40,11 +40,6 @@ def _materials(problem: Problem) -> list:
             if m not in out:
                 out.append(m)
     return out
-
-
-def _subproblem(problem: Problem, layers: list[Layer]) -> Problem:
-    return Problem(layers, problem.targets, n_incident=problem.n_incident, n_substrate=problem.n_substrate,
-                   max_total_thickness=problem.max_total_thickness, robust=problem.robust)
 
 
 def needle_derivatives(problem: Problem, materials: list, thicknesses: list, palette: list,
@@ -69,7 +64,7 @@ def needle_derivatives(problem: Problem, materials: list, thicknesses: list, pal
                 stacks.append(d)
                 mats.append(m)
     layers = [Layer(list(palette) if len(palette) > 1 else palette[0], (0.0, 1e6)) for _ in range(L + 2)]
-    ev = Evaluator(_subproblem(problem, layers))
+    ev = Evaluator(problem.with_layers(layers))
     x = torch.tensor(stacks, dtype=ev.dtype, requires_grad=True)
     choice = torch.tensor(mats, dtype=torch.long) if len(palette) > 1 else None
     ev.merit(x, choice).sum().backward()
@@ -92,7 +87,7 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
     needle = None  # the index of the needle just inserted: the one layer that may start below tmin
     while True:
         lower = [0.0 if (i == needle or tmin <= 0) else tmin for i in range(len(materials))]
-        sub = Evaluator(_subproblem(problem, [Layer(m, (lo, upper)) for m, lo in zip(materials, lower)]))
+        sub = Evaluator(problem.with_layers([Layer(m, (lo, upper)) for m, lo in zip(materials, lower)]))
         with run.stage(1.0, recording=False):  # the history holds the stacks as returned (below)
             xs, _ = refine(sub, np.maximum(np.asarray(thicknesses, dtype=float), lower)[None], None, run)
             ev.evaluations += sub.evaluations
@@ -103,7 +98,7 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
                 materials, thicknesses = refine_stack(problem, materials, thicknesses, run, lower=tmin)
         if not materials:
             break
-        merit = _merit(problem, materials, thicknesses)  # of the stack as returned (cleaned)
+        merit = stack_merit(problem, materials, thicknesses)  # of the stack as returned (cleaned)
         run.record(merit)
         if merit < best[2]:
             best = (materials, thicknesses, merit)
@@ -120,12 +115,6 @@ def needle_search(problem: Problem, ev: Evaluator, run, x, ch):
         materials, thicknesses = _insert(materials, thicknesses, j, z, palette[k])
         needle = j + 1 if 0 < z else j  # where _insert put it (a split at z = 0 puts it first)
     return best
-
-
-def _merit(problem: Problem, materials, thicknesses) -> float:
-    ev = Evaluator(_subproblem(problem, [Layer(m, float(d)) for m, d in zip(materials, thicknesses)]))
-    with torch.inference_mode():
-        return float(ev.merit(torch.zeros(1, 0, dtype=ev.dtype))[0])
 
 
 def _insert(materials, thicknesses, j: int, z: float, material):

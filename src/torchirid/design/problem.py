@@ -483,6 +483,20 @@ class Problem:
                             ("_checked", True)):
             object.__setattr__(self, name, value)
 
+    def with_layers(self, layers) -> Problem:
+        """The same targets, media, limits and thickness errors on other ``layers`` (without
+        ``max_layers``: a stack being grown may pass it on the way). One σ per layer cannot follow a
+        change of the layer count (needles): that raises a ``ValueError``."""
+        robust = self.robust
+        if robust is not None and len(layers) != len(self.layers):
+            if len(set(robust.sigma)) > 1:
+                raise ValueError("robust.sigma: one σ per layer cannot follow a stack whose layer count changes "
+                                 "(needles); give one σ for every layer")
+            robust = replace(robust, sigma=robust.sigma[0])
+        return Problem(list(layers), self.targets, n_incident=self.n_incident, n_substrate=self.n_substrate,
+                       min_thickness=self.min_thickness, max_total_thickness=self.max_total_thickness,
+                       robust=robust, name=self.name)
+
     @property
     def free_thicknesses(self) -> int:
         """How many thicknesses the optimiser varies."""

@@ -32,7 +32,15 @@ import numpy as np
 import torch
 
 from .. import _threads
-from .local import Run, clean, one_blas_thread, refine, refine_stack, stack_of
+from .local import (
+    Run,
+    clean,
+    one_blas_thread,
+    refine,
+    refine_stack,
+    stack_merit,
+    stack_of,
+)
 from .merit import Evaluator
 from .needle import needle_search
 from .problem import Layer, Problem, material_label
@@ -89,9 +97,7 @@ class Design:
 
     def as_problem(self) -> Problem:
         """The design as a problem with every thickness fixed (for analysis)."""
-        p = self.problem
-        return Problem([Layer(m, float(d)) for m, d in zip(self.materials, self.thicknesses)], p.targets,
-                       n_incident=p.n_incident, n_substrate=p.n_substrate, robust=p.robust, name=p.name)
+        return self.problem.with_layers([Layer(m, float(d)) for m, d in zip(self.materials, self.thicknesses)])
 
     def to_dict(self) -> dict:
         """What ``design.json`` holds."""
@@ -250,7 +256,7 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
     run = Run(ev, time_limit, max_evaluations, progress)
     if not ev.free and not ev.choosing and method != "needle":  # nothing to vary
         materials, thicknesses = clean(*stack_of(ev, np.zeros(0), None), problem.min_thickness)
-        merit = _final_merit(problem, materials, thicknesses, dtype, device)
+        merit = stack_merit(problem, materials, thicknesses, dtype, device)
         run.record(merit)
         return Design(problem, materials, thicknesses, merit, run.elapsed(), 1, run.history, method)
     # a long run of small ops (populations, a few candidates): torch's small-work thread count
@@ -290,17 +296,6 @@ def optimise(problem: Problem, *, method: str = "auto", seed: int = 0, time_limi
             # layers under min_thickness went: the rest refined again, each at least that thick
             cleaned = refine_stack(problem, *cleaned, run, lower=problem.min_thickness)
         materials, thicknesses = cleaned
-        merit = _final_merit(problem, materials, thicknesses, dtype, device)
+        merit = stack_merit(problem, materials, thicknesses, dtype, device)
         run.record(merit)
     return Design(problem, materials, thicknesses, merit, run.elapsed(), ev.evaluations, run.history, method)
-
-
-def _final_merit(problem: Problem, materials, thicknesses, dtype, device) -> float:
-    if not materials:
-        materials, thicknesses = [problem.n_substrate], [0.0]
-    fixed = Problem([Layer(m, float(d)) for m, d in zip(materials, thicknesses)], problem.targets,
-                    n_incident=problem.n_incident, n_substrate=problem.n_substrate, robust=problem.robust,
-                    max_total_thickness=problem.max_total_thickness)
-    ev = Evaluator(fixed, dtype=dtype, device=device)
-    with torch.inference_mode():
-        return float(ev.merit(torch.zeros(1, 0, dtype=dtype, device=ev.device))[0])
