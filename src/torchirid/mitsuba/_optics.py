@@ -1,0 +1,214 @@
+r"""The optics of the plugins in Dr.Jit arithmetic: complex numbers over any real Dr.Jit type (or
+Python floats in the scalar variants), the Airy recursion of a stack and Abelès' matrix of a
+Bragg cell raised to the number of cells.
+
+Everything here is written on *admittances*. With :math:`s^2 = n_0^2\sin^2\theta_0` (the
+invariant of Snell's law, :math:`n_0` the real index of the incident medium) every medium
+:math:`j` of complex index :math:`N_j = n_j + i\kappa_j` has
+
+.. math::
+
+    q_j = N_j\cos\theta_j = \sqrt{N_j^2 - s^2}\quad(\text{principal root: } \operatorname{Im} q_j \ge 0),
+    \qquad Y_j = q_j\ (s),\quad Y_j = q_j / N_j^2\ (p),
+
+the phase thickness of a layer of thickness :math:`d` is :math:`\delta_j = 2\pi d\,q_j/\lambda`, and
+an interface :math:`i\,|\,j` has :math:`r_{ij} = (Y_i - Y_j)/(Y_i + Y_j)`,
+:math:`t_{ij} = 2Y_i/(Y_i + Y_j)` (the tangential E field for s, H for p). Working on
+:math:`q_j` instead of :math:`\cos\theta_j` needs no special case for total internal reflection
+(an imaginary :math:`q`) or absorbing media.
+
+The kernels trust their inputs: the plugins' constructors check them.
+"""
+
+from __future__ import annotations
+
+import math
+
+import drjit as dr
+
+TWO_PI = 2.0 * math.pi
+
+
+class Complex:
+    """A complex number over a real Dr.Jit array type (or Python floats): ``re + i·im``.
+
+    Dr.Jit's own complex types exist per backend and precision; this small class works on any
+    real type the variant hands out (``Float``, ``Float64``, Python ``float``), so the same
+    kernel runs in scalar and JIT variants and keeps Dr.Jit's automatic differentiation."""
+
+    __slots__ = ("re", "im")
+
+    def __init__(self, re, im=0.0):
+        self.re = re
+        self.im = im
+
+    def __add__(self, o):
+        if isinstance(o, Complex):
+            return Complex(self.re + o.re, self.im + o.im)
+        return Complex(self.re + o, self.im)
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        if isinstance(o, Complex):
+            return Complex(self.re - o.re, self.im - o.im)
+        return Complex(self.re - o, self.im)
+
+    def __rsub__(self, o):
+        return Complex(o - self.re, -self.im)
+
+    def __neg__(self):
+        return Complex(-self.re, -self.im)
+
+    def __mul__(self, o):
+        if isinstance(o, Complex):
+            return Complex(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+        return Complex(self.re * o, self.im * o)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, o):
+        if isinstance(o, Complex):
+            den = o.re * o.re + o.im * o.im
+            return Complex((self.re * o.re + self.im * o.im) / den, (self.im * o.re - self.re * o.im) / den)
+        return Complex(self.re / o, self.im / o)
+
+    def __rtruediv__(self, o):
+        den = self.re * self.re + self.im * self.im
+        return Complex(o * self.re / den, -o * self.im / den)
+
+    def abs2(self):
+        """``|z|²``."""
+        return self.re * self.re + self.im * self.im
+
+
+def csqrt(z: Complex) -> Complex:
+    """Principal square root (``Re ≥ 0``; ``Im`` takes the sign of ``z.im``, + for ``z.im = 0``)."""
+    r = dr.sqrt(z.re * z.re + z.im * z.im)
+    re = dr.sqrt(dr.maximum((r + z.re) * 0.5, 0.0))
+    im = dr.sqrt(dr.maximum((r - z.re) * 0.5, 0.0))
+    return Complex(re, dr.select(z.im < 0, -im, im))
+
+
+def cexp_i(z: Complex) -> Complex:
+    """``exp(i·z)``."""
+    e = dr.exp(-z.im)
+    return Complex(e * dr.cos(z.re), e * dr.sin(z.re))
+
+
+def ccos_sin(z: Complex):
+    """``(cos z, sin z)`` of a complex angle."""
+    ch, sh = dr.cosh(z.im), dr.sinh(z.im)
+    c, s = dr.cos(z.re), dr.sin(z.re)
+    return Complex(c * ch, -s * sh), Complex(s * ch, c * sh)
+
+
+def square(n) -> Complex:
+    """``N²`` of an index given as a :class:`Complex`."""
+    return n * n
+
+
+def admittances(eps: Complex, s2):
+    """``(q, Y_s, Y_p)`` of a medium of permittivity ``eps = N²`` at Snell invariant ``s2``."""
+    q = csqrt(eps - s2)
+    return q, q, q / eps
+
+
+def stack_amplitudes(lam, s2, eps, thicknesses, polarization: str):
+    """Reflection and transmission amplitudes ``(r, t)`` of a stack by the Airy recursion.
+
+    Args:
+        lam: vacuum wavelength in nm (real array).
+        s2: Snell invariant :math:`n_0^2\\sin^2\\theta_0` (real array).
+        eps: permittivities ``N²`` (:class:`Complex`) of every medium, incident first, exit
+            last (length ``L + 2``).
+        thicknesses: the ``L`` film thicknesses in nm (real arrays or floats).
+        polarization: ``"s"`` or ``"p"``.
+
+    Returns ``(r, t, Y_0, Y_exit)`` with ``t`` the amplitude of the field that is continuous at
+    the interfaces (E for s, H for p), so that ``T = Re(Y_exit)/Y_0 · |t|²``.
+    """
+    pol = 1 if polarization == "s" else 2
+    media = [admittances(e, s2) for e in eps]
+    y = [m[pol] for m in media]
+    q = [m[0] for m in media]
+    last = len(eps) - 1
+    r = (y[last - 1] - y[last]) / (y[last - 1] + y[last])
+    t = 2.0 * y[last - 1] / (y[last - 1] + y[last])
+    for j in range(last - 1, 0, -1):
+        phase = Complex(q[j].re, q[j].im) * (TWO_PI * thicknesses[j - 1] / lam)
+        e1 = cexp_i(phase)
+        e2 = e1 * e1
+        rij = (y[j - 1] - y[j]) / (y[j - 1] + y[j])
+        tij = 2.0 * y[j - 1] / (y[j - 1] + y[j])
+        den = 1.0 + rij * r * e2
+        t = tij * t * e1 / den
+        r = (rij + r * e2) / den
+    return r, t, y[0], y[last]
+
+
+def stack_reflectance(lam, s2, eps, thicknesses):
+    """Unpolarized reflectance ``R`` (mean of s and p) of a stack."""
+    rs = stack_amplitudes(lam, s2, eps, thicknesses, "s")[0]
+    rp = stack_amplitudes(lam, s2, eps, thicknesses, "p")[0]
+    return 0.5 * (rs.abs2() + rp.abs2())
+
+
+def stack_reflectance_transmittance(lam, s2, eps, thicknesses):
+    """Unpolarized ``(R, T)`` of a stack whose incident and exit media are lossless."""
+    out_r, out_t = 0.0, 0.0
+    for pol in ("s", "p"):
+        r, t, y0, ye = stack_amplitudes(lam, s2, eps, thicknesses, pol)
+        out_r = out_r + 0.5 * r.abs2()
+        out_t = out_t + 0.5 * dr.maximum(ye.re, 0.0) / y0.re * t.abs2()
+    return out_r, out_t
+
+
+def _layer_matrix(q: Complex, y: Complex, thickness, lam):
+    """Abelès' characteristic matrix of one layer: ``[[cos δ, -i sin δ / Y], [-i Y sin δ, cos δ]]``."""
+    c, s = ccos_sin(q * (TWO_PI * thickness / lam))
+    mi_s = Complex(s.im, -s.re)  # -i·sin δ
+    return (c, mi_s / y, mi_s * y, c)
+
+
+def _matmul(a, b):
+    return (a[0] * b[0] + a[1] * b[2], a[0] * b[1] + a[1] * b[3],
+            a[2] * b[0] + a[3] * b[2], a[2] * b[1] + a[3] * b[3])
+
+
+def _matpow(m, n: int):
+    """``m**n`` by squaring (``n ≥ 1`` is known when the kernel is traced: ⌈log₂ n⌉ squarings)."""
+    out = None
+    while n:
+        if n & 1:
+            out = m if out is None else _matmul(out, m)
+        n >>= 1
+        if n:
+            m = _matmul(m, m)
+    return out
+
+
+def bragg_reflectance(lam, s2, eps_incident: Complex, eps1: Complex, eps2: Complex, eps_exit: Complex, d1, d2,
+                      cells: int):
+    r"""Unpolarized reflectance of ``incident | (n2, d2), (n1, d1) × cells | exit``: Abelès' cell
+    matrix :math:`M = M_2 M_1` raised to ``cells`` by squaring, then
+    :math:`r = (Y_0 B - C)/(Y_0 B + C)` with :math:`(B, C)^T = M^N (1, Y_e)^T`. In float64 the
+    entries of :math:`M^N` stay finite for any practical mirror (they grow at most as
+    :math:`e^{N\operatorname{Im}K\Lambda}` inside a stop band)."""
+    q0 = csqrt(eps_incident - s2)
+    q1 = csqrt(eps1 - s2)
+    q2 = csqrt(eps2 - s2)
+    qe = csqrt(eps_exit - s2)
+    total = 0.0
+    for pol in ("s", "p"):
+        if pol == "s":
+            y0, y1, y2, ye = q0, q1, q2, qe
+        else:
+            y0, y1, y2, ye = q0 / eps_incident, q1 / eps1, q2 / eps2, qe / eps_exit
+        cell = _matmul(_layer_matrix(q2, y2, d2, lam), _layer_matrix(q1, y1, d1, lam))
+        m = _matpow(cell, cells)
+        b = m[0] + m[1] * ye
+        c = m[2] + m[3] * ye
+        r = (y0 * b - c) / (y0 * b + c)
+        total = total + 0.5 * r.abs2()
+    return total

@@ -1,0 +1,562 @@
+r"""The three BSDF plugins, defined for the Mitsuba variant that is active when
+:func:`torchirid.mitsuba.register` runs (a Python BSDF class belongs to the variant it was
+defined in).
+
+Every plugin is a structure (film, stack or Bragg mirror) that gives a reflectance
+:math:`R(\lambda, \cos\theta)` — and for a smooth structure over a transparent base a
+transmittance :math:`T` — and one of two geometries:
+
+* **smooth** (no ``alpha``): a Dirac delta in the mirror direction of weight :math:`R`;
+  over a transparent base (real index, lossless) also a delta in the refracted direction of
+  weight :math:`T` (straight through for a free-standing film, ``n_substrate = n_incident``:
+  a soap bubble). Two-sided when it transmits (light from inside sees the stack reversed),
+  front-side only otherwise.
+* **rough** (``alpha`` > 0): the GGX microfacet BRDF with the structure's reflectance at the
+  microfacet, :math:`f_r = D(\mathbf h)\,G_1(\mathbf i)\,G_1(\mathbf o)\,R(\lambda,
+  \mathbf i\cdot\mathbf h)/(4\cos\theta_i\cos\theta_o)` — :func:`torchirid.microfacet.microfacet_brdf`
+  with the separable Smith masking of Fourneau et al. eq. 19 (Mitsuba's own GGX: the same
+  :math:`D` and :math:`G_1`). Reflection only: light transmitted into the base is absorbed.
+  Sampled with Mitsuba's visible-normal sampling; the weight is ``eval / pdf``.
+
+``torchirid_bragg`` with ``alpha`` is Fourneau et al.'s single-reflection model of one rough
+Bragg layer (eq. 34): the microfacet lobe of the mirrors in the host ``n1``, a Lambertian base
+``base_albedo`` seen through the layer's integrated transmissivity :math:`\tau` (eq. 28, the
+library's :func:`~torchirid.layered.transmissivity_lut`, tabulated here in θ and λ) and, when
+the host is not air, the smooth air | ``n1`` coating (a delta of weight :math:`F`, the
+refraction of both directions and :math:`T_c(i)T_c(o)/n_1^2`).
+
+Two evaluators compute the structure's :math:`R`, :math:`T` (``evaluator`` parameter):
+``"drjit"`` (default) in Dr.Jit float64 arithmetic (:mod:`torchirid.mitsuba._optics`): the
+kernel is traced into Mitsuba's own, runs at the speed of its BSDFs and is differentiable by
+Dr.Jit; ``"torch"`` calls the library (``thin_film_reflectance``, ``multilayer``,
+``bragg_reflectance``) through ``dr.wrap`` — the exact reference, for tests and reference
+renders (needs ``dr.JitFlag.SymbolicLoops`` and ``SymbolicCalls`` off in the JIT variants,
+which :func:`torchirid.mitsuba.render` sets).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from . import _optics as optics
+from ._spectra import RGB_NODES, SPECTRAL_RANGE, Index, rgb_weights
+
+EVALUATORS = ("drjit", "torch")
+
+#: θ nodes (uniform in θ over [0, π/2]) and λ spacing (nm) of the τ table of a rough Bragg layer
+TAU_ANGLES = 1024
+TAU_STEP = 1.0
+
+
+def _index_arg(props, name: str, default=None, *, required: bool = False) -> Index:
+    """An index parameter ``name`` (number or material name) with its optional ``k_<name>``
+    (``n_film`` → ``k_film``)."""
+    value = props.get(name, default)
+    if value is None:
+        if required:
+            raise ValueError(f"{name} is required")
+        return None
+    kname = "k_" + name[2:] if name.startswith("n_") else "k_" + name
+    k = props.get(kname, 0.0)
+    return Index(value, k, name=name)
+
+
+def _float_arg(props, name: str, default=None, *, low=None, positive=False):
+    value = props.get(name, default)
+    if value is None:
+        raise ValueError(f"{name} is required")
+    value = float(value)
+    if not math.isfinite(value) or (positive and not value > 0) or (low is not None and value < low):
+        bound = "> 0" if positive else f">= {low}"
+        raise ValueError(f"{name} must be finite and {bound}, got {value}")
+    return value
+
+
+def _choice(props, name, options, default):
+    value = props.get(name, default)
+    if value not in options:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, options))}, got {value!r}")
+    return value
+
+
+def read_design(path) -> tuple[list, list, float, object]:
+    """``(materials, thicknesses, n_incident, n_substrate)`` of a ``design.json`` written by
+    ``torchirid design`` (layers top first)."""
+    data = json.loads(Path(path).read_text())
+    try:
+        layers = data["layers"]
+        materials = [layer["material"] for layer in layers]
+        thicknesses = [float(layer["thickness"]) for layer in layers]
+        return materials, thicknesses, data.get("incident", 1.0), data.get("exit", 1.5)
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"{path}: not a design written by `torchirid design` ({exc})") from None
+
+
+def define(mi, dr):
+    """The plugin classes for the active variant: ``{plugin name: class}``."""
+    jit = dr.is_jit_v(mi.Float)
+    spectral = mi.is_spectral
+    F64 = mi.Float64 if jit else float
+
+    def f64(x):
+        return mi.Float64(x) if jit else float(x)
+
+    def to_float(x):
+        return mi.Float(x) if jit else float(x)
+
+    class _Plugin(mi.BSDF):
+        """What every plugin shares: the geometry (smooth or GGX-rough), the channels, the two
+        evaluators. A subclass defines ``_read(props)``, ``_kernel(lam, s2, side)`` →
+        ``(R, T or None)`` in Dr.Jit and ``_torch(lam, cos, side)`` → ``(R, T or None)``."""
+
+        def __init__(self, props):
+            mi.BSDF.__init__(self, props)
+            self.n_incident = _float_arg(props, "n_incident", 1.0, positive=True)
+            self.evaluator = _choice(props, "evaluator", EVALUATORS, "drjit")
+            alpha = props.get("alpha", 0.0)
+            self.rough = float(alpha) > 0
+            self.alpha = mi.Float(float(alpha)) if jit else float(alpha)
+            self._read(props)
+            self.transmits = (not self.rough) and self._transparent_base()
+            self._set_flags()
+            self._torch_fn = None
+
+        # -- structure hooks ------------------------------------------------------------
+        def _transparent_base(self) -> bool:
+            return False
+
+        def _n_exit(self) -> float:
+            raise NotImplementedError
+
+        def _set_flags(self):
+            if self.rough:
+                flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+                self.m_components = [flags]
+            elif self.transmits:
+                both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
+                self.m_components = [mi.BSDFFlags.DeltaReflection | both, mi.BSDFFlags.DeltaTransmission | both]
+                flags = self.m_components[0] | self.m_components[1]
+            else:
+                flags = mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide
+                self.m_components = [flags]
+            self.m_flags = flags
+
+        # -- channels -------------------------------------------------------------------
+        def _values(self, si, cos_i, side):
+            """``(R, T)`` spectra at the interaction's wavelengths (spectral variants) or in
+            linear sRGB (RGB variants), ``cos_i`` the cosine of incidence on the stack (> 0),
+            ``side`` 0 (from the incident medium) or 1 (from the base)."""
+            if spectral:
+                lams = [si.wavelengths[j] for j in range(len(si.wavelengths))]
+            else:
+                lams = list(RGB_NODES)
+            if self.evaluator == "torch":
+                rs, ts = self._torch_values(lams, cos_i, side)
+            else:
+                n0 = self.n_incident if side == 0 else self._n_exit()
+                c = f64(cos_i)
+                s2 = (n0 * n0) * (1.0 - c * c)
+                rs, ts = [], []
+                for lam in lams:
+                    r, t = self._kernel(f64(lam) if spectral else lam, s2, side)
+                    rs.append(r)
+                    ts.append(t)
+            return self._spectrum(rs), (self._spectrum(ts) if ts[0] is not None else None)
+
+        def _spectrum(self, values):
+            if spectral:
+                return mi.Spectrum(*[to_float(v) for v in values])
+            w = rgb_weights()
+            out = []
+            for c in range(3):
+                acc = 0.0
+                for k, v in enumerate(values):
+                    acc = acc + float(w[c, k]) * v
+                out.append(to_float(acc))
+            return mi.Spectrum(*out)
+
+        def _torch_values(self, lams, cos_i, side):
+            """The library's values for every channel (the exact path)."""
+            if not jit:
+                lam = torch.tensor([float(x) for x in lams], dtype=torch.float64)
+                c = torch.tensor([float(cos_i)], dtype=torch.float64)
+                r, t = self._torch(lam[None, :], c[:, None], side)
+                rs = [float(x) for x in r[0]]
+                ts = [float(x) for x in t[0]] if t is not None else [None] * len(rs)
+                return rs, ts
+            nl = len(lams)
+            transmits = self.transmits
+
+            @dr.wrap(source="drjit", target="torch")
+            def run(c, *lam_cols):
+                if spectral:
+                    lam = torch.stack(lam_cols, -1)
+                else:
+                    lam = torch.tensor(lams, dtype=torch.float64)[None, :]
+                r, t = self._torch(lam, c[:, None], side)
+                cols = [r[:, j].contiguous() for j in range(nl)]
+                if transmits:
+                    cols += [t[:, j].contiguous() for j in range(nl)]
+                return tuple(cols)
+
+            width = dr.width(cos_i)
+            c = dr.detach(mi.Float64(cos_i))
+            lam_cols = [dr.detach(mi.Float64(x)) for x in lams] if spectral else []
+            if width > 1:
+                lam_cols = [x + dr.zeros(mi.Float64, width) for x in lam_cols]
+            out = run(c, *lam_cols)
+            rs = list(out[:nl])
+            ts = list(out[nl:]) if transmits else [None] * nl
+            return rs, ts
+
+        # -- BSDF interface -------------------------------------------------------------
+        def _microfacets(self):
+            return mi.MicrofacetDistribution(mi.MicrofacetType.GGX, self.alpha, True)
+
+        def sample(self, ctx, si, sample1, sample2, active=True):
+            if self.rough:
+                return self._sample_rough(ctx, si, sample1, sample2, active)
+            return self._sample_smooth(ctx, si, sample1, sample2, active)
+
+        def eval(self, ctx, si, wo, active=True):
+            if not self.rough:
+                return dr.zeros(mi.Spectrum)
+            return self._eval_rough(ctx, si, wo, active)
+
+        def pdf(self, ctx, si, wo, active=True):
+            if not self.rough:
+                return dr.zeros(mi.Float)
+            return self._pdf_rough(ctx, si, wo, active)
+
+        def eval_pdf(self, ctx, si, wo, active=True):
+            if not self.rough:
+                return dr.zeros(mi.Spectrum), dr.zeros(mi.Float)
+            return self._eval_rough(ctx, si, wo, active), self._pdf_rough(ctx, si, wo, active)
+
+        # smooth -------------------------------------------------------------------------
+        def _sample_smooth(self, ctx, si, sample1, sample2, active):
+            bs = dr.zeros(mi.BSDFSample3f)
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            if not self.transmits:
+                active = active & (cos_i > 0) & ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)
+                r, _ = self._values(si, dr.maximum(cos_i, 1e-12), 0)
+                bs.wo = mi.reflect(si.wi)
+                bs.pdf = 1.0
+                bs.eta = 1.0
+                bs.sampled_component = 0
+                bs.sampled_type = mi.UInt32(+mi.BSDFFlags.DeltaReflection)
+                return bs, dr.select(active, r, 0.0)
+            # a transparent base: reflect or transmit, both sides
+            front = cos_i > 0
+            if jit:
+                r_f, t_f = self._values(si, dr.maximum(dr.abs(cos_i), 1e-12), 0)
+                r_b, t_b = self._values(si, dr.maximum(dr.abs(cos_i), 1e-12), 1)
+                r = dr.select(front, r_f, r_b)
+                t = dr.select(front, t_f, t_b)
+            else:
+                r, t = self._values(si, max(abs(cos_i), 1e-12), 0 if front else 1)
+            has_r = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)
+            has_t = ctx.is_enabled(mi.BSDFFlags.DeltaTransmission, 1)
+            pr = dr.mean(r) if spectral or True else r[0]
+            pt = dr.mean(t)
+            p_reflect = dr.clip(pr / dr.maximum(pr + pt, 1e-30), 0.0, 1.0)
+            if has_r and not has_t:
+                p_reflect = dr.ones(mi.Float) if jit else 1.0
+            elif has_t and not has_r:
+                p_reflect = dr.zeros(mi.Float) if jit else 0.0
+            choose_r = sample1 <= p_reflect
+            # the refracted direction: exit medium over incident medium on this side
+            n_top, n_bot = self.n_incident, self._n_exit()
+            eta_it = dr.select(front, n_bot / n_top, n_top / n_bot)  # n_t / n_i
+            sin2_t = (1.0 - cos_i * cos_i) / (eta_it * eta_it)
+            cos_t = dr.safe_sqrt(1.0 - sin2_t)
+            cos_t = dr.select(front, -cos_t, cos_t)
+            wo_t = mi.refract(si.wi, cos_t, 1.0 / eta_it)
+            bs.wo = dr.select(choose_r, mi.reflect(si.wi), wo_t)
+            bs.pdf = dr.select(choose_r, p_reflect, 1.0 - p_reflect)
+            bs.eta = dr.select(choose_r, 1.0, eta_it)
+            bs.sampled_component = dr.select(choose_r, mi.UInt32(0), mi.UInt32(1))
+            bs.sampled_type = dr.select(choose_r, mi.UInt32(+mi.BSDFFlags.DeltaReflection),
+                                        mi.UInt32(+mi.BSDFFlags.DeltaTransmission))
+            # radiance is compressed by (n_i / n_t)² on the way through (Mitsuba's dielectric)
+            scale = 1.0 / (eta_it * eta_it) if ctx.mode == mi.TransportMode.Radiance else 1.0
+            weight = dr.select(choose_r, r / dr.maximum(bs.pdf, 1e-30), t * scale / dr.maximum(bs.pdf, 1e-30))
+            active = active & (bs.pdf > 0) & (has_r | has_t)
+            return bs, dr.select(active, weight, 0.0)
+
+        # rough --------------------------------------------------------------------------
+        def _eval_rough(self, ctx, si, wo, active):
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
+            h = dr.normalize(si.wi + wo)
+            distr = self._microfacets()
+            shading = distr.eval(h) * distr.G(si.wi, wo, h) / (4.0 * dr.maximum(cos_i, 1e-12))
+            r, _ = self._values(si, dr.clip(dr.dot(si.wi, h), 1e-12, 1.0), 0)
+            return dr.select(active, r * shading, 0.0)
+
+        def _pdf_rough(self, ctx, si, wo, active):
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
+            h = dr.normalize(si.wi + wo)
+            pdf = self._microfacets().pdf(si.wi, h) / (4.0 * dr.abs(dr.dot(wo, h)))
+            return dr.select(active, pdf, 0.0)
+
+        def _sample_rough(self, ctx, si, sample1, sample2, active):
+            bs = dr.zeros(mi.BSDFSample3f)
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            active = active & (cos_i > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
+            distr = self._microfacets()
+            m, pdf_m = distr.sample(si.wi, sample2)
+            bs.wo = mi.reflect(si.wi, m)
+            bs.eta = 1.0
+            bs.sampled_component = 0
+            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
+            bs.pdf = pdf_m / (4.0 * dr.abs(dr.dot(bs.wo, m)))
+            active = active & (pdf_m > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
+            value = self._eval_rough(ctx, si, bs.wo, active)
+            weight = value / dr.maximum(bs.pdf, 1e-30)
+            return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
+
+        # parameters ---------------------------------------------------------------------
+        def traverse(self, callback):
+            if self.rough:
+                callback.put("alpha", self.alpha, mi.ParamFlags.Differentiable)
+            self._traverse(callback)
+
+        def _traverse(self, callback):
+            pass
+
+        def parameters_changed(self, keys):
+            pass
+
+        def to_string(self):
+            return f"{type(self).__name__}[{self._describe()}, {'alpha=' + str(self.alpha) if self.rough else 'smooth'}]"
+
+    # ----------------------------------------------------------------------------------
+    class ThinFilm(_Plugin):
+        """``torchirid_thin_film``: a film on a base in a medium (thin_film_reflectance)."""
+
+        def _read(self, props):
+            self.n_film = _index_arg(props, "n_film", required=True)
+            self.n_substrate = _index_arg(props, "n_substrate", 1.5)
+            if props.has_property("thickness") and props.type("thickness") == mi.Properties.Type.Object:
+                self.thickness_texture = props.get("thickness")
+                self.thickness = None
+            else:
+                self.thickness_texture = None
+                d = _float_arg(props, "thickness", low=0.0)
+                self.thickness = mi.Float(d) if jit else d
+
+        def _transparent_base(self):
+            return self.n_substrate.material is None and self.n_substrate.is_real and self.n_film.is_real
+
+        def _n_exit(self):
+            return self.n_substrate.constant.real
+
+        def _d(self, si):
+            if self.thickness_texture is not None:
+                return f64(self.thickness_texture.eval_1(si))
+            return f64(self.thickness)
+
+        def _values(self, si, cos_i, side):
+            self._si = si
+            return _Plugin._values(self, si, cos_i, side)
+
+        def _kernel(self, lam, s2, side):
+            eps = [optics.Complex(self.n_incident ** 2), self.n_film.permittivity(lam, dr, F64),
+                   self.n_substrate.permittivity(lam, dr, F64)]
+            if side:
+                eps = eps[::-1]
+            d = [self._d(self._si)]
+            if self.transmits:
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d)
+            return optics.stack_reflectance(lam, s2, eps, d), None
+
+        def _torch(self, lam, c, side):
+            from ..optics import multilayer, thin_film_reflectance
+
+            d = self._torch_thickness(c)
+            if not self.transmits:
+                return thin_film_reflectance(lam, c, self.n_film.torch(lam), d, self.n_substrate.torch(lam),
+                                             n_incident=self.n_incident), None
+            n = torch.stack(torch.broadcast_tensors(torch.full_like(lam, self.n_incident, dtype=torch.complex128),
+                                                    self.n_film.torch(lam), self.n_substrate.torch(lam)), -1)
+            if side:
+                n = n.flip(-1)
+            return multilayer(lam, c, n.expand(*torch.broadcast_shapes(lam.shape, c.shape), 3),
+                              d.expand(*torch.broadcast_shapes(lam.shape, c.shape))[..., None])
+
+        def _torch_thickness(self, c):
+            if self.thickness_texture is not None:
+                raise ValueError("evaluator='torch' takes a constant thickness, not a texture")
+            return torch.tensor(float(self.thickness[0] if jit else self.thickness), dtype=torch.float64)
+
+        def _traverse(self, callback):
+            if self.thickness is not None:
+                callback.put("thickness", self.thickness, mi.ParamFlags.Differentiable)
+            else:
+                callback.put("thickness", self.thickness_texture, mi.ParamFlags.Differentiable)
+
+        def _describe(self):
+            d = "texture" if self.thickness is None else f"{float(self.thickness[0] if jit else self.thickness):g} nm"
+            return (f"n_film={self.n_film.describe()}, thickness={d}, n_substrate={self.n_substrate.describe()}, "
+                    f"n_incident={self.n_incident:g}")
+
+    # ----------------------------------------------------------------------------------
+    class Multilayer(_Plugin):
+        """``torchirid_multilayer``: any stack (multilayer), or a design file."""
+
+        def _read(self, props):
+            design = props.get("design", None)
+            if design is not None:
+                materials, thicknesses, n_inc, n_sub = read_design(design)
+                if not props.has_property("n_incident"):
+                    self.n_incident = float(n_inc)
+                substrate = props.get("n_substrate", n_sub)
+            else:
+                materials = _list_arg(props, "materials")
+                thicknesses = [float(x) for x in _list_arg(props, "thicknesses")]
+                substrate = props.get("n_substrate", 1.5)
+                if len(materials) != len(thicknesses):
+                    raise ValueError(f"materials has {len(materials)} entries and thicknesses {len(thicknesses)}")
+            if not materials:
+                raise ValueError("the stack needs at least one layer")
+            self.layers = [Index(_number_or_name(m), name=f"materials[{i}]") for i, m in enumerate(materials)]
+            if any(not (math.isfinite(t) and t >= 0) for t in thicknesses):
+                raise ValueError(f"thicknesses must be finite and >= 0 nm, got {thicknesses}")
+            self.n_substrate = Index(_number_or_name(substrate), props.get("k_substrate", 0.0), name="n_substrate")
+            self.thicknesses = mi.Float(thicknesses) if jit else list(thicknesses)
+
+        def _transparent_base(self):
+            return (self.n_substrate.material is None and self.n_substrate.is_real
+                    and all(layer.is_real for layer in self.layers))
+
+        def _n_exit(self):
+            return self.n_substrate.constant.real
+
+        def _kernel(self, lam, s2, side):
+            eps = ([optics.Complex(self.n_incident ** 2)] + [x.permittivity(lam, dr, F64) for x in self.layers]
+                   + [self.n_substrate.permittivity(lam, dr, F64)])
+            if jit:
+                d = [dr.gather(mi.Float64, mi.Float64(self.thicknesses), j) for j in range(len(self.layers))]
+            else:
+                d = list(self.thicknesses)
+            if side:
+                eps, d = eps[::-1], d[::-1]
+            if self.transmits:
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d)
+            return optics.stack_reflectance(lam, s2, eps, d), None
+
+        def _torch(self, lam, c, side):
+            from ..optics import multilayer
+
+            shape = torch.broadcast_shapes(lam.shape, c.shape)
+            lam_b = lam.expand(shape)
+            n = torch.stack([torch.full(shape, self.n_incident, dtype=torch.complex128)]
+                            + [x.torch(lam_b) for x in self.layers] + [self.n_substrate.torch(lam_b)], -1)
+            d = torch.tensor(list(self.thicknesses) if not jit else self.thicknesses.numpy().tolist(),
+                             dtype=torch.float64).expand(*shape, len(self.layers))
+            if side:
+                n, d = n.flip(-1), d.flip(-1)
+            r, t = multilayer(lam_b, c.expand(shape), n, d)
+            return r, (t if self.transmits else None)
+
+        def _traverse(self, callback):
+            if jit:
+                callback.put("thicknesses", self.thicknesses, mi.ParamFlags.Differentiable)
+
+        def _describe(self):
+            d = self.thicknesses.numpy().tolist() if jit else self.thicknesses
+            layers = ", ".join(f"{x.describe()}:{t:g}" for x, t in zip(self.layers, d))
+            return f"[{layers}] on {self.n_substrate.describe()}, n_incident={self.n_incident:g}"
+
+    # ----------------------------------------------------------------------------------
+    class Bragg(_Plugin):
+        """``torchirid_bragg``: a Bragg mirror (bragg_reflectance), smooth or a rough Bragg layer."""
+
+        def _read(self, props):
+            self.n1 = _float_arg(props, "n1", positive=True)
+            self.n2 = Index(props.get("n2", None) if props.get("n2", None) is not None else _missing("n2"),
+                            props.get("k2", 0.0), name="n2")
+            if self.n2.material is not None:
+                raise ValueError("n2 must be a number (with k2 for absorption): the Bragg layer's closed form "
+                                 "takes constant indices")
+            d1 = _float_arg(props, "d1", positive=True)
+            d2 = _float_arg(props, "d2", positive=True)
+            self.d1 = mi.Float(d1) if jit else d1
+            self.d2 = mi.Float(d2) if jit else d2
+            cells = props.get("cells", None)
+            if cells is None or int(cells) != cells or int(cells) < 1:
+                raise ValueError(f"cells must be an integer >= 1, got {cells}")
+            self.cells = int(cells)
+            if not props.has_property("n_incident"):
+                self.n_incident = self.n1
+            self.base_albedo = _float_arg(props, "base_albedo", 0.0, low=0.0)
+            if self.base_albedo > 1:
+                raise ValueError(f"base_albedo must be in [0, 1], got {self.base_albedo}")
+            self._tau = None
+
+        def _n_exit(self):
+            return self.n1
+
+        def _d(self):
+            return f64(self.d1), f64(self.d2)
+
+        def _kernel(self, lam, s2, side):
+            d1, d2 = self._d()
+            n2 = complex(self.n2.constant)
+            eps2 = optics.Complex(n2.real, n2.imag)
+            return optics.bragg_reflectance(lam, s2, optics.Complex(self.n_incident ** 2), optics.Complex(self.n1 ** 2),
+                                            eps2 * eps2, optics.Complex(self.n1 ** 2), d1, d2, self.cells), None
+
+        def _torch(self, lam, c, side):
+            from ..optics import bragg_reflectance
+
+            d1 = float(self.d1[0] if jit else self.d1)
+            d2 = float(self.d2[0] if jit else self.d2)
+            return bragg_reflectance(lam, c, self.n1, complex(self.n2.constant), d1, d2, self.cells,
+                                     n_incident=self.n_incident), None
+
+        def _traverse(self, callback):
+            callback.put("d1", self.d1, mi.ParamFlags.Differentiable)
+            callback.put("d2", self.d2, mi.ParamFlags.Differentiable)
+
+        def _describe(self):
+            d1 = float(self.d1[0] if jit else self.d1)
+            d2 = float(self.d2[0] if jit else self.d2)
+            return (f"n1={self.n1:g}, n2={self.n2.describe()}, d1={d1:g} nm, d2={d2:g} nm, cells={self.cells}, "
+                    f"n_incident={self.n_incident:g}, base_albedo={self.base_albedo:g}")
+
+    return {"torchirid_thin_film": ThinFilm, "torchirid_multilayer": Multilayer, "torchirid_bragg": Bragg}
+
+
+def _missing(name):
+    raise ValueError(f"{name} is required")
+
+
+def _number_or_name(x):
+    if isinstance(x, str):
+        try:
+            return float(x)
+        except ValueError:
+            return x
+    if isinstance(x, (list, tuple)) and len(x) == 2:
+        return complex(float(x[0]), float(x[1]))
+    return x
+
+
+def _list_arg(props, name):
+    """A list parameter: a Python list (``mi.load_dict``) or a comma-separated string (XML)."""
+    value = props.get(name, None)
+    if value is None:
+        raise ValueError(f"{name} is required (or give design = 'design.json')")
+    if isinstance(value, str):
+        return [v.strip() for v in value.split(",") if v.strip()]
+    return list(value)
