@@ -62,6 +62,10 @@ class Complex:
 
     def __mul__(self, o):
         if isinstance(o, Complex):
+            if _is_zero(o.im):
+                return Complex(self.re * o.re, self.im * o.re)
+            if _is_zero(self.im):
+                return Complex(self.re * o.re, self.re * o.im)
             return Complex(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
         return Complex(self.re * o, self.im * o)
 
@@ -69,6 +73,9 @@ class Complex:
 
     def __truediv__(self, o):
         if isinstance(o, Complex):
+            if _is_zero(o.im):
+                inv = 1.0 / o.re
+                return Complex(self.re * inv, self.im * inv)
             den = o.re * o.re + o.im * o.im
             return Complex((self.re * o.re + self.im * o.im) / den, (self.im * o.re - self.re * o.im) / den)
         return Complex(self.re / o, self.im / o)
@@ -84,6 +91,9 @@ class Complex:
 
 def csqrt(z: Complex) -> Complex:
     """Principal square root (``Re ≥ 0``; ``Im`` takes the sign of ``z.im``, + for ``z.im = 0``)."""
+    if _is_zero(z.im):  # a real argument: real root, or +i·root of a negative one
+        r = dr.sqrt(dr.abs(z.re))
+        return Complex(dr.select(z.re >= 0, r, 0.0), dr.select(z.re >= 0, 0.0, r))
     r = dr.sqrt(z.re * z.re + z.im * z.im)
     re = dr.sqrt(dr.maximum((r + z.re) * 0.5, 0.0))
     im = dr.sqrt(dr.maximum((r - z.re) * 0.5, 0.0))
@@ -92,8 +102,11 @@ def csqrt(z: Complex) -> Complex:
 
 def cexp_i(z: Complex) -> Complex:
     """``exp(i·z)``."""
+    s, c = dr.sincos(z.re)
+    if _is_zero(z.im):
+        return Complex(c, s)
     e = dr.exp(-z.im)
-    return Complex(e * dr.cos(z.re), e * dr.sin(z.re))
+    return Complex(e * c, e * s)
 
 
 def ccos_sin(z: Complex):
@@ -114,8 +127,13 @@ def admittances(eps: Complex, s2):
     return q, q, q / eps
 
 
-def stack_amplitudes(lam, s2, eps, thicknesses, polarization: str):
-    """Reflection and transmission amplitudes ``(r, t)`` of a stack by the Airy recursion.
+def _is_zero(x) -> bool:
+    return isinstance(x, (int, float)) and x == 0
+
+
+def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False):
+    """Reflection (and transmission) amplitudes of a stack by the Airy recursion, s and p in
+    one pass (the roots :math:`q_j` and the phase factors are shared).
 
     Args:
         lam: vacuum wavelength in nm (real array).
@@ -123,42 +141,48 @@ def stack_amplitudes(lam, s2, eps, thicknesses, polarization: str):
         eps: permittivities ``N²`` (:class:`Complex`) of every medium, incident first, exit
             last (length ``L + 2``).
         thicknesses: the ``L`` film thicknesses in nm (real arrays or floats).
-        polarization: ``"s"`` or ``"p"``.
+        transmission: also return the transmission amplitudes.
 
-    Returns ``(r, t, Y_0, Y_exit)`` with ``t`` the amplitude of the field that is continuous at
-    the interfaces (E for s, H for p), so that ``T = Re(Y_exit)/Y_0 · |t|²``.
+    Returns ``{"s": (r, t, Y_0, Y_exit), "p": (...)}`` with ``t`` the amplitude of the field
+    that is continuous at the interfaces (E for s, H for p), so that
+    ``T = Re(Y_exit)/Y_0 · |t|²`` (``t`` is None without ``transmission``).
     """
-    pol = 1 if polarization == "s" else 2
-    media = [admittances(e, s2) for e in eps]
-    y = [m[pol] for m in media]
-    q = [m[0] for m in media]
+    q = [csqrt(e - s2) for e in eps]
+    ys = q
+    yp = [qj / e if not _is_zero(e.im) else qj * (1.0 / e.re) for qj, e in zip(q, eps)]
     last = len(eps) - 1
-    r = (y[last - 1] - y[last]) / (y[last - 1] + y[last])
-    t = 2.0 * y[last - 1] / (y[last - 1] + y[last])
+    phases = []
     for j in range(last - 1, 0, -1):
-        phase = Complex(q[j].re, q[j].im) * (TWO_PI * thicknesses[j - 1] / lam)
-        e1 = cexp_i(phase)
-        e2 = e1 * e1
-        rij = (y[j - 1] - y[j]) / (y[j - 1] + y[j])
-        tij = 2.0 * y[j - 1] / (y[j - 1] + y[j])
-        den = 1.0 + rij * r * e2
-        t = tij * t * e1 / den
-        r = (rij + r * e2) / den
-    return r, t, y[0], y[last]
+        e1 = cexp_i(q[j] * (TWO_PI * thicknesses[j - 1] / lam))
+        phases.append((j, e1, e1 * e1))
+    out = {}
+    for pol, y in (("s", ys), ("p", yp)):
+        den = y[last - 1] + y[last]
+        r = (y[last - 1] - y[last]) / den
+        t = 2.0 * y[last - 1] / den if transmission else None
+        for j, e1, e2 in phases:
+            den = y[j - 1] + y[j]
+            rij = (y[j - 1] - y[j]) / den
+            re2 = r * e2
+            inv = 1.0 / (1.0 + rij * re2)
+            if transmission:
+                t = (2.0 * y[j - 1] / den) * t * e1 * inv
+            r = (rij + re2) * inv
+        out[pol] = (r, t, y[0], y[last])
+    return out
 
 
 def stack_reflectance(lam, s2, eps, thicknesses):
     """Unpolarized reflectance ``R`` (mean of s and p) of a stack."""
-    rs = stack_amplitudes(lam, s2, eps, thicknesses, "s")[0]
-    rp = stack_amplitudes(lam, s2, eps, thicknesses, "p")[0]
-    return 0.5 * (rs.abs2() + rp.abs2())
+    amp = stack_amplitudes(lam, s2, eps, thicknesses)
+    return 0.5 * (amp["s"][0].abs2() + amp["p"][0].abs2())
 
 
 def stack_reflectance_transmittance(lam, s2, eps, thicknesses):
     """Unpolarized ``(R, T)`` of a stack whose incident and exit media are lossless."""
+    amp = stack_amplitudes(lam, s2, eps, thicknesses, transmission=True)
     out_r, out_t = 0.0, 0.0
-    for pol in ("s", "p"):
-        r, t, y0, ye = stack_amplitudes(lam, s2, eps, thicknesses, pol)
+    for r, t, y0, ye in amp.values():
         out_r = out_r + 0.5 * r.abs2()
         out_t = out_t + 0.5 * dr.maximum(ye.re, 0.0) / y0.re * t.abs2()
     return out_r, out_t

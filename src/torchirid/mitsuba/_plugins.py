@@ -104,7 +104,7 @@ def define(mi, dr):
     F64 = mi.Float64 if jit else float
 
     def f64(x):
-        return mi.Float64(x) if jit else float(x)
+        return F64(x) if jit else float(x)
 
     def to_float(x):
         return mi.Float(x) if jit else float(x)
