@@ -26,6 +26,7 @@ TINY = {
     "luts/build_cumulative_cmf.py": (["--observers", "CIE 1931 2", "--illuminants", "E", "--nodes", "64",
                                       "--out", "{tmp}"], ["cie_1931_2_e_380_780nm.npz"]),
     "luts/build_dfg.py": (["--resolution", "4", "--samples", "16", "--out", "{tmp}/dfg.npz"], ["dfg.npz"]),
+    "luts/build_explorer_sky.py": (["--out", "{tmp}/sky.npz"], ["sky.npz"]),
     "luts/build_fourier_sensitivity.py": (["--observers", "CIE 1931 2", "--d-max", "200", "--out", "{tmp}"],
                                           ["cie_1931_2_d65.npz"]),
     "luts/build_prefiltered_sensitivity.py": (["--d-max", "200", "--out", "{tmp}"], ["cie_1931_2_d65.npz"]),

@@ -32,6 +32,7 @@ import base64
 import functools
 import http.server
 import json
+import math
 import threading
 from importlib import resources
 from pathlib import Path
@@ -42,7 +43,9 @@ import torch
 from ... import __version__
 from ..._cache import cached
 from ..._io import atomic_write
-from ...ibl import prefilter_environment, shipped_dfg_lut, synthetic_environment
+from ..._shipped import read_or_build
+from ...ibl import shipped_dfg_lut
+from ...lut import LUT
 from ...realtime import glsl_source, shipped_texture
 
 __all__ = ["BASES", "BRAGG_CELLS", "SKY_ALPHAS", "STATIC_FILES", "page_data", "reference_rgb", "serve", "write_page"]
@@ -74,11 +77,43 @@ def _texture(name: str) -> dict:
             "parameters": lut.parameters, "values": _floats(lut.values)}
 
 
-@cached(maxsize=1)
-def _sky() -> dict:
+#: what rebuilds the page's prefiltered sky, shipped as ``torchirid/data/explorer/sky.npz``
+SKY_BUILDER = "luts/build_explorer_sky.py"
+#: the sky's provenance, stored in (and checked when reading) the shipped file
+SKY_PARAMETERS = {"environment": "torchirid.ibl.synthetic_environment(64, 128, dtype=float32)",
+                  "resolution": [32, 64], "alphas": list(SKY_ALPHAS)}
+
+
+def sky_lut() -> LUT:
+    """The page's sky, computed: :func:`~torchirid.ibl.synthetic_environment` (64 × 128) prefiltered
+    by :func:`~torchirid.ibl.prefilter_environment` to 32 × 64 texels at each of :data:`SKY_ALPHAS`
+    (float32; ~2 s of CPU, hence shipped: :func:`shipped_sky`). A LUT over ``alpha``, ``theta``
+    and ``phi`` (radians, texel centres) of linear RGB radiance."""
+    from ...ibl import prefilter_environment, synthetic_environment
+
+    ho, wo = SKY_PARAMETERS["resolution"]
     env = synthetic_environment(64, 128, dtype=torch.float32)
-    pre = prefilter_environment(env, torch.tensor(SKY_ALPHAS, dtype=torch.float32), resolution=(32, 64))
-    return {"alphas": list(SKY_ALPHAS), "shape": list(pre.radiance.shape[:-1]), "values": _floats(pre.radiance),
+    pre = prefilter_environment(env, torch.tensor(SKY_ALPHAS, dtype=torch.float32), resolution=(ho, wo))
+    theta = (torch.arange(ho, dtype=torch.float64) + 0.5) * (math.pi / ho)
+    phi = (torch.arange(wo, dtype=torch.float64) + 0.5) * (2.0 * math.pi / wo)
+    axes = {"alpha": torch.tensor(SKY_ALPHAS), "theta": theta, "phi": phi}
+    return LUT(pre.radiance.contiguous(), {k: v.to(torch.float32) for k, v in axes.items()}, builder=SKY_BUILDER,
+               parameters=SKY_PARAMETERS, units={"alpha": "1", "theta": "rad", "phi": "rad",
+                                                 "values": "radiance (linear RGB)"})
+
+
+@cached(maxsize=1)
+def shipped_sky() -> LUT:
+    """The page's prefiltered sky as shipped (``torchirid/data/explorer/sky.npz``, written by
+    ``luts/build_explorer_sky.py``; built by :func:`sky_lut` if missing or stale)."""
+    resource = resources.files("torchirid") / "data" / "explorer" / "sky.npz"
+    return read_or_build(resource, sky_lut, what="the explorer's prefiltered sky", script=SKY_BUILDER,
+                         builder=SKY_BUILDER, parameters=SKY_PARAMETERS)
+
+
+def _sky() -> dict:
+    lut = shipped_sky()
+    return {"alphas": list(SKY_ALPHAS), "shape": list(lut.values.shape[:-1]), "values": _floats(lut.values),
             "environment": "torchirid.ibl.synthetic_environment(64, 128), prefiltered to 32 × 64"}
 
 
@@ -107,7 +142,8 @@ def page_data() -> dict:
 def write_page(out, *, data: dict | None = None) -> Path:
     """Write the explorer page into the folder ``out`` (created); returns ``out/index.html``.
 
-    ``data``: :func:`page_data` (computed here by default; ~10 s, mostly the sky's prefiltering).
+    ``data``: :func:`page_data` (read here by default from shipped files: the textures, the
+    prefiltered sky, the albedo table; well under a second).
     Open ``index.html`` in a browser with WebGL2 (any current one), or :func:`serve` the folder.
     """
     out = Path(out)

@@ -4,8 +4,10 @@
 //
 // Views (one WebGL2 context each, redrawn on every slider move):
 //   sphere        split-sum image-based lighting: A(cos θo, α) · L̄(ω_r, α) · RGB(cos θo), 1 − e^−L, sRGB
-//   scatterogram  GGX BRDF × cos θo over the exit hemisphere for a light at θi (× 4πα² cos θi)
-//   rmap          R(θ, λ), spectral, in the shader (θ 0–90° across, λ 380–780 nm upwards; grey level = √R)
+//   scatterogram  GGX BRDF × cos θo over the exit hemisphere for a light at θi (× 4πα² cos θi); a yellow
+//                 ring (radius 0.035–0.055 of the disc) around wi, the direction towards the light
+//   rmap          R(θ, λ), spectral, in the shader (θ 0–90° across, λ 380–780 nm upwards; grey level = √R),
+//                 beside its colour scale (rmap-scale: 2-D canvas, row y from the bottom at R = (y + ½)/h)
 //   strip         the specular colour RGB(cos θ), θ 0–90° across, sRGB
 // Pixel column i of the rmap and the strip is at θ = (i + ½)/width · 90°.
 'use strict';
@@ -105,6 +107,9 @@ void main() {
   vec2 p = (gl_FragCoord.xy / resolution * 2.0 - 1.0) * 1.05;
   float r2 = dot(p, p);
   if (r2 >= 1.0) { color = vec4(vec3(r2 < 1.0036 ? 0.35 : 0.08), 1.0); return; }
+  // the marker: a ring around the direction towards the light, wi projected as wo is
+  float dl = distance(p, vec2(sin(light), 0.0));
+  if (dl > 0.035 && dl < 0.055) { color = vec4(1.0, 0.85, 0.1, 1.0); return; }
   vec3 wo = vec3(p, sqrt(1.0 - r2));
   vec3 wi = vec3(sin(light), 0.0, cos(light));
   vec3 R = material_rgb(tirid_cos_d(wi, wo));
@@ -283,6 +288,25 @@ void main() {
       schedule();
     });
   }
+  // the reflectance map's colour scale: grey level √R against R, linear in R upwards (ticks in index.html)
+  (function drawScale() {
+    const c = $('rmap-scale'), ctx = c.getContext('2d');
+    const img = ctx.createImageData(c.width, c.height);
+    for (let y = 0; y < c.height; y++) {
+      const g = Math.round(255 * Math.sqrt((c.height - 1 - y + 0.5) / c.height));  // canvas rows run downwards
+      for (let x = 0; x < c.width; x++) img.data.set([g, g, g, 255], 4 * (y * c.width + x));
+    }
+    ctx.putImageData(img, 0, 0);
+  })();
+
+  function indexText(ns) {  // the base's index: a number or [n, κ]
+    const [n, k] = Array.isArray(ns) ? ns : [ns, 0];
+    return k ? `${n} + ${k}i` : String(n);
+  }
+  function showBase() { $('base-index').textContent = indexText(D.film[BASES[state.base]].parameters.n_substrate); }
+  $('base').addEventListener('input', showBase);
+  showBase();
+
   const bragg = D.bragg[String(state.cells)].parameters;
   $('n1').textContent = bragg.n1;
   $('n2').textContent = bragg.n2;
