@@ -110,8 +110,14 @@ ensure_test_tools() {
     local missing=()
     command -v glslangValidator >/dev/null 2>&1 || missing+=(glslang-tools)
     command -v chromium >/dev/null 2>&1 || missing+=(chromium)
+    # Mitsuba's LLVM variants (torchirid.mitsuba's vectorised tests): Dr.Jit needs libLLVM >= 16;
+    # Debian 12's default libLLVM 15 crashes it (`Cannot select: fminimum`)
+    if ! ls /usr/lib/*/libLLVM-19.so* /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 \
+        && apt-cache show libllvm19 >/dev/null 2>&1; then
+        missing+=(libllvm19)
+    fi
     if (( ${#missing[@]} )) && [[ "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
-        echo "run.sh: installing ${missing[*]} (apt-get; the GLSL compile and browser tests)" >&2
+        echo "run.sh: installing ${missing[*]} (apt-get; the GLSL compile, browser and Mitsuba LLVM tests)" >&2
         export DEBIAN_FRONTEND=noninteractive
         apt-get install -y -q "${missing[@]}" >/dev/null 2>&1 \
             || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q "${missing[@]}" >/dev/null 2>&1; } \

@@ -109,6 +109,10 @@ def define(mi, dr):
     def to_float(x):
         return mi.Float(x) if jit else float(x)
 
+    def mask(x):
+        """A mask argument as the variant's mask (scalar variants may pass an int)."""
+        return x if jit else bool(x)
+
     class _Plugin(mi.BSDF):
         """What every plugin shares: the geometry (smooth or GGX-rough), the channels, the two
         evaluators. A subclass defines ``_read(props)``, ``_kernel(lam, s2, side)`` →
@@ -240,6 +244,7 @@ def define(mi, dr):
 
         # smooth -------------------------------------------------------------------------
         def _sample_smooth(self, ctx, si, sample1, sample2, active):
+            active = mask(active)
             bs = dr.zeros(mi.BSDFSample3f)
             cos_i = mi.Frame3f.cos_theta(si.wi)
             if not self.transmits:
@@ -291,6 +296,7 @@ def define(mi, dr):
 
         # rough --------------------------------------------------------------------------
         def _eval_rough(self, ctx, si, wo, active):
+            active = mask(active)
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
             active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
@@ -301,6 +307,7 @@ def define(mi, dr):
             return dr.select(active, r * shading, 0.0)
 
         def _pdf_rough(self, ctx, si, wo, active):
+            active = mask(active)
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
             active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
@@ -309,12 +316,16 @@ def define(mi, dr):
             return dr.select(active, pdf, 0.0)
 
         def _sample_rough(self, ctx, si, sample1, sample2, active):
+            active = mask(active)
             bs = dr.zeros(mi.BSDFSample3f)
             cos_i = mi.Frame3f.cos_theta(si.wi)
             active = active & (cos_i > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
             distr = self._microfacets()
             m, pdf_m = distr.sample(si.wi, sample2)
             bs.wo = mi.reflect(si.wi, m)
+            finite = dr.isfinite(bs.wo.z)  # Mitsuba's VNDF sampler gives NaN at u = (·, 0) and normal incidence
+            bs.wo = dr.select(finite, bs.wo, mi.Vector3f(0.0, 0.0, 1.0))
+            active = active & finite
             bs.eta = 1.0
             bs.sampled_component = 0
             bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
@@ -346,7 +357,7 @@ def define(mi, dr):
         def _read(self, props):
             self.n_film = _index_arg(props, "n_film", required=True)
             self.n_substrate = _index_arg(props, "n_substrate", 1.5)
-            if props.has_property("thickness") and props.type("thickness") == mi.Properties.Type.Object:
+            if "thickness" in props and props.type("thickness") == mi.Properties.Type.Object:
                 self.thickness_texture = props.get("thickness")
                 self.thickness = None
             else:
@@ -417,7 +428,7 @@ def define(mi, dr):
             design = props.get("design", None)
             if design is not None:
                 materials, thicknesses, n_inc, n_sub = read_design(design)
-                if not props.has_property("n_incident"):
+                if "n_incident" not in props:
                     self.n_incident = float(n_inc)
                 substrate = props.get("n_substrate", n_sub)
             else:
@@ -496,7 +507,7 @@ def define(mi, dr):
             if cells is None or int(cells) != cells or int(cells) < 1:
                 raise ValueError(f"cells must be an integer >= 1, got {cells}")
             self.cells = int(cells)
-            if not props.has_property("n_incident"):
+            if "n_incident" not in props:
                 self.n_incident = self.n1
             self.base_albedo = _float_arg(props, "base_albedo", 0.0, low=0.0)
             if self.base_albedo > 1:
@@ -505,6 +516,186 @@ def define(mi, dr):
 
         def _n_exit(self):
             return self.n1
+
+        # -- the rough Bragg layer (Fourneau et al. eq. 34, one layer) -----------------------
+        def _set_flags(self):
+            if not self.rough:
+                return _Plugin._set_flags(self)
+            lobe = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+            if self.base_albedo > 0:
+                lobe = lobe | mi.BSDFFlags.DiffuseReflection
+            self.m_components = [lobe]
+            if self.coated:
+                self.m_components.append(mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide)
+            flags = self.m_components[0]
+            for c in self.m_components[1:]:
+                flags = flags | c
+            self.m_flags = flags
+
+        @property
+        def coated(self):
+            return self.n_incident != 1.0
+
+        def _coat_reflectance(self, cos):
+            """Unpolarized Fresnel reflectance of the smooth air | n_incident coating."""
+            return mi.fresnel(cos, self.n_incident)[0]
+
+        def _into_host(self, w):
+            """``(w', ok)``: ``w`` refracted into the host (Snell: tangential part / n)."""
+            n = self.n_incident
+            if n == 1.0:
+                return w, True
+            x, y = w.x / n, w.y / n
+            z2 = 1.0 - x * x - y * y
+            return mi.Vector3f(x, y, dr.safe_sqrt(z2)), z2 > 0
+
+        def _out_of_host(self, w):
+            n = self.n_incident
+            if n == 1.0:
+                return w, True
+            x, y = w.x * n, w.y * n
+            z2 = 1.0 - x * x - y * y
+            # trapped by total internal reflection (not ok): a unit vector all the same
+            return dr.normalize(mi.Vector3f(x, y, dr.safe_sqrt(z2))), (z2 > 0) & (w.z > 0)
+
+        def _tau_table(self):
+            """τ(θ, λ) of eq. 28 from the library's :func:`~torchirid.layered.transmissivity_lut`,
+            resampled to TAU_ANGLES nodes uniform in θ; λ on a TAU_STEP grid (spectral) or the
+            RGB nodes."""
+            if self._tau is None:
+                from ..layered import RoughBraggLayer, transmissivity_lut
+
+                if spectral:
+                    lam = np.arange(SPECTRAL_RANGE[0], SPECTRAL_RANGE[1] + 0.5 * TAU_STEP, TAU_STEP)
+                else:
+                    lam = np.array(RGB_NODES)
+                layer = RoughBraggLayer(self.n1, complex(self.n2.constant) if self.n2.constant.imag else
+                                        self.n2.constant.real, float(self.d1[0] if jit else self.d1),
+                                        float(self.d2[0] if jit else self.d2), self.cells,
+                                        float(self.alpha[0] if jit else self.alpha), n_incident=self.n_incident)
+                lut = transmissivity_lut(torch.tensor(lam, dtype=torch.float64), layer)
+                theta = torch.linspace(0.0, math.pi / 2, TAU_ANGLES, dtype=torch.float64)
+                table = lut.interp(torch.cos(theta)).clamp(0.0, 1.0)  # (TAU_ANGLES, Λ)
+                flat = table.reshape(-1).numpy()
+                self._tau = (lam, mi.Float64(flat) if jit else flat.tolist(), table.shape[1])
+            return self._tau
+
+        def _tau_values(self, si, cos_theta):
+            """τ at the host cosine ``cos_theta`` for every channel (a list, like ``_values``)."""
+            lam_grid, table, width = self._tau_table()
+            theta = dr.acos(dr.clip(f64(cos_theta), 0.0, 1.0))
+            x = dr.clip(theta * ((TAU_ANGLES - 1) / (math.pi / 2)), 0.0, TAU_ANGLES - 1 - 1e-9)
+            i0 = dr.floor(x)
+            fx = x - i0
+            out = []
+            if spectral:
+                for j in range(len(si.wavelengths)):
+                    y = dr.clip((f64(si.wavelengths[j]) - lam_grid[0]) / TAU_STEP, 0.0, width - 1 - 1e-9)
+                    j0 = dr.floor(y)
+                    fy = y - j0
+                    base = i0 * width + j0
+                    v = 0.0
+                    for di, wi_ in ((0, 1.0 - fx), (1, fx)):
+                        for dj, wj in ((0, 1.0 - fy), (1, fy)):
+                            v = v + wi_ * wj * _gather(table, base + (di * width + dj))
+                    out.append(v)
+            else:
+                for k in range(width):
+                    base = i0 * width + k
+                    out.append((1.0 - fx) * _gather(table, base) + fx * _gather(table, base + width))
+            return out
+
+        def _host_pair(self, si, wo):
+            wi_h, ok_i = self._into_host(si.wi)
+            wo_h, ok_o = self._into_host(wo)
+            return wi_h, wo_h, ok_i & ok_o
+
+        def _eval_rough(self, ctx, si, wo, active):
+            active = mask(active)
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+            wi_h, wo_h, ok = self._host_pair(si, wo)
+            zi, zo = dr.maximum(wi_h.z, 1e-12), dr.maximum(wo_h.z, 1e-12)
+            h = dr.normalize(wi_h + wo_h)
+            distr = self._microfacets()
+            shading = distr.eval(h) * distr.G(wi_h, wo_h, h) / (4.0 * zi * zo)
+            r, _ = self._values(si, dr.clip(dr.dot(wi_h, h), 1e-12, 1.0), 0)
+            f = r * shading
+            if self.base_albedo > 0:
+                ti, to = self._tau_values(si, zi), self._tau_values(si, zo)
+                f = f + (self.base_albedo / math.pi) * self._spectrum([a * b for a, b in zip(ti, to)])
+            if self.coated:
+                n = self.n_incident
+                f = f * ((1.0 - self._coat_reflectance(cos_i)) * (1.0 - self._coat_reflectance(cos_o)) / (n * n))
+            return dr.select(active & ok, f * cos_o, 0.0)
+
+        def _lobe_probability(self):
+            return 0.5 if self.base_albedo > 0 else 1.0
+
+        def _coat_probability(self, ctx, cos_i):
+            if not self.coated:
+                return 0.0
+            has_delta = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 1)
+            has_lobe = ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+            p = self._coat_reflectance(cos_i)
+            if has_delta and not has_lobe:
+                return 1.0
+            if has_lobe and not has_delta:
+                return 0.0
+            return p
+
+        def _pdf_rough(self, ctx, si, wo, active):
+            active = mask(active)
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            cos_o = mi.Frame3f.cos_theta(wo)
+            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+            wi_h, wo_h, ok = self._host_pair(si, wo)
+            h = dr.normalize(wi_h + wo_h)
+            p = self._lobe_probability()
+            pdf = p * self._microfacets().pdf(wi_h, h) / (4.0 * dr.abs(dr.dot(wo_h, h)))
+            if p < 1.0:
+                pdf = pdf + (1.0 - p) * dr.maximum(wo_h.z, 0.0) / math.pi
+            if self.coated:  # solid angles refract: n² cos θ' dω' = cos θ dω
+                pdf = pdf * cos_o / (self.n_incident ** 2 * dr.maximum(wo_h.z, 1e-12))
+                pdf = pdf * (1.0 - self._coat_probability(ctx, cos_i))
+            return dr.select(active & ok, pdf, 0.0)
+
+        def _sample_rough(self, ctx, si, sample1, sample2, active):
+            active = mask(active)
+            bs = dr.zeros(mi.BSDFSample3f)
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            active = active & (cos_i > 0)
+            p_coat = self._coat_probability(ctx, cos_i)
+            coat = sample1 < p_coat
+            u = (sample1 - p_coat) / dr.maximum(1.0 - p_coat, 1e-12)  # reuse the uniform below the coat
+            wi_h, _ = self._into_host(si.wi)
+            p = self._lobe_probability()
+            m, _ = self._microfacets().sample(wi_h, sample2)
+            wo_spec = mi.reflect(wi_h, m)
+            if p < 1.0:
+                wo_base = mi.warp.square_to_cosine_hemisphere(sample2)
+                wo_h = dr.select(u < p, wo_spec, wo_base)
+            else:
+                wo_h = wo_spec
+            wo, ok = self._out_of_host(wo_h)
+            ok = ok & dr.isfinite(wo.z)  # Mitsuba's VNDF sampler gives NaN at u = (·, 0) and normal incidence
+            bs.wo = dr.select(coat, mi.reflect(si.wi), dr.select(ok, wo, mi.Vector3f(0.0, 0.0, 1.0)))
+            bs.eta = 1.0
+            bs.sampled_component = dr.select(coat, mi.UInt32(1), mi.UInt32(0))
+            bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.DeltaReflection),
+                                        mi.UInt32(+mi.BSDFFlags.GlossyReflection))
+            lobe_active = active & ~coat & ok & (mi.Frame3f.cos_theta(bs.wo) > 0)
+            value = self._eval_rough(ctx, si, bs.wo, lobe_active)
+            pdf = self._pdf_rough(ctx, si, bs.wo, lobe_active)
+            weight = value / dr.maximum(pdf, 1e-30)
+            if self.coated:
+                f = self._coat_reflectance(cos_i)
+                weight = dr.select(coat, f / dr.maximum(p_coat, 1e-30), weight)
+                pdf = dr.select(coat, p_coat, pdf)
+            bs.pdf = pdf
+            ok_all = active & (coat | (lobe_active & (pdf > 0)))
+            return bs, dr.select(ok_all, weight, 0.0)
 
         def _d(self):
             return f64(self.d1), f64(self.d2)
@@ -535,6 +726,15 @@ def define(mi, dr):
                     f"n_incident={self.n_incident:g}, base_albedo={self.base_albedo:g}")
 
     return {"torchirid_thin_film": ThinFilm, "torchirid_multilayer": Multilayer, "torchirid_bragg": Bragg}
+
+
+def _gather(table, index):
+    """``table[index]``: a Dr.Jit gather (JIT variants) or a list lookup (scalar variants)."""
+    if isinstance(table, list):
+        return table[int(index)]
+    import drjit as dr
+
+    return dr.gather(type(table), table, dr.uint32_array_t(type(table))(index))
 
 
 def _missing(name):
