@@ -8,19 +8,19 @@ an environment map and shaded with Kneiphof et al.'s split sum (eq. 12): the map
 by :func:`torchirid.ibl.prefilter_environment`, the albedo from
 :func:`torchirid.ibl.shipped_dfg_lut`, and three reflectance terms — Belcour–Barla's Fourier
 colour at the mirror direction, Kneiphof's filtered colour with the map's light moments, and
-torchirid's fitted light-mixture table (:func:`torchirid.ibl.thin_film_xyz_fitted`, a
-uniform-light model) — :func:`torchirid.ibl.shade_thin_film_environment` with
+torchirid's fitted light-mixture table (:func:`torchirid.ibl.thin_film_xyz_fitted`) moved into
+the light the lobe gathers (the default) — :func:`torchirid.ibl.shade_thin_film_environment` with
 ``method="belcour_barla"``, ``"kneiphof"`` and ``"fitted"``.
 
 There is no HDR photograph in the repository: the map is the library's synthetic sky
 (:func:`torchirid.ibl.synthetic_environment`: a blue gradient, a grey ground and a sun), and a
-photograph would go through :func:`torchirid.ibl.read_environment`. The library has no
-reference renderer for a non-uniform environment, so the reference here is eq. 11 summed over
-every texel of the map (the prefilter's own quadrature): the GGX BRDF
-(:func:`torchirid.microfacet.microfacet_brdf`) with the film's reflectance
-(:func:`torchirid.thin_film_reflectance`, 41 wavelengths, taken to linear RGB like the map)
-at each texel's half vector. The bottom row shows each method's per-pixel CIEDE2000 against it,
-the panel titles their means over the sphere.
+photograph would go through :func:`torchirid.ibl.read_environment`. The reference is the
+library's own, ``shade_thin_film_environment(env, ..., method="reference")``: eq. 11 summed over
+every texel of the map with the exact BRDF — GGX with the film's spectral reflectance
+(:func:`torchirid.thin_film_reflectance`, taken to linear RGB like the map) at each texel's half
+vector. The bottom row shows each method's per-pixel CIEDE2000 against it, the panel titles their
+means over the sphere. ``benchmarks/ibl_environment.py`` measures the same sphere under a sun and
+sky and an indoor map too (docs/performance.md).
 """
 
 import os
@@ -29,9 +29,8 @@ import matplotlib.pyplot as plt
 import torch
 
 import torchirid
-from torchirid.color import delta_e_2000, linear_srgb_to_xyz, spectrum_to_xyz, xyz_to_lab, xyz_to_linear_srgb
+from torchirid.color import delta_e_2000, linear_srgb_to_xyz, xyz_to_lab
 from torchirid.ibl import prefilter_environment, shade_thin_film_environment, synthetic_environment
-from torchirid.ibl.prefilter import equirect_directions
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
 f64 = torch.float64
@@ -61,33 +60,10 @@ thickness = 100.0 + 700.0 * (1.0 - y[inside]) / 2.0                             
 # the three methods (eq. 12): albedo × prefiltered radiance × RGB of the reflectance term
 rgb = {name: shade_thin_film_environment(pre, normal, view, alpha, n_film, thickness, n_base, method=method,
                                         sensitivity=sensitivity)
-       for name, method in (("Belcour–Barla", "belcour_barla"), ("Kneiphof", "kneiphof"), ("fitted table", "fitted"))}
+       for name, method in (("Belcour–Barla", "belcour_barla"), ("Kneiphof", "kneiphof"), ("fitted (default)", "fitted"))}
 
-# the reference: eq. 11 summed over every texel (P pixels × T texels, batched)
-wavelength = torch.linspace(380.0, 780.0, 41, dtype=f64)
-nodes = torch.linspace(0.0, 1.0, 129, dtype=f64)                # cos θd of the film's table
-spectra = torchirid.thin_film_reflectance(wavelength, nodes[:, None], n_film, thickness[:, None, None], n_base)
-film_rgb = xyz_to_linear_srgb(spectrum_to_xyz(spectra, wavelength))  # (P, 129, 3)
-
-
-def film_reflectance(cos_d):  # (P, T) → (P, T, 3): linear interpolation in the table
-    u = cos_d * (nodes.numel() - 1)
-    i = u.floor().clamp(0, nodes.numel() - 2).long()
-    t = (u - i)[..., None]
-    lo = torch.gather(film_rgb, 1, i[..., None].expand(*i.shape, 3))
-    hi = torch.gather(film_rgb, 1, (i + 1)[..., None].expand(*i.shape, 3))
-    return torch.lerp(lo, hi, t)
-
-
-light, omega = equirect_directions(map_h, 2 * map_h)
-light, omega, texel = light.reshape(-1, 3), omega.reshape(-1), env.reshape(-1, 3)
-tangent = torch.linalg.cross(normal, right.expand_as(normal))
-tangent = tangent / tangent.norm(dim=-1, keepdim=True)
-frame = torch.stack([tangent, torch.linalg.cross(normal, tangent), normal], -2)  # (P, 3, 3): rows t, b, n
-wi = torch.einsum("pij,tj->pti", frame, light)                  # (P, T, 3) in each pixel's frame
-wo = torch.einsum("pij,j->pi", frame, view)[:, None, :]
-brdf = torchirid.microfacet.microfacet_brdf(wi, wo, alpha, reflectance=film_reflectance)      # (P, T, 3)
-reference = torch.einsum("ptc,pt,tc->pc", brdf, wi[..., 2].clamp_min(0.0) * omega, texel)
+# the reference: eq. 11 summed over every texel of the map with the exact BRDF (P pixels × T texels)
+reference = shade_thin_film_environment(env, normal, view, alpha, n_film, thickness, n_base, method="reference")
 
 exposure = 0.8 / float(linear_srgb_to_xyz(reference)[:, 1].quantile(0.98))
 lab_ref = xyz_to_lab(exposure * linear_srgb_to_xyz(reference))

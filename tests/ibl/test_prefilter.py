@@ -285,3 +285,26 @@ def test_output_blocks_follow_the_chunk_knob():
     torch.testing.assert_close(got.moments, ref.moments, rtol=1e-15, atol=1e-17)
     assert whole >= (16 * 32) ** 2  # one piece: outputs × texels
     assert block <= 64 * 512 < whole  # blocks of 64 outputs (8192 // 512 = 16, at least 64) × 512 texels
+
+
+def test_synthetic_scenes():
+    """sun_sky: a CIE clear sky whose sun keeps its power on any map size; indoor: a room with bright sources."""
+    from torchirid.ibl.prefilter import equirect_directions
+
+    irradiance = []
+    for h in (16, 32, 64):
+        sun = synthetic_environment(h, 2 * h, scene="sun_sky", sky=False, sun_radius=0.03, sun_radiance=2000.0)
+        _, omega = equirect_directions(h, 2 * h)
+        irradiance.append(float((sun[..., 0] * omega).sum()))
+    disc = 2000.0 * 2.0 * math.pi * (1.0 - math.cos(0.03))
+    assert all(abs(e / disc - 1.0) < 1e-12 for e in irradiance)
+    sky = synthetic_environment(32, 64, scene="sun_sky", sun_radius=0.03, sun_radiance=2000.0)
+    d, _ = equirect_directions(32, 64)
+    up = d[..., 2] > 0.05
+    assert float(sky[up].min()) > 0 and float(sky[~up].max()) < float(sky[up].max())
+    room = synthetic_environment(32, 64, scene="indoor")
+    bright = room.sum(-1) > 10.0
+    assert 0.01 < float(bright.double().mean()) < 0.1  # a few bright sources
+    assert float(room[~bright].max()) < 0.5 and float(room.min()) > 0
+    with pytest.raises(ValueError, match="scene"):
+        synthetic_environment(8, 16, scene="studio")

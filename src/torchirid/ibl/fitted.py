@@ -282,8 +282,11 @@ def thin_film_xyz_fitted(cos_theta_o, alpha, n_film, thickness, n_substrate, *, 
 _ARGUMENTS = ("cos_theta_o", "alpha", "n_film", "thickness", "n_incident", "n_substrate")
 
 
-def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, polarization, sensitivity):
-    """The body of :func:`thin_film_xyz_fitted` on one block of colours."""
+def _fitted_xyz(c, a, nf, d, n0, ns, m_light=None, spread=None, m_lobe=None, *, table, terms, observer, illuminant,
+                polarization, sensitivity):
+    """The body of :func:`thin_film_xyz_fitted` on one block of colours; with ``m_light``, ``spread``
+    and ``m_lobe`` (an environment's light inside the lobe, :func:`fitted_xyz_in_light`) each
+    component is moved to c̄' = m_light + spread·(c̄ − m_lobe) and narrowed to spread·s_k."""
     dtype = c.dtype
     full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape)
     c, a = c.expand(full), a.expand(full)
@@ -291,6 +294,9 @@ def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, pola
     w, c1, v1 = mix.unbind(-1)
     c1 = c1.clamp(0.0, 1.0).movedim(-1, 0)  # (K, *)
     w, v1 = (t.clamp_min(0.0).movedim(-1, 0) for t in (w, v1))
+    if m_light is not None:
+        c1 = (m_light + spread * (c1 - m_lobe)).clamp(0.0, 1.0)
+        v1 = spread * spread * v1
     # per component: C*, φ2* at c̄_k; D ~ N(2η2 d c2(c̄_k), (2η2 d c2'(c̄_k) s_k)²) (eq. 25–28 per piece)
     k = (n0 / nf) ** 2
     c2 = torch.sqrt((1.0 - k * (1.0 - c1 * c1)).clamp_min(torch.finfo(dtype).tiny))
@@ -301,3 +307,37 @@ def _fitted_xyz(c, a, nf, d, n0, ns, *, table, terms, observer, illuminant, pola
     xyz = _series_xyz(C0, amp, K, (scale * c2).expand(shape), (scale * scale * slope * slope * v1).expand(shape),
                       terms, observer, illuminant, sensitivity)  # (K, *, 3)
     return (w.expand(shape)[..., None] * xyz).sum(0)
+
+
+#: the most a light can widen the fitted components (spread = σ_light / σ_lobe): bounds the
+#: extrapolation where the lobe's own spread is tiny (a near-mirror)
+MAX_SPREAD = 3.0
+
+
+def fitted_xyz_in_light(cos_theta_o, alpha, n_film, thickness, n_substrate, m_light, sd_light, m_lobe, sd_lobe, *,
+                        n_incident, terms, observer, illuminant, polarization, sensitivity, table=None):
+    r"""The fitted mixture moved into an environment's light (on checked inputs; the body of
+    ``shade_thin_film_environment(method="fitted")``).
+
+    The table's components describe cos θ1 under *uniform* light in the GGX lobe. Given the mean
+    and spread of cos θ1 under the environment's light inside the lobe (``m_light``,
+    ``sd_light``) and under uniform light in the same lobe model (``m_lobe``, ``sd_lobe``), each
+    component is mapped by c̄' = m_light + s·(c̄ − m_lobe), s_k' = s·s_k with
+    s = sd_light / sd_lobe (at most :data:`MAX_SPREAD`): the identity under uniform light, the
+    film at the light's own half vector (s = 0, c̄' = m_light) under a point light.
+    """
+    c, a, nf, d, n0, ns = cos_theta_o, alpha, n_film, thickness, n_incident, n_substrate
+    dtype, device = c.dtype, c.device
+    check_film_above_incident(nf, n0)
+    if table is None:
+        table = shipped_light_mixture_lut(dtype=dtype, device=device)
+    spread = torch.where(sd_lobe > 0, sd_light / torch.where(sd_lobe > 0, sd_lobe, torch.ones_like(sd_lobe)),
+                         torch.zeros_like(sd_lobe)).clamp(max=MAX_SPREAD)
+    full = _checks.broadcast_shapes(c.shape, a.shape, nf.shape, d.shape, n0.shape, ns.shape, m_light.shape,
+                                    spread.shape, m_lobe.shape)
+    K = table.values.shape[-2]
+    nodes = _sensitivity_width(sensitivity, observer, illuminant, dtype, device)
+    return _chunks.evaluate(_fitted_xyz, (c, a, nf, d, n0, ns, m_light, spread, m_lobe), full, out_core=1,
+                            width=K * 2 * max(terms, 1) * nodes, grad_inputs=(table.values,), table=table,
+                            terms=terms, observer=observer, illuminant=illuminant, polarization=polarization,
+                            sensitivity=sensitivity)

@@ -87,22 +87,77 @@ def equirect_directions(height: int, width: int, *, dtype: torch.dtype = torch.f
     return d.to(dtype), omega.to(dtype).contiguous()
 
 
+#: scenes of :func:`synthetic_environment`
+SYNTHETIC_SCENES = ("sky", "sun_sky", "indoor")
+# CIE standard clear sky (CIE S 011/E:2003, type 12: "standard clear sky, low turbidity"):
+# gradation a, b and indicatrix c, d, e of L(θ, γ)/L_z = f(γ)φ(θ) / (f(θ_s)φ(0))
+_CIE_CLEAR = (-1.0, -0.32, 10.0, -3.0, 0.45)
+# the indoor scene: (centre θ°, centre φ°, half-size θ°, half-size φ°, RGB radiance) of its sources
+_INDOOR_LIGHTS = ((12.0, 60.0, 7.0, 22.0, (24.0, 22.0, 19.0)),      # ceiling panel (neutral white)
+                  (30.0, 250.0, 6.0, 10.0, (30.0, 24.0, 15.0)),     # ceiling spot (warm)
+                  (78.0, 150.0, 14.0, 24.0, (6.0, 7.0, 8.5)),       # window (daylight)
+                  (95.0, 320.0, 5.0, 6.0, (40.0, 26.0, 12.0)))      # table lamp shade (incandescent)
+
+
+def _sun_disc(d, s, radius, radiance, colour, conserve):
+    """Mask and radiance of the sun's texels: centres within ``radius`` of ``s``, else the nearest
+    texel; with ``conserve`` the disc's power 2π(1 − cos r)·radiance is spread over them."""
+    cos_to_sun = (d * s).sum(-1)
+    disc = cos_to_sun >= math.cos(radius)
+    if not bool(disc.any()):
+        disc = cos_to_sun == cos_to_sun.max()
+    sun = radiance * torch.tensor(colour, dtype=torch.float64)
+    if conserve:
+        _, omega = equirect_directions(d.shape[0], d.shape[1], dtype=torch.float64)
+        sun = sun * (2.0 * math.pi * (1.0 - math.cos(radius)) / float(omega[disc].sum()))
+    return disc, sun
+
+
+def _cie_clear_sky(d, s):
+    """Relative luminance of the CIE clear sky at the directions ``d`` for the sun at ``s`` (z up)."""
+    a, b, c, dd, e = _CIE_CLEAR
+    z = d[..., 2].clamp(min=1e-3)
+    gamma = torch.arccos((d * s).sum(-1).clamp(-1.0, 1.0))
+    zs = math.acos(min(max(float(s[2]), -1.0), 1.0))
+
+    def f(g):
+        return 1.0 + c * (torch.exp(dd * g) - math.exp(dd * math.pi / 2)) + e * torch.cos(g) ** 2
+
+    phi = 1.0 + a * torch.exp(b / z)
+    return f(gamma) * phi / (f(torch.tensor(zs, dtype=d.dtype)) * (1.0 + a * math.exp(b)))
+
+
 def synthetic_environment(height: int = 64, width: int = 128, *, dtype: torch.dtype = torch.float64,
                           sun_direction=(0.5, 0.3, 0.8124), sun_radius: float = 0.06,
-                          sun_radiance: float = 200.0, sky: bool = True) -> torch.Tensor:
-    """A small sky + sun environment (linear RGB radiance, module convention), so IBL runs out of the box.
+                          sun_radiance: float = 200.0, sky: bool = True, scene: str = "sky") -> torch.Tensor:
+    """A generated environment (linear RGB radiance, module convention), so IBL runs out of the box.
 
-    Sky: a blue gradient from the horizon (0.9, 0.95, 1.0) to the zenith (0.25, 0.45, 1.0), a
-    grey ground 0.2 below the horizon. Sun: texels whose centre lies within ``sun_radius`` rad
-    (default 0.06 ≈ 3.4°) of ``sun_direction`` (normalised; default ≈ 36° from the zenith,
-    azimuth 31°) get ``sun_radiance`` × (1, 0.95, 0.85); if no texel centre falls in the disc
-    the nearest texel is lit, so the sun never vanishes on coarse maps.
+    Three scenes (``scene=``, :data:`SYNTHETIC_SCENES`; nothing is downloaded):
+
+    * ``"sky"`` (default): a blue gradient from the horizon (0.9, 0.95, 1.0) to the zenith
+      (0.25, 0.45, 1.0), a grey ground 0.2 below the horizon, and a sun: texels whose centre lies
+      within ``sun_radius`` rad (default 0.06 ≈ 3.4°) of ``sun_direction`` (normalised; default
+      ≈ 36° from the zenith, azimuth 31°) get ``sun_radiance`` × (1, 0.95, 0.85); if no texel
+      centre falls in the disc the nearest texel is lit, so the sun never vanishes on coarse maps.
+    * ``"sun_sky"``: the CIE standard clear sky (CIE S 011, type 12: brighter around the sun and
+      towards the horizon, zenith luminance 1) coloured from blue at the zenith to white at the
+      sun and the horizon, a ground of albedo 0.2 below the horizon, and a sun disc of
+      ``sun_radius`` and ``sun_radiance`` × (1, 0.95, 0.85) whose **power is kept**: the disc's
+      2π(1 − cos r)·radiance is spread over the texels that hold it (the nearest one on a
+      coarse map), so a small bright sun has the same irradiance on any map size. Pass a small
+      radius and a large radiance for a real sun (the benchmark's: 0.03 rad, 2000).
+    * ``"indoor"``: a room — a warm grey ceiling (0.35), walls (0.25, 0.23, 0.2) and a dark
+      wooden floor (0.12, 0.08, 0.05) — lit by four bright rectangular sources in (θ, φ): a
+      ceiling panel, a warm ceiling spot, a daylight window in a wall and an incandescent
+      lamp shade just below the horizon (``_INDOOR_LIGHTS``; radiance 6–40, a few percent of
+      the sphere). The ``sun_*`` and ``sky`` arguments do not apply.
 
     Args:
         height, width: map size (≥ 1). dtype: float64 or float32.
         sun_direction: (3,) direction towards the sun (non-zero).
         sun_radius: angular radius in rad, > 0. sun_radiance: ≥ 0.
-        sky: False gives the sun alone on black (for tests).
+        sky: False gives the sun alone on black (for tests; ``"sky"`` and ``"sun_sky"``).
+        scene: ``"sky"`` (default), ``"sun_sky"`` or ``"indoor"``.
 
     Returns:
         ``(H, W, 3)`` radiance, CPU.
@@ -111,9 +166,14 @@ def synthetic_environment(height: int = 64, width: int = 128, *, dtype: torch.dt
         >>> env = synthetic_environment(16, 32)
         >>> tuple(env.shape), round(float(env.max()), 1)
         ((16, 32, 3), 200.0)
+        >>> [tuple(synthetic_environment(16, 32, scene=s).shape) for s in ("sun_sky", "indoor")]
+        [(16, 32, 3), (16, 32, 3)]
     """
     _check_float_dtype(dtype)
+    _checks.check_choice(scene, "scene", SYNTHETIC_SCENES)
     d, _ = equirect_directions(height, width, dtype=torch.float64)
+    if scene == "indoor":
+        return _indoor(d).to(dtype)
     s = torch.as_tensor(sun_direction, dtype=torch.float64)
     if s.shape != (3,) or not bool(torch.isfinite(s).all()) or float(s.norm()) == 0.0:
         raise ValueError(f"sun_direction must be a finite non-zero (3,) vector; got {sun_direction!r}")
@@ -124,18 +184,38 @@ def synthetic_environment(height: int = 64, width: int = 128, *, dtype: torch.dt
     s = s / s.norm()
     z = d[..., 2:3]
     env = torch.zeros(height, width, 3, dtype=torch.float64)
-    if sky:
+    if sky and scene == "sky":
         horizon = torch.tensor([0.9, 0.95, 1.0], dtype=torch.float64)
         zenith = torch.tensor([0.25, 0.45, 1.0], dtype=torch.float64)
         t = z.clamp(0.0, 1.0) ** 0.5
         env = torch.where(z >= 0, (1 - t) * horizon + t * zenith, torch.full_like(env, 0.2))
-    cos_to_sun = (d * s).sum(-1)
-    disc = cos_to_sun >= math.cos(sun_radius)
-    if not bool(disc.any()):
-        disc = cos_to_sun == cos_to_sun.max()
-    sun = sun_radiance * torch.tensor([1.0, 0.95, 0.85], dtype=torch.float64)
+    elif sky:
+        lum = _cie_clear_sky(d, s)[..., None]
+        # colour: deep blue where the sky is darkest, white where it is bright (sun, horizon)
+        white = (lum.clamp(0.0, 4.0) / 4.0) ** 0.5
+        blue = torch.tensor([0.35, 0.55, 1.0], dtype=torch.float64)
+        colour = (1 - white) * blue + white
+        colour = colour / (colour @ torch.as_tensor(_LUMA, dtype=torch.float64))[..., None]
+        ground = 0.2 * float(torch.where(z[..., 0] >= 0, lum[..., 0], torch.zeros_like(lum[..., 0])).mean())
+        env = torch.where(z >= 0, lum * colour, torch.full_like(env, ground))
+    disc, sun = _sun_disc(d, s, sun_radius, sun_radiance, (1.0, 0.95, 0.85), conserve=scene == "sun_sky")
     env = torch.where(disc[..., None], sun, env)
     return env.to(dtype)
+
+
+def _indoor(d):
+    """The ``"indoor"`` scene of :func:`synthetic_environment` at the directions ``d`` (H, W, 3)."""
+    z = d[..., 2:3]
+    env = torch.where(z > 0.8, torch.tensor([0.35, 0.34, 0.32], dtype=torch.float64),
+                      torch.where(z > -0.25, torch.tensor([0.25, 0.23, 0.2], dtype=torch.float64),
+                                  torch.tensor([0.12, 0.08, 0.05], dtype=torch.float64)))
+    theta = torch.rad2deg(torch.arccos(z[..., 0].clamp(-1.0, 1.0)))
+    phi = torch.rad2deg(torch.remainder(torch.atan2(d[..., 1], d[..., 0]), 2.0 * math.pi))
+    for t0, p0, dt, dp, rgb in _INDOOR_LIGHTS:
+        dphi = torch.remainder(phi - p0 + 180.0, 360.0) - 180.0
+        inside = ((theta - t0).abs() <= dt) & (dphi.abs() <= dp)
+        env = torch.where(inside[..., None], torch.tensor(rgb, dtype=torch.float64), env)
+    return env
 
 
 @dataclass(frozen=True)
