@@ -132,7 +132,7 @@ def synthetic_environment(height: int = 64, width: int = 128, *, dtype: torch.dt
                           sun_radiance: float = 200.0, sky: bool = True, scene: str = "sky") -> torch.Tensor:
     """A generated environment (linear RGB radiance, module convention), so IBL runs out of the box.
 
-    Three scenes (``scene=``, :data:`SYNTHETIC_SCENES`; nothing is downloaded):
+    Three scenes (``scene=``, ``SYNTHETIC_SCENES``; nothing is downloaded):
 
     * ``"sky"`` (default): a blue gradient from the horizon (0.9, 0.95, 1.0) to the zenith
       (0.25, 0.45, 1.0), a grey ground 0.2 below the horizon, and a sun: texels whose centre lies
