@@ -53,6 +53,8 @@ RANKS = {
     "presets": 4.5,
     # scale-out above the products: distributes library calls (table builds, Monte Carlo, fits)
     "scale": 5.5,
+    # renderer plugins: the library's materials as Mitsuba 3 BSDFs (opt-in: not imported by the root)
+    "mitsuba": 5.5,
     # real time: textures for shaders fitted to the products' exact colours
     "realtime": 5,
     # the curated public API

@@ -195,6 +195,14 @@ def define(mi, dr):
                 return rs, ts
             nl = len(lams)
             transmits = self.transmits
+            if dr.flag(dr.JitFlag.SymbolicScope):
+                # torch needs evaluated arrays. A symbolic call traces every live instance of a
+                # BSDF, also those of other scenes: give zeros here, warn once for the user
+                # whose scene this is (renders with evaluator="torch" need SymbolicLoops and
+                # SymbolicCalls off; torchirid.mitsuba's render helpers set them).
+                _warn_symbolic()
+                zero = dr.zeros(mi.Float64, dr.width(cos_i))
+                return [zero] * nl, ([zero] * nl if transmits else [None] * nl)
 
             @dr.wrap(source="drjit", target="torch")
             def run(c, *lam_cols):
@@ -726,6 +734,19 @@ def define(mi, dr):
                     f"n_incident={self.n_incident:g}, base_albedo={self.base_albedo:g}")
 
     return {"torchirid_thin_film": ThinFilm, "torchirid_multilayer": Multilayer, "torchirid_bragg": Bragg}
+
+
+_WARNED = []
+
+
+def _warn_symbolic():
+    if not _WARNED:
+        import warnings
+
+        _WARNED.append(True)
+        warnings.warn("a torchirid BSDF with evaluator='torch' was traced symbolically and gives zeros there: "
+                      "render with dr.set_flag(dr.JitFlag.SymbolicLoops, False) and "
+                      "dr.set_flag(dr.JitFlag.SymbolicCalls, False)", RuntimeWarning, stacklevel=3)
 
 
 def _gather(table, index):
