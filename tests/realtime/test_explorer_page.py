@@ -23,7 +23,7 @@ import torch
 
 import torchirid as ti
 from torchirid.app.explorer import BASES, BRAGG_CELLS, STATIC_FILES, page_data, write_page
-from torchirid.app.explorer import SKY_PARAMETERS, shipped_sky, sky_lut
+from torchirid.app.explorer import SKY_PARAMETERS, material_errors, shipped_sky, sky_lut, slider_ranges
 from torchirid.color import delta_e_2000, spectrum_to_xyz, xyz_to_lab
 from torchirid.color.convert import linear_srgb_to_xyz, xyz_to_linear_srgb
 
@@ -73,28 +73,47 @@ def test_the_shipped_sky_is_current():
         torch.testing.assert_close(shipped.axes[name], fresh.axes[name], rtol=0, atol=0)
 
 
-def _child_cpu_seconds(argv):
-    import resource
-
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    r = subprocess.run([sys.executable, *argv], capture_output=True, text=True, timeout=120)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    assert r.returncode == 0, r.stderr
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+def _steps(lo_hi_step, step):
+    lo, hi, _ = lo_hi_step
+    return torch.linspace(lo, hi, round((hi - lo) / step) + 1, dtype=F64)
 
 
-def test_explore_writes_its_page_in_under_two_seconds_of_cpu(tmp_path):
+#: the dense scan of the sliders: (family, key, first axis' step, second axis' step)
+SCAN = [("film", base, 5.0, 0.05) for base in BASES] + [("bragg", cells, 2.0, 0.05) for cells in BRAGG_CELLS]
+
+
+@pytest.mark.slow  # ~6–8 s each (2 600 films or 700 mirrors × 120 angles)
+@pytest.mark.parametrize("family, key, step1, step2", SCAN, ids=[f"{f}-{k}" for f, k, *_ in SCAN])
+def test_every_material_on_the_sliders_holds_the_page_bar(family, key, step1, step2):
+    """Issue 37: every film (d every 5 nm, n every 0.05) and every mirror (Λ every 2 nm, δ every
+    0.05) over the sliders' whole ranges (read from the page), at 120 angles (0.75° apart): the
+    colour the page reads from its texture is within ΔE2000 1.0 mean and 2.5 max of the library's
+    spectral colour — the texture's own error, without the browser (its lookups equal Python's:
+    test_browser_lookup.py)."""
+    r = slider_ranges()
+    a_range, b_range = (r["thickness"], r["n_film"]) if family == "film" else (r["period"], r["delta"])
+    a, b = torch.meshgrid(_steps(a_range, step1), _steps(b_range, step2), indexing="ij")
+    theta = (torch.arange(120, dtype=F64) + 0.5) / 120 * 90.0
+    e = material_errors(family, key, a, b, theta)
+    bad = (e[:, 0] > 1.0) | (e[:, 1] > 2.5)
+    worst = [(round(float(x), 3), round(float(y), 3), *[round(float(v), 2) for v in row])
+             for x, y, row in zip(a.reshape(-1)[bad], b.reshape(-1)[bad], e[bad])][:10]
+    assert not bool(bad.any()), f"{int(bad.sum())} of {e.shape[0]} over the bar (material, mean, max, θ of max): {worst}"
+    assert e.shape[0] >= 600 and float(e[:, 0].max()) <= 1.0 and float(e[:, 1].max()) <= 2.5
+
+
+def test_explore_writes_its_page_without_computing_the_sky(tmp_path):
     """``torchirid explore --out DIR`` reads what it ships (textures, prefiltered sky, albedo) and
-    computes nothing: user + sys CPU ≤ 2 s, of which Python and torch's import take most
-    (measured alone, in the same run); the page itself costs ≤ 0.6 s beyond that import."""
-    env_argv = ["-c", "import torchirid.app.cli"]
-    import_cpu = min(_child_cpu_seconds(env_argv) for _ in range(2))
-    cpu = min(_child_cpu_seconds(["-m", "torchirid", "explore", "--out", str(tmp_path / f"p{i}"), "--quiet"])
-              for i in range(2))
-    assert (tmp_path / "p0" / "data.js").is_file()
-    assert cpu - import_cpu <= 0.6, (cpu, import_cpu)
-    if import_cpu <= 1.5:  # (a machine whose torch import alone takes longer cannot meet the absolute bar)
-        assert cpu <= 2.0, (cpu, import_cpu)
+    prefilters nothing — the sky was ~2 s of its ~5 s of CPU; now ~1.6 s, most of it Python's and
+    torch's import (docs/performance.md has the measurement; speed is not asserted here)."""
+    script = ("import sys, torchirid.ibl as ibl\n"
+              "def refuse(*a, **k): raise AssertionError('the page prefiltered its sky')\n"
+              "ibl.prefilter_environment = ibl.synthetic_environment = refuse\n"
+              "from torchirid.app.cli import main\n"
+              "sys.exit(main(['explore', '--out', sys.argv[1], '--quiet']))")
+    r = subprocess.run([sys.executable, "-c", script, str(tmp_path / "page")], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "page" / "data.js").is_file()
 
 
 def test_explore_serves_the_page_on_localhost(tmp_path):

@@ -171,6 +171,30 @@ def test_shipped_textures_hold_their_stated_errors(name):
     assert stated < lut.parameters["errors_de2000"]["sampled"]["mean"]
 
 
+@pytest.mark.slow  # the dense scans: 4 000 to 245 000 points, 1–60 s each
+@pytest.mark.parametrize("name", SHIPPED_TEXTURES)
+def test_shipped_textures_hold_their_stated_errors_over_their_whole_domain(name):
+    """Issue 37: each texture states its error over its whole domain (``errors_de2000["dense"]``:
+    a regular grid with every node and every midpoint between neighbours along each axis — the
+    rough film along cos θ_o only) and the scan, repeated here, holds it."""
+    from torchirid.realtime import shipped_texture
+    from torchirid.realtime.textures import scan_grid, scan_texture
+
+    lut = shipped_texture(name)
+    stated = lut.parameters["errors_de2000"]["dense"]
+    per = stated["per_texel"]
+    grid = scan_grid(lut, per)
+    sizes = lut.values.shape[:-1]
+    per_axis = [per] * len(sizes) if isinstance(per, int) else per
+    assert grid.shape[0] == stated["points"] == math.prod((n - 1) * m + 1 for n, m in zip(sizes, per_axis))
+    assert all(m >= 2 for m in per_axis) or lut.parameters["family"] == "rough_thin_film"
+    ranges = torch.tensor(lut.parameters["ranges"], dtype=F64)  # the whole domain, corners included
+    torch.testing.assert_close(grid.amin(0), ranges[:, 0]), torch.testing.assert_close(grid.amax(0), ranges[:, 1])
+    scan = scan_texture(lut, per)
+    assert scan["mean"] <= stated["mean"] * 1.01 + 1e-3 and scan["p95"] <= stated["p95"] * 1.01 + 1e-3, (scan, stated)
+    assert scan["max"] <= stated["max"] * 1.01 + 1e-3, (scan, stated)
+
+
 def test_path_difference_axis_is_the_film_of_that_thickness():
     """The ``thin_film_path`` family's exact colour at (cos θ, p, n_f) is the film of thickness
     d = p / (2 sqrt(n_f² − sin²θ)) (its closed form), on a base given as [re, im]."""

@@ -279,6 +279,60 @@ def shipped_texture(name: str) -> LUT:
         return LUT.read(p, builder=f"luts/build_shader_textures.py {name}")
 
 
+def _parameters(lut: LUT) -> dict:
+    """The family parameters stored in a texture (what :func:`exact_colour` takes)."""
+    keys = ("n_film", "n_substrate", "n_incident", "cells", "n1", "n2", "bins", "nodes")
+    return {k: lut.parameters[k] for k in keys if k in lut.parameters}
+
+
+def scan_grid(lut: LUT, per_texel=2) -> torch.Tensor:
+    """The dense scan's points of a texture, in family coordinates ``(M, k)``: a regular grid over
+    the texture's whole domain with ``per_texel`` points per texel step along each axis (an int,
+    or one per axis), uniform in the warped coordinates — every node and ``per_texel − 1`` points
+    between each pair of neighbours (the midpoints for 2), where linear interpolation is worst.
+
+    Example (a 16 × 64 film texture, 2 per texel: 31 × 127 points, corners included):
+        >>> pts = scan_grid(shipped_texture("thin_film_soap"))
+        >>> tuple(pts.shape), pts[:, 1].min().item(), pts[:, 1].max().item()
+        ((3937, 2), 100.0, 800.0)
+    """
+    family = lut.parameters["family"]
+    names = FAMILIES[family][0]
+    per = [per_texel] * len(names) if isinstance(per_texel, int) else list(per_texel)
+    axes = []
+    for name, g, m in zip(names, lut.axes.values(), per):
+        g = g.to(F64)
+        axes.append(_warp(name, torch.linspace(float(g[0]), float(g[-1]), (g.numel() - 1) * int(m) + 1, dtype=F64),
+                          inverse=True))
+    return torch.stack(torch.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(names))
+
+
+def scan_texture(lut: LUT, per_texel=2, *, points: torch.Tensor | None = None, block: int = 20_000) -> dict:
+    """ΔE2000 of a texture (:func:`lookup`) against :func:`exact_colour` over the dense scan of its
+    whole domain (:func:`scan_grid`, or the given ``points``): ``{"mean", "p95", "max", "at",
+    "points", "per_texel"}``, ``at`` the point of the max (family coordinates). What
+    ``luts/build_shader_textures.py`` stores as a texture's ``errors_de2000["dense"]`` and the
+    tests hold.
+
+    Example (the soap-film texture at its nodes and midpoints):
+        >>> scan = scan_texture(shipped_texture("thin_film_soap"))
+        >>> scan["points"], scan["mean"] < 0.5
+        (3937, True)
+    """
+    family = lut.parameters["family"]
+    params = _parameters(lut)
+    pts = scan_grid(lut, per_texel) if points is None else points.to(F64)
+    lut64 = lut.to(F64)
+    de = []
+    with torch.no_grad():
+        for i in range(0, pts.shape[0], block):
+            x = pts[i:i + block]
+            de.append(delta_e_2000(_lab(lookup(lut64, family, x)), _lab(exact_colour(family, x, params))))
+    de = torch.cat(de)
+    return {**_stats(de), "at": [round(float(v), 6) for v in pts[int(de.argmax())]], "points": int(pts.shape[0]),
+            "per_texel": per_texel if isinstance(per_texel, int) else list(per_texel)}
+
+
 def glsl_source() -> str:
     """The shader functions (GLSL ES 3.00) that evaluate these textures inside the GGX BRDF:
     ``torchirid/realtime/glsl/torchirid.glsl`` (no ``#version`` line: prepend your own).

@@ -33,6 +33,7 @@ import functools
 import http.server
 import json
 import math
+import re
 import threading
 from importlib import resources
 from pathlib import Path
@@ -190,6 +191,66 @@ def reference_rgb(state, theta_deg) -> torch.Tensor:
     else:
         raise ValueError(f"state['family'] must be 'bragg' or 'film'; got {state['family']!r}")
     return xyz_to_linear_srgb(xyz)
+
+
+def slider_ranges() -> dict:
+    """``{id: (min, max, step)}`` of the page's range inputs, read from ``static/index.html``: what
+    its sliders reach (the range the explorer's error bar is tested over)."""
+    text = (resources.files(__name__) / "static" / "index.html").read_text(encoding="utf-8")
+    pattern = r'<input type="range" id="(\w+)" min="([\d.]+)" max="([\d.]+)" step="([\d.]+)"'
+    return {m[1]: tuple(float(v) for v in m.groups()[1:]) for m in re.finditer(pattern, text)}
+
+
+def _lab(rgb):
+    from ...color import xyz_to_lab
+    from ...color.convert import linear_srgb_to_xyz
+
+    return xyz_to_lab(linear_srgb_to_xyz(rgb))
+
+
+def material_errors(family: str, key, first, second, theta_deg, *, block: int = 200) -> torch.Tensor:
+    """ΔE2000 of the page's colour (the fitted texture, :func:`torchirid.realtime.lookup`, what the
+    colour strip draws) against the library's (as :func:`reference_rgb`), both clipped to the sRGB
+    gamut as the page's output is, for many materials at once: ``(F, 3)`` = mean and max over
+    ``theta_deg`` (degrees, in air) and the angle of the max, per material.
+
+    ``family`` ``"film"``: ``key`` a base of :data:`BASES`, ``first`` the thicknesses (nm) and
+    ``second`` the film indices ``(F,)``; ``"bragg"``: ``key`` the cells (:data:`BRAGG_CELLS`),
+    ``first`` the periods Λ (nm), ``second`` the fractions δ. Bragg colours are integrated on
+    401 wavelengths (380–780 nm; within ΔE2000 0.005 of the converged ``"spectral"`` colour for
+    these mirrors of ≤ 10 cells, 50× cheaper).
+    """
+    from ...color import delta_e_2000, spectrum_to_xyz, xyz_to_linear_srgb
+    from ...optics import thin_film_reflectance
+    from ...realtime import bragg_wavelength, lookup, path_difference
+    from ...spectral import bragg_xyz
+
+    f64 = torch.float64
+    theta = torch.as_tensor(theta_deg, dtype=f64)
+    cos = torch.cos(torch.deg2rad(theta))
+    lut = shipped_texture(BASES[key] if family == "film" else BRAGG_CELLS[int(key)]).to(f64)
+    p = lut.parameters
+    lam = torch.linspace(360.0, 830.0, 471, dtype=f64)
+    first, second = (torch.as_tensor(v, dtype=f64).reshape(-1) for v in (first, second))
+    out = []
+    with torch.no_grad():
+        for i in range(0, first.numel(), block):
+            a, b = first[i:i + block, None], second[i:i + block, None]
+            c = cos.expand(a.shape[0], -1)
+            if family == "film":
+                n_sub = complex(*p["n_substrate"]) if isinstance(p["n_substrate"], list) else p["n_substrate"]
+                x = torch.stack([c, path_difference(c, b, a, n_incident=p["n_incident"]), b.expand_as(c)], -1)
+                R = thin_film_reflectance(lam, c[..., None], b[..., None], a[..., None], n_sub, n_incident=p["n_incident"])
+                xyz = spectrum_to_xyz(R, lam)
+            else:
+                x = torch.stack([c, bragg_wavelength(c, p["n1"], p["n2"], a, b, n_incident=p["n_incident"]),
+                                 b.expand_as(c)], -1)
+                xyz = bragg_xyz(c, p["n1"], p["n2"], a * (1 - b), a * b, int(key), n_incident=p["n_incident"],
+                                method="sampled", samples=401)
+            got = lookup(lut, "thin_film_path" if family == "film" else "bragg", x).clamp(0.0, 1.0)
+            de = delta_e_2000(_lab(got), _lab(xyz_to_linear_srgb(xyz).clamp(0.0, 1.0)))
+            out.append(torch.stack([de.mean(-1), de.amax(-1), theta[de.argmax(-1)]], -1))
+    return torch.cat(out)
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
