@@ -285,6 +285,31 @@ def test_rgb_variant_integrates_the_spectrum_to_linear_srgb():
     assert worst < 0.1, worst
 
 
+@pytest.mark.parametrize("cells", [10, 100])
+def test_rgb_variant_bragg_mirror_is_its_exact_1nm_colour(cells):
+    """A mirror of many cells has fringes 5 nm apart: its RGB comes from a table of the 1 nm colour
+    over the angle (exact path: the 1 nm integral itself)."""
+    from torchirid.color import delta_e_2000, linear_srgb_to_xyz, spectrum_to_xyz, xyz_to_lab
+    from torchirid.optics import bragg_reflectance
+
+    tm.register("scalar_rgb")
+    spec = {"type": "torchirid_bragg", "n1": 1.5, "n2": 2.3, "d1": 95.0, "d2": 60.0, "cells": cells, "n_incident": 1.0}
+    lam = torch.arange(360.0, 831.0, 1.0, dtype=torch.float64)
+    worst = {}
+    for evaluator in ("drjit", "torch"):
+        b = mi.load_dict({**spec, "evaluator": evaluator})
+        worst[evaluator] = 0.0
+        for c in np.linspace(0.03, 1.0, 23):
+            si = dr.zeros(mi.SurfaceInteraction3f)
+            si.wi = mi.Vector3f(math.sqrt(1 - c * c), 0.0, c)
+            _, w = b.sample(mi.BSDFContext(), si, 0.5, mi.Point2f(0.5, 0.5))
+            ours = xyz_to_lab(linear_srgb_to_xyz(torch.tensor(_channels(w), dtype=torch.float64)))
+            r = bragg_reflectance(lam, torch.tensor(float(si.wi[2]), dtype=torch.float64), 1.5, 2.3, 95.0, 60.0, cells,
+                                  n_incident=1.0)
+            worst[evaluator] = max(worst[evaluator], float(delta_e_2000(ours, xyz_to_lab(spectrum_to_xyz(r, lam)))))
+    assert worst["drjit"] < 0.1 and worst["torch"] < 0.01, worst
+
+
 def test_traverse_exposes_the_differentiable_parameters(spectral):
     scene_bsdf = mi.load_dict({"type": "torchirid_thin_film", "n_film": 1.33, "thickness": 420.0, "n_substrate": 1.0,
                                "alpha": 0.1})

@@ -101,17 +101,20 @@ def _covered(material: str) -> tuple[float, float]:
     return lo, hi
 
 
-_RGB_WEIGHTS = None
+#: wavelengths (nm) of the exact RGB integral of tabulated structures (1 nm, the CIE range)
+FINE_NODES = tuple(float(x) for x in np.arange(360.0, 830.0 + 1e-9, 1.0))
+
+_RGB_WEIGHTS: dict = {}
 
 
-def rgb_weights() -> np.ndarray:
-    """``(3, K)`` weights at :data:`RGB_NODES`: linear sRGB of a reflectance under D65 (CIE 1931 2°),
+def rgb_weights(nodes=RGB_NODES) -> np.ndarray:
+    """``(3, K)`` weights at ``nodes``: linear sRGB of a reflectance under D65 (CIE 1931 2°),
     each row scaled to sum to 1 so that a white reflector is exactly (1, 1, 1)."""
-    global _RGB_WEIGHTS
-    if _RGB_WEIGHTS is None:
-        lam = torch.tensor(RGB_NODES, dtype=torch.float64)
+    nodes = tuple(nodes)
+    if nodes not in _RGB_WEIGHTS:
+        lam = torch.tensor(nodes, dtype=torch.float64)
         w_xyz = xyz_weights(lam)  # (K, 3)
         m = xyz_to_linear_srgb(torch.eye(3, dtype=torch.float64))  # rows: images of X, Y, Z
         w = (w_xyz @ m).T.numpy()  # (3, K)
-        _RGB_WEIGHTS = w / w.sum(axis=1, keepdims=True)
-    return _RGB_WEIGHTS
+        _RGB_WEIGHTS[nodes] = w / w.sum(axis=1, keepdims=True)
+    return _RGB_WEIGHTS[nodes]
