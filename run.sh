@@ -103,21 +103,36 @@ ensure_mathjax() {
         "the site will load MathJax from its CDN"
 }
 
+# Mitsuba's LLVM variants (torchirid.mitsuba's vectorised tests and the gallery's renders): Dr.Jit
+# needs libLLVM >= 16 and Debian 12's default libLLVM 15 crashes it (`Cannot select: fminimum`):
+# Debian's libllvm19, as root with apt-get, and DRJIT_LIBLLVM_PATH pointed at it. Without it the
+# LLVM tests skip with their reason and the gallery renders in the scalar variants.
+ensure_llvm() {
+    local lib
+    lib="$(ls /usr/lib/*/libLLVM-19.so* /usr/lib/*/libLLVM.so.19* 2>/dev/null | head -n 1 || true)"
+    if [[ -z "$lib" && "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
+        echo "run.sh: installing libllvm19 (apt-get; Mitsuba's LLVM variants)" >&2
+        export DEBIAN_FRONTEND=noninteractive
+        apt-get install -y -q libllvm19 >/dev/null 2>&1 \
+            || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q libllvm19 >/dev/null 2>&1; } \
+            || echo "run.sh: could not install libllvm19; Mitsuba's LLVM tests will skip" >&2
+        lib="$(ls /usr/lib/*/libLLVM-19.so* /usr/lib/*/libLLVM.so.19* 2>/dev/null | head -n 1 || true)"
+    fi
+    if [[ -n "$lib" && -z "${DRJIT_LIBLLVM_PATH:-}" ]]; then
+        export DRJIT_LIBLLVM_PATH="$lib"
+    fi
+}
+
 ensure_test_tools() {
     ensure_mathjax
+    ensure_llvm
     npm_install "$GLTF_VALIDATOR_PIN" gltf-validator/package.json "the glTF validator test" \
         "the glTF validator test will skip"
     local missing=()
     command -v glslangValidator >/dev/null 2>&1 || missing+=(glslang-tools)
     command -v chromium >/dev/null 2>&1 || missing+=(chromium)
-    # Mitsuba's LLVM variants (torchirid.mitsuba's vectorised tests): Dr.Jit needs libLLVM >= 16;
-    # Debian 12's default libLLVM 15 crashes it (`Cannot select: fminimum`)
-    if ! ls /usr/lib/*/libLLVM-19.so* /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 \
-        && apt-cache show libllvm19 >/dev/null 2>&1; then
-        missing+=(libllvm19)
-    fi
     if (( ${#missing[@]} )) && [[ "$(id -u)" == 0 ]] && command -v apt-get >/dev/null 2>&1; then
-        echo "run.sh: installing ${missing[*]} (apt-get; the GLSL compile, browser and Mitsuba LLVM tests)" >&2
+        echo "run.sh: installing ${missing[*]} (apt-get; the GLSL compile and browser tests)" >&2
         export DEBIAN_FRONTEND=noninteractive
         apt-get install -y -q "${missing[@]}" >/dev/null 2>&1 \
             || { apt-get update -q >/dev/null 2>&1 && apt-get install -y -q "${missing[@]}" >/dev/null 2>&1; } \
@@ -151,6 +166,7 @@ case "$cmd" in
     docs)
         ensure_venv
         ensure_mathjax
+        ensure_llvm
         # offline (the intersphinx inventories are local); -n: every cross-reference must resolve;
         # -W: a warning fails the build
         "$PY" -m sphinx -q -n -W --keep-going -b html docs docs/_build/html
