@@ -44,6 +44,7 @@ PARSE_ERRORS = {
     "montecarlo": ["--incident", "nan", "0", "--exit", "30", "0"],
     "design": ["spec.toml", "--time-limit", "nan"],
     "explore": ["--port", "nan"],
+    "render-mitsuba": ["thin_film", "--spp", "nan"],
 }
 
 #: one bad argument per subcommand that parses and is refused afterwards (by the command or the
@@ -61,6 +62,7 @@ LATE_ERRORS = {
     "montecarlo": (["--incident", "95", "0", "--exit", "30", "0"], "THETA"),
     "design": (["missing-spec.toml"], "missing-spec"),
     "explore": (["--port", "70000"], "port"),
+    "render-mitsuba": (["thin_film", "n_film=1.33", "--variant", "scalar_rgb"], "thickness"),
 }
 
 
@@ -136,6 +138,8 @@ ERROR_CLASSES = {
     "design": {"nan": ["s.toml", "--time-limit", "nan"], "negative": ["s.toml", "--seed", "-1"],
                "unit": None},  # lengths are in the spec: tests/app/test_design_command.py
     "explore": {"nan": ["--port", "nan"], "negative": ["--port", "-1"], "unit": None},  # no lengths to give in metres
+    "render-mitsuba": {k: ["thin_film", "n_film=1.33", f"thickness={v}", "--variant", "scalar_rgb"]
+                       for k, v in (("nan", "NaN"), ("negative", "-10"), ("unit", "3e-7"))},
 }
 
 

@@ -21,14 +21,14 @@ import sys
 
 from .._version import __version__
 from . import _args
-from .commands import (build_table, design, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere,
+from .commands import (build_table, design, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_mitsuba, render_sphere,
                        scatterogram, spectrum, thin_film)
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 #: The subcommands, in the order of ``torchirid --help``: modules with ``NAME``,
 #: ``add_parser(subparsers)`` and ``run(args) -> int``.
-COMMANDS = (spectrum, gradients, scatterogram, film_table, render_sphere, thin_film, fit_film, build_table, fit_batch,
+COMMANDS = (spectrum, gradients, scatterogram, film_table, render_sphere, render_mitsuba, thin_film, fit_film, build_table, fit_batch,
             montecarlo, design, explore)
 
 #: the subcommands whose ``--out`` is a file (the others write into an ``--out`` folder)

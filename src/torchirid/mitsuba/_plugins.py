@@ -68,6 +68,10 @@ def _index_arg(props, name: str, default=None, *, required: bool = False) -> Ind
     return Index(value, k, name=name)
 
 
+#: parameters that are lengths in nm (a value below 1e-3 nm was given in metres)
+LENGTHS = ("thickness", "d1", "d2")
+
+
 def _float_arg(props, name: str, default=None, *, low=None, positive=False):
     value = props.get(name, default)
     if value is None:
@@ -76,6 +80,8 @@ def _float_arg(props, name: str, default=None, *, low=None, positive=False):
     if not math.isfinite(value) or (positive and not value > 0) or (low is not None and value < low):
         bound = "> 0" if positive else f">= {low}"
         raise ValueError(f"{name} must be finite and {bound}, got {value}")
+    if name in LENGTHS and 0 < value < 1e-3:
+        raise ValueError(f"{name} = {value:g} nm looks like metres: give nanometres (e.g. {value * 1e9:g})")
     return value
 
 
@@ -452,6 +458,8 @@ def define(mi, dr):
             self.layers = [Index(_number_or_name(m), name=f"materials[{i}]") for i, m in enumerate(materials)]
             if any(not (math.isfinite(t) and t >= 0) for t in thicknesses):
                 raise ValueError(f"thicknesses must be finite and >= 0 nm, got {thicknesses}")
+            if any(0 < t < 1e-3 for t in thicknesses):
+                raise ValueError(f"thicknesses {thicknesses} nm look like metres: give nanometres")
             self.n_substrate = Index(_number_or_name(substrate), props.get("k_substrate", 0.0), name="n_substrate")
             self.thicknesses = mi.Float(thicknesses) if jit else list(thicknesses)
 

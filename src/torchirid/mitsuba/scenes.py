@@ -22,6 +22,21 @@ import numpy as np
 ENVMAP_TO_WORLD = [[0, 0, -1, 0], [-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 0, 1]]
 
 
+def find_libllvm() -> str | None:
+    """Point Dr.Jit at libLLVM 19 (``DRJIT_LIBLLVM_PATH``) when it is installed and nothing is
+    set: Debian 12's default libLLVM 15 crashes Dr.Jit's LLVM backend. Call before Dr.Jit
+    starts its LLVM backend; returns the path used (or ``None``)."""
+    import glob
+    import os
+
+    if "DRJIT_LIBLLVM_PATH" in os.environ:
+        return os.environ["DRJIT_LIBLLVM_PATH"]
+    for path in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*") + glob.glob("/usr/lib/*/libLLVM.so.19*")):
+        os.environ["DRJIT_LIBLLVM_PATH"] = path
+        return path
+    return None
+
+
 def _mitsuba():
     import drjit as dr
     import mitsuba as mi

@@ -8,8 +8,8 @@ before ``run`` (status 2 if it cannot be written). The registry is
 :data:`torchirid.app.cli.COMMANDS`.
 """
 
-from . import (build_table, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_sphere, scatterogram, spectrum,
+from . import (build_table, explore, film_table, fit_batch, fit_film, gradients, montecarlo, render_mitsuba, render_sphere, scatterogram, spectrum,
                thin_film)
 
-__all__ = ["build_table", "explore", "film_table", "fit_batch", "fit_film", "gradients", "montecarlo", "render_sphere", "scatterogram",
+__all__ = ["build_table", "explore", "film_table", "fit_batch", "fit_film", "gradients", "montecarlo", "render_mitsuba", "render_sphere", "scatterogram",
            "spectrum", "thin_film"]
