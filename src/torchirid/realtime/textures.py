@@ -309,7 +309,7 @@ def scan_grid(lut: LUT, per_texel=2) -> torch.Tensor:
 
 def scan_texture(lut: LUT, per_texel=2, *, points: torch.Tensor | None = None, block: int = 20_000) -> dict:
     """ΔE2000 of a texture (:func:`lookup`) against :func:`exact_colour` over the dense scan of its
-    whole domain (:func:`scan_grid`, or the given ``points``): ``{"mean", "p95", "max", "at",
+    whole domain (``scan_grid()``, or the given ``points``): ``{"mean", "p95", "max", "at",
     "points", "per_texel"}``, ``at`` the point of the max (family coordinates). What
     ``luts/build_shader_textures.py`` stores as a texture's ``errors_de2000["dense"]`` and the
     tests hold.

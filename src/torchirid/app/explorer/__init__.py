@@ -27,8 +27,8 @@ What the page draws, all on the GPU with WebGL2 and redrawn on every slider move
 Families: Bragg mirrors (sliders Λ, δ, N, α; n1 = 1.59, n2 = 1.67 lit from air, the shipped
 ``bragg_n{6,8,10}`` textures) and thin films (sliders d, n, base — shown with its index —, α;
 the shipped ``thin_film_path_{air,glass,absorbing}`` textures). Over the sliders' whole ranges
-(:func:`slider_ranges`) every material's colour is within ΔE2000 1.0 mean / 2.5 max of the
-library's (:func:`material_errors`; tests/realtime/test_explorer_page.py).
+(``slider_ranges()``) every material's colour is within ΔE2000 1.0 mean / 2.5 max of the
+library's (``material_errors()``; tests/realtime/test_explorer_page.py).
 """
 
 from __future__ import annotations
