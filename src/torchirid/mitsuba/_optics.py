@@ -29,12 +29,39 @@ import drjit as dr
 TWO_PI = 2.0 * math.pi
 
 
+def _is_zero(x) -> bool:
+    """A literal zero (a Python number): an imaginary part known to vanish when the kernel is traced."""
+    return isinstance(x, (int, float)) and x == 0
+
+
+def _mul(a, b):
+    return 0.0 if _is_zero(a) or _is_zero(b) else a * b
+
+
+def _add(a, b):
+    if _is_zero(a):
+        return b
+    return a if _is_zero(b) else a + b
+
+
+def _sub(a, b):
+    if _is_zero(b):
+        return a
+    return -b if _is_zero(a) else a - b
+
+
+def _div(a, b):
+    return 0.0 if _is_zero(a) else a / b
+
+
 class Complex:
     """A complex number over a real Dr.Jit array type (or Python floats): ``re + i·im``.
 
     Dr.Jit's own complex types exist per backend and precision; this small class works on any
     real type the variant hands out (``Float``, ``Float64``, Python ``float``), so the same
-    kernel runs in scalar and JIT variants and keeps Dr.Jit's automatic differentiation."""
+    kernel runs in scalar and JIT variants and keeps Dr.Jit's automatic differentiation. An
+    imaginary part that is a literal Python zero stays one through the arithmetic: a lossless
+    medium above the critical angle traces real Fresnel coefficients, not complex ones."""
 
     __slots__ = ("re", "im")
 
@@ -44,30 +71,26 @@ class Complex:
 
     def __add__(self, o):
         if isinstance(o, Complex):
-            return Complex(self.re + o.re, self.im + o.im)
-        return Complex(self.re + o, self.im)
+            return Complex(_add(self.re, o.re), _add(self.im, o.im))
+        return Complex(_add(self.re, o), self.im)
 
     __radd__ = __add__
 
     def __sub__(self, o):
         if isinstance(o, Complex):
-            return Complex(self.re - o.re, self.im - o.im)
-        return Complex(self.re - o, self.im)
+            return Complex(_sub(self.re, o.re), _sub(self.im, o.im))
+        return Complex(_sub(self.re, o), self.im)
 
     def __rsub__(self, o):
-        return Complex(o - self.re, -self.im)
+        return Complex(_sub(o, self.re), _sub(0.0, self.im))
 
     def __neg__(self):
-        return Complex(-self.re, -self.im)
+        return Complex(-self.re, _sub(0.0, self.im))
 
     def __mul__(self, o):
         if isinstance(o, Complex):
-            if _is_zero(o.im):
-                return Complex(self.re * o.re, self.im * o.re)
-            if _is_zero(self.im):
-                return Complex(self.re * o.re, self.re * o.im)
-            return Complex(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
-        return Complex(self.re * o, self.im * o)
+            return Complex(_sub(_mul(self.re, o.re), _mul(self.im, o.im)), _add(_mul(self.re, o.im), _mul(self.im, o.re)))
+        return Complex(_mul(self.re, o), _mul(self.im, o))
 
     __rmul__ = __mul__
 
@@ -75,18 +98,27 @@ class Complex:
         if isinstance(o, Complex):
             if _is_zero(o.im):
                 inv = 1.0 / o.re
-                return Complex(self.re * inv, self.im * inv)
+                return Complex(_mul(self.re, inv), _mul(self.im, inv))
             den = o.re * o.re + o.im * o.im
-            return Complex((self.re * o.re + self.im * o.im) / den, (self.im * o.re - self.re * o.im) / den)
-        return Complex(self.re / o, self.im / o)
+            return Complex(_div(_add(_mul(self.re, o.re), _mul(self.im, o.im)), den),
+                           _div(_sub(_mul(self.im, o.re), _mul(self.re, o.im)), den))
+        return Complex(_div(self.re, o), _div(self.im, o))
 
     def __rtruediv__(self, o):
+        if _is_zero(self.im):
+            return Complex(o / self.re, 0.0)
         den = self.re * self.re + self.im * self.im
         return Complex(o * self.re / den, -o * self.im / den)
 
     def abs2(self):
         """``|z|²``."""
-        return self.re * self.re + self.im * self.im
+        return _add(self.re * self.re, _mul(self.im, self.im))
+
+
+def real_root(eps: Complex, s2) -> Complex:
+    """:math:`q = \\sqrt{\\varepsilon - s^2}` of a lossless medium whose index is at least the
+    incident one (``s² ≤ ε``: never evanescent), traced as a real number."""
+    return Complex(dr.sqrt(dr.maximum(eps.re - s2, 0.0)), 0.0)
 
 
 def csqrt(z: Complex) -> Complex:
@@ -111,6 +143,9 @@ def cexp_i(z: Complex) -> Complex:
 
 def ccos_sin(z: Complex):
     """``(cos z, sin z)`` of a complex angle."""
+    if _is_zero(z.im):
+        s, c = dr.sincos(z.re)
+        return Complex(c, 0.0), Complex(s, 0.0)
     ch, sh = dr.cosh(z.im), dr.sinh(z.im)
     c, s = dr.cos(z.re), dr.sin(z.re)
     return Complex(c * ch, -s * sh), Complex(s * ch, c * sh)
@@ -127,11 +162,7 @@ def admittances(eps: Complex, s2):
     return q, q, q / eps
 
 
-def _is_zero(x) -> bool:
-    return isinstance(x, (int, float)) and x == 0
-
-
-def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False):
+def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real=None):
     """Reflection (and transmission) amplitudes of a stack by the Airy recursion, s and p in
     one pass (the roots :math:`q_j` and the phase factors are shared).
 
@@ -142,12 +173,15 @@ def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False):
             last (length ``L + 2``).
         thicknesses: the ``L`` film thicknesses in nm (real arrays or floats).
         transmission: also return the transmission amplitudes.
+        real: per medium, whether its root :math:`q` is known to be real (lossless, index ≥ the
+            incident one): :func:`real_root`, real arithmetic downstream.
 
     Returns ``{"s": (r, t, Y_0, Y_exit), "p": (...)}`` with ``t`` the amplitude of the field
     that is continuous at the interfaces (E for s, H for p), so that
     ``T = Re(Y_exit)/Y_0 · |t|²`` (``t`` is None without ``transmission``).
     """
-    q = [csqrt(e - s2) for e in eps]
+    real = real or [False] * len(eps)
+    q = [real_root(e, s2) if r else csqrt(e - s2) for e, r in zip(eps, real)]
     ys = q
     yp = [qj / e if not _is_zero(e.im) else qj * (1.0 / e.re) for qj, e in zip(q, eps)]
     last = len(eps) - 1
@@ -172,15 +206,15 @@ def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False):
     return out
 
 
-def stack_reflectance(lam, s2, eps, thicknesses):
+def stack_reflectance(lam, s2, eps, thicknesses, real=None):
     """Unpolarized reflectance ``R`` (mean of s and p) of a stack."""
-    amp = stack_amplitudes(lam, s2, eps, thicknesses)
+    amp = stack_amplitudes(lam, s2, eps, thicknesses, real=real)
     return 0.5 * (amp["s"][0].abs2() + amp["p"][0].abs2())
 
 
-def stack_reflectance_transmittance(lam, s2, eps, thicknesses):
+def stack_reflectance_transmittance(lam, s2, eps, thicknesses, real=None):
     """Unpolarized ``(R, T)`` of a stack whose incident and exit media are lossless."""
-    amp = stack_amplitudes(lam, s2, eps, thicknesses, transmission=True)
+    amp = stack_amplitudes(lam, s2, eps, thicknesses, transmission=True, real=real)
     out_r, out_t = 0.0, 0.0
     for r, t, y0, ye in amp.values():
         out_r = out_r + 0.5 * r.abs2()
@@ -213,16 +247,14 @@ def _matpow(m, n: int):
 
 
 def bragg_reflectance(lam, s2, eps_incident: Complex, eps1: Complex, eps2: Complex, eps_exit: Complex, d1, d2,
-                      cells: int):
+                      cells: int, real=(False, False, False, False)):
     r"""Unpolarized reflectance of ``incident | (n2, d2), (n1, d1) × cells | exit``: Abelès' cell
     matrix :math:`M = M_2 M_1` raised to ``cells`` by squaring, then
     :math:`r = (Y_0 B - C)/(Y_0 B + C)` with :math:`(B, C)^T = M^N (1, Y_e)^T`. In float64 the
     entries of :math:`M^N` stay finite for any practical mirror (they grow at most as
     :math:`e^{N\operatorname{Im}K\Lambda}` inside a stop band)."""
-    q0 = csqrt(eps_incident - s2)
-    q1 = csqrt(eps1 - s2)
-    q2 = csqrt(eps2 - s2)
-    qe = csqrt(eps_exit - s2)
+    q0, q1, q2, qe = (real_root(e, s2) if r else csqrt(e - s2)
+                      for e, r in zip((eps_incident, eps1, eps2, eps_exit), real))
     total = 0.0
     for pol in ("s", "p"):
         if pol == "s":

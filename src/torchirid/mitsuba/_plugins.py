@@ -402,9 +402,10 @@ def define(mi, dr):
             if side:
                 eps = eps[::-1]
             d = [self._d(self._si)]
+            real = _real_roots([self.n_film, self.n_substrate], self.n_incident, side)
             if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d)
-            return optics.stack_reflectance(lam, s2, eps, d), None
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real)
+            return optics.stack_reflectance(lam, s2, eps, d, real), None
 
         def _torch(self, lam, c, side):
             from ..optics import multilayer, thin_film_reflectance
@@ -455,7 +456,9 @@ def define(mi, dr):
                     raise ValueError(f"materials has {len(materials)} entries and thicknesses {len(thicknesses)}")
             if not materials:
                 raise ValueError("the stack needs at least one layer")
-            self.layers = [Index(_number_or_name(m), name=f"materials[{i}]") for i, m in enumerate(materials)]
+            distinct = {}  # one Index (one table, one lookup per wavelength) per distinct material
+            self.layers = [distinct.setdefault(repr(_number_or_name(m)), Index(_number_or_name(m), name=f"materials[{i}]"))
+                           for i, m in enumerate(materials)]
             if any(not (math.isfinite(t) and t >= 0) for t in thicknesses):
                 raise ValueError(f"thicknesses must be finite and >= 0 nm, got {thicknesses}")
             if any(0 < t < 1e-3 for t in thicknesses):
@@ -471,7 +474,11 @@ def define(mi, dr):
             return self.n_substrate.constant.real
 
         def _kernel(self, lam, s2, side):
-            eps = ([optics.Complex(self.n_incident ** 2)] + [x.permittivity(lam, dr, F64) for x in self.layers]
+            looked_up = {}  # a material repeated in the stack is looked up once per wavelength
+            for x in self.layers:
+                if id(x) not in looked_up:
+                    looked_up[id(x)] = x.permittivity(lam, dr, F64)
+            eps = ([optics.Complex(self.n_incident ** 2)] + [looked_up[id(x)] for x in self.layers]
                    + [self.n_substrate.permittivity(lam, dr, F64)])
             if jit:
                 d = [dr.gather(mi.Float64, mi.Float64(self.thicknesses), j) for j in range(len(self.layers))]
@@ -479,9 +486,10 @@ def define(mi, dr):
                 d = list(self.thicknesses)
             if side:
                 eps, d = eps[::-1], d[::-1]
+            real = _real_roots(self.layers + [self.n_substrate], self.n_incident, side)
             if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d)
-            return optics.stack_reflectance(lam, s2, eps, d), None
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real)
+            return optics.stack_reflectance(lam, s2, eps, d, real), None
 
         def _torch(self, lam, c, side):
             from ..optics import multilayer
@@ -799,8 +807,11 @@ def define(mi, dr):
             d1, d2 = self._d()
             n2 = complex(self.n2.constant)
             eps2 = optics.Complex(n2.real, n2.imag)
-            return optics.bragg_reflectance(lam, s2, optics.Complex(self.n_incident ** 2), optics.Complex(self.n1 ** 2),
-                                            eps2 * eps2, optics.Complex(self.n1 ** 2), d1, d2, self.cells), None
+            n0 = self.n_incident
+            real = (True, self.n1 >= n0, n2.imag == 0 and n2.real >= n0, self.n1 >= n0)
+            eps2 = eps2 * eps2 if n2.imag else optics.Complex(n2.real ** 2, 0.0)
+            return optics.bragg_reflectance(lam, s2, optics.Complex(n0 ** 2), optics.Complex(self.n1 ** 2),
+                                            eps2, optics.Complex(self.n1 ** 2), d1, d2, self.cells, real), None
 
         def _torch(self, lam, c, side):
             from ..optics import bragg_reflectance
@@ -835,6 +846,19 @@ def _warn_symbolic():
         warnings.warn("a torchirid BSDF with evaluator='torch' was traced symbolically and gives zeros there: "
                       "render with dr.set_flag(dr.JitFlag.SymbolicLoops, False) and "
                       "dr.set_flag(dr.JitFlag.SymbolicCalls, False)", RuntimeWarning, stacklevel=3)
+
+
+def _real_roots(below, n_incident: float, side: int) -> list:
+    """Which media of ``[incident] + below`` (from the incident side; ``side`` 1: the stack seen
+    from its base, reversed) have a real root q at every angle: :func:`~._optics.real_root`."""
+    media = [Index(n_incident)] + list(below)
+    if side:
+        media = media[::-1]
+    n0 = media[0]
+    n0 = n0.constant.real if n0.material is None else None
+    if n0 is None:
+        return [False] * len(media)
+    return [True] + [m.real_root(n0) for m in media[1:]]
 
 
 def _gather(table, index):

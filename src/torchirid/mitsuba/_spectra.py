@@ -4,6 +4,8 @@ quadrature that turns a spectral value into linear sRGB in Mitsuba's RGB variant
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import torch
 
@@ -37,6 +39,8 @@ class Index:
             n = refractive_index(value, torch.tensor(self.grid, dtype=torch.float64))
             self.n_table = n.real.numpy().copy()
             self.k_table = n.imag.numpy().copy()
+            self.lossless = bool(np.all(self.k_table == 0))
+            self.n_min = float(self.n_table.min())
             if k:
                 raise ValueError(f"{name}: give either a material name or k, not both (got {value!r} and k = {k})")
         else:
@@ -44,7 +48,14 @@ class Index:
             if not value.real > 0 or value.imag < 0:
                 raise ValueError(f"{name}: an index needs n > 0 and k >= 0, got {value}")
             self.constant = value
+            self.lossless = value.imag == 0
+            self.n_min = value.real
         self._jit = None
+
+    def real_root(self, n_incident: float) -> bool:
+        """Whether :math:`q = N\\cos\\theta` is real for every angle of light from a medium of
+        real index ``n_incident``: lossless and never below it (no total internal reflection)."""
+        return self.lossless and self.n_min >= n_incident
 
     @property
     def is_real(self) -> bool:
@@ -72,23 +83,29 @@ class Index:
 
     def permittivity(self, lam, dr=None, float64=None) -> Complex:
         if self.material is None:
-            n = Complex(self.constant.real, self.constant.imag)
+            n = Complex(self.constant.real, self.constant.imag if self.constant.imag else 0.0)
             return n * n
         if isinstance(lam, (float, int)):
             v = self.value(float(lam))
-            n = Complex(v.real, v.imag)
+            n = Complex(v.real, v.imag if not self.lossless else 0.0)
             return n * n
         if self._jit is None or self._jit[0] is not float64:
-            self._jit = (float64, float64(self.n_table), float64(self.k_table))
-        _, n_tab, k_tab = self._jit
+            # ε = N² tabulated (interpolated linearly: the 1 nm grid keeps it within 1e-6 of N²
+            # interpolated), its real and imaginary parts interleaved: one gather per node
+            eps = (self.n_table + 1j * self.k_table) ** 2
+            pair = sys.modules[float64.__module__].Array2f64
+            flat = np.stack([eps.real, eps.imag], -1).reshape(-1)
+            self._jit = (float64, pair, float64(flat), float64(eps.real))
+        _, pair, eps_tab, re_tab = self._jit
         x = dr.clip((lam - float(self.grid[0])) / TABLE_STEP, 0.0, float(len(self.grid) - 1) - 1e-9)
         i0 = dr.floor(x)
         f = x - i0
         idx = dr.uint32_array_t(float64)(i0)
-        n = dr.gather(float64, n_tab, idx) * (1.0 - f) + dr.gather(float64, n_tab, idx + 1) * f
-        k = dr.gather(float64, k_tab, idx) * (1.0 - f) + dr.gather(float64, k_tab, idx + 1) * f
-        c = Complex(n, k)
-        return c * c
+        if self.lossless:
+            return Complex(dr.gather(float64, re_tab, idx) * (1.0 - f) + dr.gather(float64, re_tab, idx + 1) * f, 0.0)
+        a = dr.gather(pair, eps_tab, idx)
+        b = dr.gather(pair, eps_tab, idx + 1)
+        return Complex(a[0] * (1.0 - f) + b[0] * f, a[1] * (1.0 - f) + b[1] * f)
 
 
 def _covered(material: str) -> tuple[float, float]:
