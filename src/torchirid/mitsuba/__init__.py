@@ -49,7 +49,7 @@ def register(variant: str | None = None) -> tuple[str, ...]:
             the active variant. The polarized and mono variants are not supported.
 
     Returns:
-        The plugin names, :data:`PLUGINS`.
+        The plugin names (``PLUGINS``).
 
     Raises:
         ImportError: Mitsuba 3 is not installed (``pip install torchirid[mitsuba]``).
