@@ -346,3 +346,22 @@ def test_design_file_of_torchirid_design_loads_as_a_multilayer(spectral, tmp_pat
     si = _si((0.3, 0.2, math.sqrt(1 - 0.13)))
     np.testing.assert_allclose(_channels(a.sample(ctx, si, 0.2, mi.Point2f(0.5, 0.5))[1]),
                                _channels(b.sample(ctx, si, 0.2, mi.Point2f(0.5, 0.5))[1]), rtol=1e-7)
+
+
+def test_a_thickness_texture_gives_each_point_its_film(spectral):
+    """``thickness`` as a Mitsuba texture of nm: a point reflects as the film of its texel."""
+    data = np.array([[[150.0], [300.0]], [[450.0], [600.0]]], dtype=np.float32)  # (2, 2, 1) nm
+    b = mi.load_dict({"type": "torchirid_thin_film", "n_film": 1.33, "n_substrate": 1.52,
+                      "thickness": {"type": "bitmap", "bitmap": mi.Bitmap(data), "raw": True,
+                                    "filter_type": "nearest"}})
+    assert any(k.startswith("thickness") for k in mi.traverse(b).keys())
+    ctx = mi.BSDFContext()
+    ctx.component = 0
+    lam = torch.tensor(LAM, dtype=torch.float64)
+    for (u, v), d in [((0.25, 0.25), 150.0), ((0.75, 0.25), 300.0), ((0.25, 0.75), 450.0), ((0.75, 0.75), 600.0)]:
+        si = _si((0.3, 0.0, math.sqrt(1 - 0.09)))
+        si.uv = mi.Point2f(u, v)
+        _, w = b.sample(ctx, si, 0.5, mi.Point2f(0.5, 0.5))
+        ref = multilayer(lam, torch.tensor(float(si.wi[2]), dtype=torch.float64),
+                         torch.tensor([1.0, 1.33, 1.52], dtype=torch.complex128), torch.tensor([d], dtype=torch.float64))[0]
+        np.testing.assert_allclose(_channels(w), ref.numpy(), atol=1e-5)

@@ -376,6 +376,8 @@ def define(mi, dr):
             if "thickness" in props and props.type("thickness") == mi.Properties.Type.Object:
                 self.thickness_texture = props.get("thickness")
                 self.thickness = None
+                if self.evaluator == "torch":
+                    raise ValueError("evaluator='torch' takes a constant thickness, not a texture")
             else:
                 self.thickness_texture = None
                 d = _float_arg(props, "thickness", low=0.0)
@@ -422,8 +424,6 @@ def define(mi, dr):
                               d.expand(*torch.broadcast_shapes(lam.shape, c.shape))[..., None])
 
         def _torch_thickness(self, c):
-            if self.thickness_texture is not None:
-                raise ValueError("evaluator='torch' takes a constant thickness, not a texture")
             return torch.tensor(float(self.thickness[0] if jit else self.thickness), dtype=torch.float64)
 
         def _traverse(self, callback):
