@@ -37,6 +37,17 @@ def find_libllvm() -> str | None:
     return None
 
 
+def default_variant(spectral: bool = True) -> str:
+    """The variant to render in here: ``llvm_ad_spectral`` (or ``llvm_ad_rgb``) when Dr.Jit has
+    its LLVM backend (after :func:`find_libllvm`), else ``scalar_spectral`` (``scalar_rgb``): the
+    scalar variants call the Python BSDF once per sample — minutes instead of seconds."""
+    find_libllvm()
+    import drjit as dr
+
+    kind = "spectral" if spectral else "rgb"
+    return f"llvm_ad_{kind}" if dr.has_backend(dr.JitBackend.LLVM) else f"scalar_{kind}"
+
+
 def _mitsuba():
     import drjit as dr
     import mitsuba as mi

@@ -105,18 +105,17 @@ def run(args) -> int:
     _args.check_name(name)
     if args.map not in MAPS and not Path(args.map).is_file():
         raise ValueError(f"--map {args.map!r}: neither one of {', '.join(MAPS)} nor a file")
-    from ...mitsuba.scenes import find_libllvm
+    from ...mitsuba import scenes
 
-    find_libllvm()
+    scenes.find_libllvm()
     try:
         import drjit as dr
         import mitsuba as mi
     except ImportError:
         raise ValueError("needs Mitsuba 3: pip install 'torchirid[mitsuba]'") from None
     import torchirid.mitsuba as tm
-    from ...mitsuba import scenes
 
-    variant = args.variant or ("llvm_ad_spectral" if dr.has_backend(dr.JitBackend.LLVM) else "scalar_spectral")
+    variant = args.variant or scenes.default_variant()
     if variant not in mi.variants():
         raise ValueError(f"--variant {variant!r} is not one of Mitsuba's: {', '.join(mi.variants())}")
     if variant.startswith("llvm") and not dr.has_backend(dr.JitBackend.LLVM):
