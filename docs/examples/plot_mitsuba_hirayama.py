@@ -28,28 +28,22 @@ small size where Dr.Jit has no LLVM backend).
 """
 
 import gc
-import glob
 import os
 import time
 
-if "DRJIT_LIBLLVM_PATH" not in os.environ:  # Mitsuba's LLVM variants need libLLVM >= 16
-    for _lib in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*")):
-        os.environ["DRJIT_LIBLLVM_PATH"] = _lib
-        break
-
-import drjit as dr
 import matplotlib.pyplot as plt
 import mitsuba as mi
 import torch
 
 import torchirid.mitsuba
 from torchirid.color import linear_srgb_to_srgb
-from torchirid.mitsuba.scenes import render, sphere_scene
+from torchirid.mitsuba.scenes import default_variant, render, sphere_scene
 from torchirid.presets import hirayama_stacks
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
-llvm = dr.has_backend(dr.JitBackend.LLVM)
-torchirid.mitsuba.register("llvm_ad_spectral" if llvm else "scalar_spectral")
+variant = default_variant()   # llvm_ad_spectral where Dr.Jit has its LLVM backend (libLLVM 19), else scalar_spectral
+llvm = variant.startswith("llvm")
+torchirid.mitsuba.register(variant)
 size = 12 if tiny else (72 if llvm else 16)      # pixels per sphere image
 spp = 4 if tiny else (64 if llvm else 4)
 tau = 300.0

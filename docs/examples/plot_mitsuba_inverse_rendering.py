@@ -28,14 +28,8 @@ on the CPU: the script then renders in ``scalar_spectral`` at a tiny size and st
 of central differences at a fixed seed instead.
 """
 
-import glob
 import os
 import time
-
-if "DRJIT_LIBLLVM_PATH" not in os.environ:  # Mitsuba's LLVM variants need libLLVM >= 16
-    for _lib in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*")):
-        os.environ["DRJIT_LIBLLVM_PATH"] = _lib
-        break
 
 import drjit as dr
 import matplotlib.pyplot as plt
@@ -45,11 +39,12 @@ import torch
 
 import torchirid.mitsuba
 from torchirid.color import linear_srgb_to_srgb
-from torchirid.mitsuba.scenes import sphere_scene
+from torchirid.mitsuba.scenes import default_variant, sphere_scene
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
-llvm = dr.has_backend(dr.JitBackend.LLVM)
-torchirid.mitsuba.register("llvm_ad_spectral" if llvm else "scalar_spectral")
+variant = default_variant()   # llvm_ad_spectral where Dr.Jit has its LLVM backend (libLLVM 19), else scalar_spectral
+llvm = variant.startswith("llvm")
+torchirid.mitsuba.register(variant)
 small = tiny or not llvm                         # the scalar variants evaluate the BSDF in Python per sample
 size = 64 if not small else (16 if llvm else 12)  # image side in pixels
 spp = 16 if llvm else 4                          # samples per pixel of each step

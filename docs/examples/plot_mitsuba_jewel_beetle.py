@@ -25,16 +25,9 @@ peaks of 25–30 % some 50 nm wide (over the 5 % of the air | n1 surface) that m
 wavelengths off normal — the green-to-blue and red-to-green shifts across each curved part.
 """
 
-import glob
 import os
 import time
 
-if "DRJIT_LIBLLVM_PATH" not in os.environ:  # Mitsuba's LLVM variants need libLLVM >= 16
-    for _lib in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*")):
-        os.environ["DRJIT_LIBLLVM_PATH"] = _lib
-        break
-
-import drjit as dr
 import matplotlib.pyplot as plt
 import mitsuba as mi
 import numpy as np
@@ -44,12 +37,13 @@ import torchirid
 import torchirid.mitsuba
 from torchirid.color import linear_srgb_to_srgb
 from torchirid.ibl import synthetic_environment
-from torchirid.mitsuba.scenes import render, sphere_scene
+from torchirid.mitsuba.scenes import default_variant, render, sphere_scene
 from torchirid.presets import jewel_beetle
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
-llvm = dr.has_backend(dr.JitBackend.LLVM)
-torchirid.mitsuba.register("llvm_ad_spectral" if llvm else "scalar_spectral")
+variant = default_variant()   # llvm_ad_spectral where Dr.Jit has its LLVM backend (libLLVM 19), else scalar_spectral
+llvm = variant.startswith("llvm")
+torchirid.mitsuba.register(variant)
 size = 24 if tiny else (200 if llvm else 32)     # image side in pixels
 spp = 8 if tiny else (96 if llvm else 8)
 rings = 12 if tiny else 48                       # mesh resolution: rings × 2·rings quads per part

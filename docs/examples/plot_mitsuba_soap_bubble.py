@@ -20,17 +20,10 @@ sampled wavelengths, in Dr.Jit float64 arithmetic), or, where Dr.Jit has no LLVM
 ``scalar_spectral`` at a small size. The thickness map is drawn beside the render.
 """
 
-import glob
 import math
 import os
 import time
 
-if "DRJIT_LIBLLVM_PATH" not in os.environ:  # Mitsuba's LLVM variants need libLLVM >= 16
-    for _lib in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*")):
-        os.environ["DRJIT_LIBLLVM_PATH"] = _lib
-        break
-
-import drjit as dr
 import matplotlib.pyplot as plt
 import mitsuba as mi
 import numpy as np
@@ -39,11 +32,12 @@ import torch
 import torchirid.mitsuba
 from torchirid.color import linear_srgb_to_srgb
 from torchirid.ibl import synthetic_environment
-from torchirid.mitsuba.scenes import render, sphere_scene
+from torchirid.mitsuba.scenes import default_variant, render, sphere_scene
 
 tiny = os.environ.get("TORCHIRID_GALLERY_TINY") == "1"
-llvm = dr.has_backend(dr.JitBackend.LLVM)
-torchirid.mitsuba.register("llvm_ad_spectral" if llvm else "scalar_spectral")
+variant = default_variant()   # llvm_ad_spectral where Dr.Jit has its LLVM backend (libLLVM 19), else scalar_spectral
+llvm = variant.startswith("llvm")
+torchirid.mitsuba.register(variant)
 size = 24 if tiny else (200 if llvm else 48)     # image side in pixels
 spp = 8 if tiny else (256 if llvm else 16)
 
