@@ -24,6 +24,7 @@ ARGS = {
     "montecarlo": ["--incident", "30", "0", "--exit", "30", "180"],
     "design": ["spec.toml"],
     "explore": [],
+    "render-mitsuba": ["thin_film"],
 }
 
 

@@ -7,8 +7,9 @@
   ``thickness`` in nm or a texture of nm) on a base (``n_substrate`` [+ ``k_substrate``] or a
   material name: ``"Au"``, ``"SiO2"``, ``"water"``, ...) in a medium ``n_incident``; smooth, or
   GGX-rough with ``alpha``.
-* ``torchirid_multilayer``: any stack (``materials``, ``thicknesses``: lists, or
-  comma-separated strings in XML; or ``design`` = a ``design.json`` of ``torchirid design``).
+* ``torchirid_multilayer``: any stack (``materials``, ``thicknesses``: comma-separated strings,
+  ``"TiO2,SiO2"``, ``"60,95"`` — Mitsuba properties hold no lists; or ``design`` = the path of a
+  design file written by ``torchirid design``).
 * ``torchirid_bragg``: a Bragg mirror (``n1``, ``n2`` [+ ``k2``], ``d1``, ``d2``, ``cells``),
   smooth, or Fourneau et al.'s rough Bragg layer (``alpha``) over a Lambertian
   ``base_albedo``.

@@ -136,7 +136,6 @@ def define(mi, dr):
             self._read(props)
             self.transmits = (not self.rough) and self._transparent_base()
             self._set_flags()
-            self._torch_fn = None
 
         # -- structure hooks ------------------------------------------------------------
         def _transparent_base(self) -> bool:
@@ -283,7 +282,7 @@ def define(mi, dr):
                 r, t = self._values(si, max(abs(cos_i), 1e-12), 0 if front else 1)
             has_r = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 0)
             has_t = ctx.is_enabled(mi.BSDFFlags.DeltaTransmission, 1)
-            pr = dr.mean(r) if spectral or True else r[0]
+            pr = dr.mean(r)  # over the channels: one choice for every wavelength of the sample
             pt = dr.mean(t)
             p_reflect = dr.clip(pr / dr.maximum(pr + pt, 1e-30), 0.0, 1.0)
             if has_r and not has_t:
@@ -520,8 +519,9 @@ def define(mi, dr):
 
         def _read(self, props):
             self.n1 = _float_arg(props, "n1", positive=True)
-            self.n2 = Index(props.get("n2", None) if props.get("n2", None) is not None else _missing("n2"),
-                            props.get("k2", 0.0), name="n2")
+            if props.get("n2", None) is None:
+                raise ValueError("n2 is required")
+            self.n2 = Index(props.get("n2"), props.get("k2", 0.0), name="n2")
             if self.n2.material is not None:
                 raise ValueError("n2 must be a number (with k2 for absorption): the Bragg layer's closed form "
                                  "takes constant indices")
@@ -870,10 +870,6 @@ def _gather(table, index):
     return dr.gather(type(table), table, dr.uint32_array_t(type(table))(index))
 
 
-def _missing(name):
-    raise ValueError(f"{name} is required")
-
-
 def _number_or_name(x):
     if isinstance(x, str):
         try:
@@ -886,7 +882,7 @@ def _number_or_name(x):
 
 
 def _list_arg(props, name):
-    """A list parameter: a Python list (``mi.load_dict``) or a comma-separated string (XML)."""
+    """A list parameter: a comma-separated string (Mitsuba properties hold no lists)."""
     value = props.get(name, None)
     if value is None:
         raise ValueError(f"{name} is required (or give design = 'design.json')")
