@@ -3,7 +3,6 @@ environment map → EXR (linear RGB) + PNG (sRGB)."""
 
 from __future__ import annotations
 
-import argparse
 import re
 from pathlib import Path
 
