@@ -162,7 +162,13 @@ def admittances(eps: Complex, s2):
     return q, q, q / eps
 
 
-def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real=None):
+def _narrowed(z: Complex, narrow) -> Complex:
+    """``z`` with its array parts cast by ``narrow`` (literals kept)."""
+    cast = (lambda x: x if isinstance(x, (int, float)) else narrow(x))
+    return Complex(cast(z.re), cast(z.im))
+
+
+def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real=None, narrow=None):
     """Reflection (and transmission) amplitudes of a stack by the Airy recursion, s and p in
     one pass (the roots :math:`q_j` and the phase factors are shared).
 
@@ -175,6 +181,10 @@ def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real
         transmission: also return the transmission amplitudes.
         real: per medium, whether its root :math:`q` is known to be real (lossless, index ≥ the
             incident one): :func:`real_root`, real arithmetic downstream.
+        narrow: a cast to a narrower real type (Dr.Jit ``Float32``) for the recursion: the roots
+            and the phase thicknesses are computed in the inputs' precision (float64), the phase
+            reduced modulo 2π there, and the rest — Fresnel coefficients, the recursion,
+            |r|² — in the narrow type. ``None``: everything in the inputs' type.
 
     Returns ``{"s": (r, t, Y_0, Y_exit), "p": (...)}`` with ``t`` the amplitude of the field
     that is continuous at the interfaces (E for s, H for p), so that
@@ -187,8 +197,14 @@ def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real
     last = len(eps) - 1
     phases = []
     for j in range(last - 1, 0, -1):
-        e1 = cexp_i(q[j] * (TWO_PI * thicknesses[j - 1] / lam))
+        delta = q[j] * (TWO_PI * thicknesses[j - 1] / lam)
+        if narrow is not None:  # reduce modulo 2π in float64, then narrow
+            delta = _narrowed(Complex(delta.re - TWO_PI * dr.round(delta.re * (1.0 / TWO_PI)), delta.im), narrow)
+        e1 = cexp_i(delta)
         phases.append((j, e1, e1 * e1))
+    if narrow is not None:
+        ys = [_narrowed(y, narrow) for y in ys]
+        yp = [_narrowed(y, narrow) for y in yp]
     out = {}
     for pol, y in (("s", ys), ("p", yp)):
         den = y[last - 1] + y[last]
@@ -206,15 +222,15 @@ def stack_amplitudes(lam, s2, eps, thicknesses, transmission: bool = False, real
     return out
 
 
-def stack_reflectance(lam, s2, eps, thicknesses, real=None):
+def stack_reflectance(lam, s2, eps, thicknesses, real=None, narrow=None):
     """Unpolarized reflectance ``R`` (mean of s and p) of a stack."""
-    amp = stack_amplitudes(lam, s2, eps, thicknesses, real=real)
+    amp = stack_amplitudes(lam, s2, eps, thicknesses, real=real, narrow=narrow)
     return 0.5 * (amp["s"][0].abs2() + amp["p"][0].abs2())
 
 
-def stack_reflectance_transmittance(lam, s2, eps, thicknesses, real=None):
+def stack_reflectance_transmittance(lam, s2, eps, thicknesses, real=None, narrow=None):
     """Unpolarized ``(R, T)`` of a stack whose incident and exit media are lossless."""
-    amp = stack_amplitudes(lam, s2, eps, thicknesses, transmission=True, real=real)
+    amp = stack_amplitudes(lam, s2, eps, thicknesses, transmission=True, real=real, narrow=narrow)
     out_r, out_t = 0.0, 0.0
     for r, t, y0, ye in amp.values():
         out_r = out_r + 0.5 * r.abs2()

@@ -110,6 +110,9 @@ def define(mi, dr):
     jit = dr.is_jit_v(mi.Float)
     spectral = mi.is_spectral
     F64 = mi.Float64 if jit else float
+    # films and stacks: roots and phases in float64, the recursion in float32 (the JIT variants;
+    # Python floats are doubles in the scalar ones). Bragg mirrors stay float64 throughout.
+    NARROW = mi.Float32 if jit else None
 
     def f64(x):
         return F64(x) if jit else float(x)
@@ -405,8 +408,8 @@ def define(mi, dr):
             d = [self._d(self._si)]
             real = _real_roots([self.n_film, self.n_substrate], self.n_incident, side)
             if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real)
-            return optics.stack_reflectance(lam, s2, eps, d, real), None
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real, NARROW)
+            return optics.stack_reflectance(lam, s2, eps, d, real, NARROW), None
 
         def _torch(self, lam, c, side):
             from ..optics import multilayer, thin_film_reflectance
@@ -487,8 +490,8 @@ def define(mi, dr):
                 eps, d = eps[::-1], d[::-1]
             real = _real_roots(self.layers + [self.n_substrate], self.n_incident, side)
             if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real)
-            return optics.stack_reflectance(lam, s2, eps, d, real), None
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real, NARROW)
+            return optics.stack_reflectance(lam, s2, eps, d, real, NARROW), None
 
         def _torch(self, lam, c, side):
             from ..optics import multilayer
