@@ -138,7 +138,7 @@ def test_smooth_multilayer_of_named_materials_weight_is_tmm_r(spectral):
             n_list = [1.0] + [complex(refractive_index(m, t).item()) for m in mats] + [
                 complex(refractive_index("SiO2", t).item())]
             ref.append(_tmm_r_t(n_list, d, cos0, lam)[0])
-        # the plugin interpolates the tables on a 1 nm grid; the library interpolates the database's own
+        # the plugin interpolates n, k on a 0.1 nm grid; the library interpolates the database's own
         # samples: the difference is far below 1e-5 at these wavelengths
         np.testing.assert_allclose(_channels(w), ref, atol=1e-5, rtol=0)
 
