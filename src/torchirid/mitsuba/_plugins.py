@@ -397,7 +397,8 @@ def define(mi, dr):
             return f64(self.thickness)
 
         def _values(self, si, cos_i, side):
-            self._si = si
+            # the thickness at this point, once per evaluation (a texture lookup), for every channel
+            self._thickness_here = self._d(si)
             return _Plugin._values(self, si, cos_i, side)
 
         def _kernel(self, lam, s2, side):
@@ -405,7 +406,7 @@ def define(mi, dr):
                    self.n_substrate.permittivity(lam, dr, F64)]
             if side:
                 eps = eps[::-1]
-            d = [self._d(self._si)]
+            d = [self._thickness_here]
             real = _real_roots([self.n_film, self.n_substrate], self.n_incident, side)
             if self.transmits:
                 return optics.stack_reflectance_transmittance(lam, s2, eps, d, real, NARROW)
