@@ -334,14 +334,16 @@ def test_bad_parameters_name_the_parameter(spectral, spec, message):
 
 
 def test_design_file_of_torchirid_design_loads_as_a_multilayer(spectral, tmp_path):
-    import json
+    from torchirid import design
 
+    problem = design.Problem([design.Layer(2.3, (50.0, 70.0)), design.Layer("SiO2", (80.0, 100.0))],
+                             [design.SpectralTarget("R", [550.0], value=0.0)], n_incident=1.0, n_substrate=1.52)
+    found = design.optimise(problem, seed=0, max_evaluations=200)
     path = tmp_path / "design.json"
-    path.write_text(json.dumps({"layers": [{"material": 2.3, "thickness": 60.0}, {"material": 1.46, "thickness": 95.0}],
-                                "incident": 1.0, "exit": 1.52}))
+    found.to_json(path)  # what `torchirid design` writes
     a = mi.load_dict({"type": "torchirid_multilayer", "design": str(path)})
-    b = mi.load_dict({"type": "torchirid_multilayer", "materials": "2.3,1.46", "thicknesses": "60,95",
-                      "n_substrate": 1.52})
+    b = mi.load_dict({"type": "torchirid_multilayer", "materials": "2.3,SiO2",
+                      "thicknesses": ",".join(f"{d!r}" for d in map(float, found.thicknesses)), "n_substrate": 1.52})
     ctx = mi.BSDFContext()
     si = _si((0.3, 0.2, math.sqrt(1 - 0.13)))
     np.testing.assert_allclose(_channels(a.sample(ctx, si, 0.2, mi.Point2f(0.5, 0.5))[1]),

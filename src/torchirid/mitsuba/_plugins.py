@@ -92,17 +92,27 @@ def _choice(props, name, options, default):
     return value
 
 
-def read_design(path) -> tuple[list, list, float, object]:
-    """``(materials, thicknesses, n_incident, n_substrate)`` of a ``design.json`` written by
-    ``torchirid design`` (layers top first)."""
+def read_design(path) -> tuple[list, list, object, object]:
+    """``(materials, thicknesses, incident, exit)`` of a ``design.json`` written by
+    ``torchirid design`` (:meth:`torchirid.design.Design.to_dict`: layers top first, thicknesses
+    in ``thickness_nm``)."""
     data = json.loads(Path(path).read_text())
     try:
         layers = data["layers"]
         materials = [layer["material"] for layer in layers]
-        thicknesses = [float(layer["thickness"]) for layer in layers]
-        return materials, thicknesses, data.get("incident", 1.0), data.get("exit", 1.5)
+        thicknesses = [float(layer["thickness_nm"]) for layer in layers]
+        return materials, thicknesses, data["incident"], data["exit"]
     except (KeyError, TypeError) as exc:
-        raise ValueError(f"{path}: not a design written by `torchirid design` ({exc})") from None
+        raise ValueError(f"{path}: not a design written by `torchirid design` (no {exc})") from None
+
+
+def _real_constant(index: Index, name: str) -> float:
+    """The value of an index that must be real and constant (the incident medium)."""
+    if index.material is None and index.constant.imag == 0:
+        return index.constant.real
+    if index.material is not None and index.lossless and np.ptp(index.n_table) == 0:
+        return float(index.n_table[0])
+    raise ValueError(f"{name} must be a real constant index, got {index.describe()}")
 
 
 def define(mi, dr):
@@ -449,7 +459,7 @@ def define(mi, dr):
             if design is not None:
                 materials, thicknesses, n_inc, n_sub = read_design(design)
                 if "n_incident" not in props:
-                    self.n_incident = float(n_inc)
+                    self.n_incident = _real_constant(Index(_number_or_name(n_inc), name="incident"), "incident")
                 substrate = props.get("n_substrate", n_sub)
             else:
                 materials = _list_arg(props, "materials")
@@ -875,13 +885,19 @@ def _gather(table, index):
 
 
 def _number_or_name(x):
+    """A material as a spec or ``design.json`` writes it: a number, ``[n, κ]``, a name, or a
+    ``[shelf, book, page]`` of the database."""
     if isinstance(x, str):
+        if x == "table":
+            raise ValueError("a design with a tabulated material (n, k table): give materials and thicknesses")
         try:
             return float(x)
         except ValueError:
             return x
     if isinstance(x, (list, tuple)) and len(x) == 2:
         return complex(float(x[0]), float(x[1]))
+    if isinstance(x, (list, tuple)) and len(x) == 3:
+        return tuple(x)
     return x
 
 

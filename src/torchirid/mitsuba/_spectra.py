@@ -32,7 +32,7 @@ class Index:
     def __init__(self, value, k: float = 0.0, *, name: str = "index"):
         self.name = name
         self.material = None
-        if isinstance(value, str):
+        if isinstance(value, (str, tuple)):  # a name, or a (shelf, book, page) of the database
             self.material = value
             lo, hi = _covered(value)
             self.grid = np.arange(lo, hi + 0.5 * TABLE_STEP, TABLE_STEP)
@@ -71,6 +71,8 @@ class Index:
         return complex(np.interp(lam, self.grid, self.n_table), np.interp(lam, self.grid, self.k_table))
 
     def describe(self) -> str:
+        if isinstance(self.material, tuple):
+            return "/".join(self.material)
         return self.material if self.material is not None else f"{self.constant.real:g}" + (
             f"+{self.constant.imag:g}i" if self.constant.imag else "")
 
