@@ -28,8 +28,8 @@ refraction of both directions and :math:`T_c(i)T_c(o)/n_1^2`).
 Two evaluators compute the structure's :math:`R`, :math:`T` (``evaluator`` parameter):
 ``"drjit"`` (default) in Dr.Jit float64 arithmetic (:mod:`torchirid.mitsuba._optics`): the
 kernel is traced into Mitsuba's own, runs at the speed of its BSDFs and is differentiable by
-Dr.Jit; ``"torch"`` calls the library (``thin_film_reflectance``, ``multilayer``,
-``bragg_reflectance``) through ``dr.wrap`` — the exact reference, for tests and reference
+Dr.Jit; ``"torch"`` calls the library (``multilayer`` for films and stacks, ``bragg_reflectance``)
+through ``dr.wrap`` — the exact reference, for tests and reference
 renders (needs ``dr.JitFlag.SymbolicLoops`` and ``SymbolicCalls`` off in the JIT variants,
 which :func:`torchirid.mitsuba.render` sets).
 """
@@ -136,8 +136,9 @@ def define(mi, dr):
 
     class _Plugin(mi.BSDF):
         """What every plugin shares: the geometry (smooth or GGX-rough), the channels, the two
-        evaluators. A subclass defines ``_read(props)``, ``_kernel(lam, s2, side)`` →
-        ``(R, T or None)`` in Dr.Jit and ``_torch(lam, cos, side)`` → ``(R, T or None)``."""
+        evaluators. A subclass defines ``_read(props)``, ``_point(si)`` (its per-point data),
+        ``_kernel(lam, s2, side, point)`` → ``(R, T or None)`` in Dr.Jit, ``_torch(lam, cos,
+        side)`` → ``(R, T or None)`` and, if light reaches the base side, ``_n_exit()``."""
 
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
@@ -150,17 +151,33 @@ def define(mi, dr):
             self.transmits = (not self.rough) and self._transparent_base()
             self._set_flags()
 
+        #: a Lambertian base under the structure, seen through τ (the rough Bragg layer)
+        base_albedo = 0.0
+
         # -- structure hooks ------------------------------------------------------------
         def _transparent_base(self) -> bool:
             return False
 
-        def _n_exit(self) -> float:
-            raise NotImplementedError
+        @property
+        def coated(self) -> bool:
+            """A smooth air | ``n_incident`` coating over a rough structure (the rough Bragg layer's host)."""
+            return False
+
+        def _point(self, si):
+            """What a structure needs at this point, for every channel (its thicknesses)."""
+            return None
 
         def _set_flags(self):
             if self.rough:
-                flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-                self.m_components = [flags]
+                lobe = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
+                if self.base_albedo > 0:
+                    lobe = lobe | mi.BSDFFlags.DiffuseReflection
+                components = [lobe]
+                flags = lobe
+                if self.coated:  # the coating's specular delta (assigned whole: m_components is a copy)
+                    components.append(mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide)
+                    flags = flags | components[1]
+                self.m_components = components
             elif self.transmits:
                 both = mi.BSDFFlags.FrontSide | mi.BSDFFlags.BackSide
                 self.m_components = [mi.BSDFFlags.DeltaReflection | both, mi.BSDFFlags.DeltaTransmission | both]
@@ -185,9 +202,10 @@ def define(mi, dr):
                 n0 = self.n_incident if side == 0 else self._n_exit()
                 c = f64(cos_i)
                 s2 = (n0 * n0) * (1.0 - c * c)
+                point = self._point(si)  # once per evaluation, not per channel
                 rs, ts = [], []
                 for lam in lams:
-                    r, t = self._kernel(f64(lam) if spectral else lam, s2, side)
+                    r, t = self._kernel(f64(lam) if spectral else lam, s2, side, point)
                     rs.append(r)
                     ts.append(t)
             return self._spectrum(rs), (self._spectrum(ts) if ts[0] is not None else None)
@@ -258,17 +276,17 @@ def define(mi, dr):
         def eval(self, ctx, si, wo, active=True):
             if not self.rough:
                 return dr.zeros(mi.Spectrum)
-            return self._eval_rough(ctx, si, wo, active)
+            return self._lobe(ctx, si, wo, active, pdf=False)[0]
 
         def pdf(self, ctx, si, wo, active=True):
             if not self.rough:
                 return dr.zeros(mi.Float)
-            return self._pdf_rough(ctx, si, wo, active)
+            return self._lobe(ctx, si, wo, active, value=False)[1]
 
         def eval_pdf(self, ctx, si, wo, active=True):
             if not self.rough:
                 return dr.zeros(mi.Spectrum), dr.zeros(mi.Float)
-            return self._eval_rough(ctx, si, wo, active), self._pdf_rough(ctx, si, wo, active)
+            return self._lobe(ctx, si, wo, active)
 
         # smooth -------------------------------------------------------------------------
         def _sample_smooth(self, ctx, si, sample1, sample2, active):
@@ -322,46 +340,109 @@ def define(mi, dr):
             active = active & (bs.pdf > 0) & (has_r | has_t)
             return bs, dr.select(active, weight, 0.0)
 
-        # rough --------------------------------------------------------------------------
-        def _eval_rough(self, ctx, si, wo, active):
-            active = mask(active)
-            cos_i = mi.Frame3f.cos_theta(si.wi)
-            cos_o = mi.Frame3f.cos_theta(wo)
-            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
-            h = dr.normalize(si.wi + wo)
-            distr = self._microfacets()
-            shading = distr.eval(h) * distr.G(si.wi, wo, h) / (4.0 * dr.maximum(cos_i, 1e-12))
-            r, _ = self._values(si, dr.clip(dr.dot(si.wi, h), 1e-12, 1.0), 0)
-            return dr.select(active, r * shading, 0.0)
+        # rough: the GGX lobe of the structure in its host, a base seen through τ, a coating --
+        # Films and stacks: no coating, no base (the lobe alone, in the incident medium). The
+        # rough Bragg layer (Fourneau et al. eq. 34, one layer) adds both.
+        def _coat_reflectance(self, cos):
+            """Unpolarized Fresnel reflectance of the smooth air | n_incident coating."""
+            return mi.fresnel(cos, self.n_incident)[0]
 
-        def _pdf_rough(self, ctx, si, wo, active):
+        def _into_host(self, w):
+            """``(w', ok)``: ``w`` refracted into the host under the coating (Snell: tangent / n)."""
+            if not self.coated:
+                return w, True
+            n = self.n_incident
+            x, y = w.x / n, w.y / n
+            z2 = 1.0 - x * x - y * y
+            return mi.Vector3f(x, y, dr.safe_sqrt(z2)), z2 > 0
+
+        def _out_of_host(self, w):
+            if not self.coated:
+                return w, True
+            n = self.n_incident
+            x, y = w.x * n, w.y * n
+            z2 = 1.0 - x * x - y * y
+            # trapped by total internal reflection (not ok): a unit vector all the same
+            return dr.normalize(mi.Vector3f(x, y, dr.safe_sqrt(z2))), (z2 > 0) & (w.z > 0)
+
+        def _lobe_probability(self):
+            return 0.5 if self.base_albedo > 0 else 1.0
+
+        def _coat_probability(self, ctx, cos_i):
+            if not self.coated:
+                return 0.0
+            has_delta = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 1)
+            has_lobe = ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+            if has_delta and not has_lobe:
+                return 1.0
+            if has_lobe and not has_delta:
+                return 0.0
+            return self._coat_reflectance(cos_i)
+
+        def _lobe(self, ctx, si, wo, active, value=True, pdf=True):
+            """``(eval, pdf)`` of the rough component, one geometry for both (``None`` where not asked)."""
             active = mask(active)
             cos_i = mi.Frame3f.cos_theta(si.wi)
             cos_o = mi.Frame3f.cos_theta(wo)
-            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
-            h = dr.normalize(si.wi + wo)
-            pdf = self._microfacets().pdf(si.wi, h) / (4.0 * dr.abs(dr.dot(wo, h)))
-            return dr.select(active, pdf, 0.0)
+            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
+            wi_h, ok_i = self._into_host(si.wi)
+            wo_h, ok_o = self._into_host(wo)
+            active = active & ok_i & ok_o
+            h = dr.normalize(wi_h + wo_h)
+            distr = self._microfacets()
+            f = p = None
+            if value:
+                zi, zo = dr.maximum(wi_h.z, 1e-12), dr.maximum(wo_h.z, 1e-12)
+                shading = distr.eval(h) * distr.G(wi_h, wo_h, h) / (4.0 * zi * zo)
+                r, _ = self._values(si, dr.clip(dr.dot(wi_h, h), 1e-12, 1.0), 0)
+                f = r * shading
+                if self.base_albedo > 0:
+                    ti, to = self._tau_values(si, zi), self._tau_values(si, zo)
+                    f = f + (self.base_albedo / math.pi) * self._spectrum([a * b for a, b in zip(ti, to)])
+                if self.coated:
+                    n = self.n_incident
+                    f = f * ((1.0 - self._coat_reflectance(cos_i)) * (1.0 - self._coat_reflectance(cos_o)) / (n * n))
+                f = dr.select(active, f * cos_o, 0.0)
+            if pdf:
+                q = self._lobe_probability()
+                p = q * distr.pdf(wi_h, h) / (4.0 * dr.abs(dr.dot(wo_h, h)))
+                if q < 1.0:
+                    p = p + (1.0 - q) * dr.maximum(wo_h.z, 0.0) / math.pi
+                if self.coated:  # solid angles refract: n² cos θ' dω' = cos θ dω
+                    p = p * cos_o / (self.n_incident ** 2 * dr.maximum(wo_h.z, 1e-12))
+                    p = p * (1.0 - self._coat_probability(ctx, cos_i))
+                p = dr.select(active, p, 0.0)
+            return f, p
 
         def _sample_rough(self, ctx, si, sample1, sample2, active):
             active = mask(active)
             bs = dr.zeros(mi.BSDFSample3f)
             cos_i = mi.Frame3f.cos_theta(si.wi)
-            active = active & (cos_i > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection)
-            distr = self._microfacets()
-            m, pdf_m = distr.sample(si.wi, sample2)
-            bs.wo = mi.reflect(si.wi, m)
-            finite = dr.isfinite(bs.wo.z)  # Mitsuba's VNDF sampler gives NaN at u = (·, 0) and normal incidence
-            bs.wo = dr.select(finite, bs.wo, mi.Vector3f(0.0, 0.0, 1.0))
-            active = active & finite
+            active = active & (cos_i > 0)
+            p_coat = self._coat_probability(ctx, cos_i)
+            coat = sample1 < p_coat
+            u = (sample1 - p_coat) / dr.maximum(1.0 - p_coat, 1e-12)  # reuse the uniform below the coat
+            wi_h, _ = self._into_host(si.wi)
+            q = self._lobe_probability()
+            m, _ = self._microfacets().sample(wi_h, sample2)
+            wo_h = mi.reflect(wi_h, m)
+            if q < 1.0:
+                wo_h = dr.select(u < q, wo_h, mi.warp.square_to_cosine_hemisphere(sample2))
+            wo, ok = self._out_of_host(wo_h)
+            ok = ok & dr.isfinite(wo.z)  # Mitsuba's VNDF sampler gives NaN at u = (·, 0) and normal incidence
+            bs.wo = dr.select(coat, mi.reflect(si.wi), dr.select(ok, wo, mi.Vector3f(0.0, 0.0, 1.0)))
             bs.eta = 1.0
-            bs.sampled_component = 0
-            bs.sampled_type = mi.UInt32(+mi.BSDFFlags.GlossyReflection)
-            bs.pdf = pdf_m / (4.0 * dr.abs(dr.dot(bs.wo, m)))
-            active = active & (pdf_m > 0) & (mi.Frame3f.cos_theta(bs.wo) > 0)
-            value = self._eval_rough(ctx, si, bs.wo, active)
-            weight = value / dr.maximum(bs.pdf, 1e-30)
-            return bs, dr.select(active & (bs.pdf > 0), weight, 0.0)
+            bs.sampled_component = dr.select(coat, mi.UInt32(1), mi.UInt32(0))
+            bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.DeltaReflection),
+                                        mi.UInt32(+mi.BSDFFlags.GlossyReflection))
+            lobe_active = active & ~coat & ok & (mi.Frame3f.cos_theta(bs.wo) > 0)
+            value, pdf = self._lobe(ctx, si, bs.wo, lobe_active)
+            weight = value / dr.maximum(pdf, 1e-30)
+            if self.coated:
+                weight = dr.select(coat, self._coat_reflectance(cos_i) / dr.maximum(p_coat, 1e-30), weight)
+                pdf = dr.select(coat, p_coat, pdf)
+            bs.pdf = pdf
+            return bs, dr.select(active & (coat | (lobe_active & (pdf > 0))), weight, 0.0)
 
         # parameters ---------------------------------------------------------------------
         def traverse(self, callback):
@@ -379,11 +460,56 @@ def define(mi, dr):
             return f"{type(self).__name__}[{self._describe()}, {'alpha=' + str(self.alpha) if self.rough else 'smooth'}]"
 
     # ----------------------------------------------------------------------------------
-    class ThinFilm(_Plugin):
+    class _Stack(_Plugin):
+        """Films on a base: ``self.films`` (indices, top first), ``self.n_substrate`` and the
+        thicknesses at a point (``_point``), by the Airy recursion (:func:`~._optics.stack_amplitudes`;
+        the library's :func:`~torchirid.optics.multilayer` on the exact path)."""
+
+        def __init__(self, props):
+            _Plugin.__init__(self, props)
+            # which media have a real root q at every angle, seen from either side: fixed by the indices
+            self._real = [_real_roots(self.films + [self.n_substrate], self.n_incident, side) for side in (0, 1)]
+
+        def _transparent_base(self):
+            return (self.n_substrate.material is None and self.n_substrate.lossless
+                    and all(film.lossless for film in self.films))
+
+        def _n_exit(self):
+            return self.n_substrate.constant.real
+
+        def _kernel(self, lam, s2, side, d):
+            looked_up = {}  # a material repeated in the stack is looked up once per wavelength
+            for x in self.films:
+                if id(x) not in looked_up:
+                    looked_up[id(x)] = x.permittivity(lam, dr, F64)
+            eps = ([optics.Complex(self.n_incident ** 2)] + [looked_up[id(x)] for x in self.films]
+                   + [self.n_substrate.permittivity(lam, dr, F64)])
+            if side:
+                eps, d = eps[::-1], d[::-1]
+            if self.transmits:
+                return optics.stack_reflectance_transmittance(lam, s2, eps, d, self._real[side], NARROW)
+            return optics.stack_reflectance(lam, s2, eps, d, self._real[side], NARROW), None
+
+        def _torch(self, lam, c, side):
+            from ..optics import multilayer
+
+            shape = torch.broadcast_shapes(lam.shape, c.shape)
+            lam_b = lam.expand(shape)
+            n = torch.stack([torch.full(shape, self.n_incident, dtype=torch.complex128)]
+                            + [x.torch(lam_b) for x in self.films] + [self.n_substrate.torch(lam_b)], -1)
+            d = torch.tensor(self._torch_thicknesses(), dtype=torch.float64).expand(*shape, len(self.films))
+            if side:
+                n, d = n.flip(-1), d.flip(-1)
+            r, t = multilayer(lam_b, c.expand(shape), n, d)
+            return r, (t if self.transmits else None)
+
+    # ----------------------------------------------------------------------------------
+    class ThinFilm(_Stack):
         """``torchirid_thin_film``: a film on a base in a medium (thin_film_reflectance)."""
 
         def _read(self, props):
             self.n_film = _index_arg(props, "n_film", required=True)
+            self.films = [self.n_film]
             self.n_substrate = _index_arg(props, "n_substrate", 1.5)
             if "thickness" in props and props.type("thickness") == mi.Properties.Type.Object:
                 self.thickness_texture = props.get("thickness")
@@ -395,49 +521,13 @@ def define(mi, dr):
                 d = _float_arg(props, "thickness", low=0.0)
                 self.thickness = mi.Float(d) if jit else d
 
-        def _transparent_base(self):
-            return self.n_substrate.material is None and self.n_substrate.is_real and self.n_film.is_real
-
-        def _n_exit(self):
-            return self.n_substrate.constant.real
-
-        def _d(self, si):
+        def _point(self, si):
             if self.thickness_texture is not None:
-                return f64(self.thickness_texture.eval_1(si))
-            return f64(self.thickness)
+                return [f64(self.thickness_texture.eval_1(si))]
+            return [f64(self.thickness)]
 
-        def _values(self, si, cos_i, side):
-            # the thickness at this point, once per evaluation (a texture lookup), for every channel
-            self._thickness_here = self._d(si)
-            return _Plugin._values(self, si, cos_i, side)
-
-        def _kernel(self, lam, s2, side):
-            eps = [optics.Complex(self.n_incident ** 2), self.n_film.permittivity(lam, dr, F64),
-                   self.n_substrate.permittivity(lam, dr, F64)]
-            if side:
-                eps = eps[::-1]
-            d = [self._thickness_here]
-            real = _real_roots([self.n_film, self.n_substrate], self.n_incident, side)
-            if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real, NARROW)
-            return optics.stack_reflectance(lam, s2, eps, d, real, NARROW), None
-
-        def _torch(self, lam, c, side):
-            from ..optics import multilayer, thin_film_reflectance
-
-            d = self._torch_thickness(c)
-            if not self.transmits:
-                return thin_film_reflectance(lam, c, self.n_film.torch(lam), d, self.n_substrate.torch(lam),
-                                             n_incident=self.n_incident), None
-            n = torch.stack(torch.broadcast_tensors(torch.full_like(lam, self.n_incident, dtype=torch.complex128),
-                                                    self.n_film.torch(lam), self.n_substrate.torch(lam)), -1)
-            if side:
-                n = n.flip(-1)
-            return multilayer(lam, c, n.expand(*torch.broadcast_shapes(lam.shape, c.shape), 3),
-                              d.expand(*torch.broadcast_shapes(lam.shape, c.shape))[..., None])
-
-        def _torch_thickness(self, c):
-            return torch.tensor(float(self.thickness[0] if jit else self.thickness), dtype=torch.float64)
+        def _torch_thicknesses(self):
+            return [float(self.thickness[0] if jit else self.thickness)]
 
         def _traverse(self, callback):
             if self.thickness is not None:
@@ -446,12 +536,12 @@ def define(mi, dr):
                 callback.put("thickness", self.thickness_texture, mi.ParamFlags.Differentiable)
 
         def _describe(self):
-            d = "texture" if self.thickness is None else f"{float(self.thickness[0] if jit else self.thickness):g} nm"
+            d = "texture" if self.thickness is None else f"{self._torch_thicknesses()[0]:g} nm"
             return (f"n_film={self.n_film.describe()}, thickness={d}, n_substrate={self.n_substrate.describe()}, "
                     f"n_incident={self.n_incident:g}")
 
     # ----------------------------------------------------------------------------------
-    class Multilayer(_Plugin):
+    class Multilayer(_Stack):
         """``torchirid_multilayer``: any stack (multilayer), or a design file."""
 
         def _read(self, props):
@@ -470,8 +560,8 @@ def define(mi, dr):
             if not materials:
                 raise ValueError("the stack needs at least one layer")
             distinct = {}  # one Index (one table, one lookup per wavelength) per distinct material
-            self.layers = [distinct.setdefault(repr(_number_or_name(m)), Index(_number_or_name(m), name=f"materials[{i}]"))
-                           for i, m in enumerate(materials)]
+            self.films = [distinct.setdefault(repr(_number_or_name(m)), Index(_number_or_name(m), name=f"materials[{i}]"))
+                          for i, m in enumerate(materials)]
             if any(not (math.isfinite(t) and t >= 0) for t in thicknesses):
                 raise ValueError(f"thicknesses must be finite and >= 0 nm, got {thicknesses}")
             if any(0 < t < 1e-3 for t in thicknesses):
@@ -479,52 +569,21 @@ def define(mi, dr):
             self.n_substrate = Index(_number_or_name(substrate), props.get("k_substrate", 0.0), name="n_substrate")
             self.thicknesses = mi.Float(thicknesses) if jit else list(thicknesses)
 
-        def _transparent_base(self):
-            return (self.n_substrate.material is None and self.n_substrate.is_real
-                    and all(layer.is_real for layer in self.layers))
+        def _point(self, si):
+            if not jit:
+                return list(self.thicknesses)
+            d = mi.Float64(self.thicknesses)
+            return [dr.gather(mi.Float64, d, j) for j in range(len(self.films))]
 
-        def _n_exit(self):
-            return self.n_substrate.constant.real
-
-        def _kernel(self, lam, s2, side):
-            looked_up = {}  # a material repeated in the stack is looked up once per wavelength
-            for x in self.layers:
-                if id(x) not in looked_up:
-                    looked_up[id(x)] = x.permittivity(lam, dr, F64)
-            eps = ([optics.Complex(self.n_incident ** 2)] + [looked_up[id(x)] for x in self.layers]
-                   + [self.n_substrate.permittivity(lam, dr, F64)])
-            if jit:
-                d = [dr.gather(mi.Float64, mi.Float64(self.thicknesses), j) for j in range(len(self.layers))]
-            else:
-                d = list(self.thicknesses)
-            if side:
-                eps, d = eps[::-1], d[::-1]
-            real = _real_roots(self.layers + [self.n_substrate], self.n_incident, side)
-            if self.transmits:
-                return optics.stack_reflectance_transmittance(lam, s2, eps, d, real, NARROW)
-            return optics.stack_reflectance(lam, s2, eps, d, real, NARROW), None
-
-        def _torch(self, lam, c, side):
-            from ..optics import multilayer
-
-            shape = torch.broadcast_shapes(lam.shape, c.shape)
-            lam_b = lam.expand(shape)
-            n = torch.stack([torch.full(shape, self.n_incident, dtype=torch.complex128)]
-                            + [x.torch(lam_b) for x in self.layers] + [self.n_substrate.torch(lam_b)], -1)
-            d = torch.tensor(list(self.thicknesses) if not jit else self.thicknesses.numpy().tolist(),
-                             dtype=torch.float64).expand(*shape, len(self.layers))
-            if side:
-                n, d = n.flip(-1), d.flip(-1)
-            r, t = multilayer(lam_b, c.expand(shape), n, d)
-            return r, (t if self.transmits else None)
+        def _torch_thicknesses(self):
+            return self.thicknesses.numpy().tolist() if jit else list(self.thicknesses)
 
         def _traverse(self, callback):
             if jit:
                 callback.put("thicknesses", self.thicknesses, mi.ParamFlags.Differentiable)
 
         def _describe(self):
-            d = self.thicknesses.numpy().tolist() if jit else self.thicknesses
-            layers = ", ".join(f"{x.describe()}:{t:g}" for x, t in zip(self.layers, d))
+            layers = ", ".join(f"{x.describe()}:{t:g}" for x, t in zip(self.films, self._torch_thicknesses()))
             return f"[{layers}] on {self.n_substrate.describe()}, n_incident={self.n_incident:g}"
 
     # ----------------------------------------------------------------------------------
@@ -554,7 +613,7 @@ def define(mi, dr):
                 raise ValueError(f"base_albedo must be in [0, 1], got {self.base_albedo}")
             self._tau = None
 
-        def _n_exit(self):
+        def _n_exit(self):  # the smooth mirror's exit medium (bragg_reflectance)
             return self.n1
 
         # -- RGB variants: a table of the exact 1 nm colour over the angle ------------------
@@ -612,45 +671,9 @@ def define(mi, dr):
             self._tau = None
 
         # -- the rough Bragg layer (Fourneau et al. eq. 34, one layer) -----------------------
-        def _set_flags(self):
-            if not self.rough:
-                return _Plugin._set_flags(self)
-            lobe = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-            if self.base_albedo > 0:
-                lobe = lobe | mi.BSDFFlags.DiffuseReflection
-            self.m_components = [lobe]
-            if self.coated:
-                self.m_components.append(mi.BSDFFlags.DeltaReflection | mi.BSDFFlags.FrontSide)
-            flags = self.m_components[0]
-            for c in self.m_components[1:]:
-                flags = flags | c
-            self.m_flags = flags
-
         @property
         def coated(self):
-            return self.n_incident != 1.0
-
-        def _coat_reflectance(self, cos):
-            """Unpolarized Fresnel reflectance of the smooth air | n_incident coating."""
-            return mi.fresnel(cos, self.n_incident)[0]
-
-        def _into_host(self, w):
-            """``(w', ok)``: ``w`` refracted into the host (Snell: tangential part / n)."""
-            n = self.n_incident
-            if n == 1.0:
-                return w, True
-            x, y = w.x / n, w.y / n
-            z2 = 1.0 - x * x - y * y
-            return mi.Vector3f(x, y, dr.safe_sqrt(z2)), z2 > 0
-
-        def _out_of_host(self, w):
-            n = self.n_incident
-            if n == 1.0:
-                return w, True
-            x, y = w.x * n, w.y * n
-            z2 = 1.0 - x * x - y * y
-            # trapped by total internal reflection (not ok): a unit vector all the same
-            return dr.normalize(mi.Vector3f(x, y, dr.safe_sqrt(z2))), (z2 > 0) & (w.z > 0)
+            return self.rough and self.n_incident != 1.0
 
         def _tau_grid(self, d1, d2, alpha):
             """τ(θ, λ) of eq. 28 from the library's :func:`~torchirid.layered.transmissivity_lut`,
@@ -722,103 +745,11 @@ def define(mi, dr):
                     out.append(combine(lambda t: (1.0 - fx) * _gather(t, base) + fx * _gather(t, base + width)))
             return out
 
-        def _host_pair(self, si, wo):
-            wi_h, ok_i = self._into_host(si.wi)
-            wo_h, ok_o = self._into_host(wo)
-            return wi_h, wo_h, ok_i & ok_o
-
-        def _eval_rough(self, ctx, si, wo, active):
-            active = mask(active)
-            cos_i = mi.Frame3f.cos_theta(si.wi)
-            cos_o = mi.Frame3f.cos_theta(wo)
-            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
-            wi_h, wo_h, ok = self._host_pair(si, wo)
-            zi, zo = dr.maximum(wi_h.z, 1e-12), dr.maximum(wo_h.z, 1e-12)
-            h = dr.normalize(wi_h + wo_h)
-            distr = self._microfacets()
-            shading = distr.eval(h) * distr.G(wi_h, wo_h, h) / (4.0 * zi * zo)
-            r, _ = self._values(si, dr.clip(dr.dot(wi_h, h), 1e-12, 1.0), 0)
-            f = r * shading
-            if self.base_albedo > 0:
-                ti, to = self._tau_values(si, zi), self._tau_values(si, zo)
-                f = f + (self.base_albedo / math.pi) * self._spectrum([a * b for a, b in zip(ti, to)])
-            if self.coated:
-                n = self.n_incident
-                f = f * ((1.0 - self._coat_reflectance(cos_i)) * (1.0 - self._coat_reflectance(cos_o)) / (n * n))
-            return dr.select(active & ok, f * cos_o, 0.0)
-
-        def _lobe_probability(self):
-            return 0.5 if self.base_albedo > 0 else 1.0
-
-        def _coat_probability(self, ctx, cos_i):
-            if not self.coated:
-                return 0.0
-            has_delta = ctx.is_enabled(mi.BSDFFlags.DeltaReflection, 1)
-            has_lobe = ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
-            p = self._coat_reflectance(cos_i)
-            if has_delta and not has_lobe:
-                return 1.0
-            if has_lobe and not has_delta:
-                return 0.0
-            return p
-
-        def _pdf_rough(self, ctx, si, wo, active):
-            active = mask(active)
-            cos_i = mi.Frame3f.cos_theta(si.wi)
-            cos_o = mi.Frame3f.cos_theta(wo)
-            active = active & (cos_i > 0) & (cos_o > 0) & ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 0)
-            wi_h, wo_h, ok = self._host_pair(si, wo)
-            h = dr.normalize(wi_h + wo_h)
-            p = self._lobe_probability()
-            pdf = p * self._microfacets().pdf(wi_h, h) / (4.0 * dr.abs(dr.dot(wo_h, h)))
-            if p < 1.0:
-                pdf = pdf + (1.0 - p) * dr.maximum(wo_h.z, 0.0) / math.pi
-            if self.coated:  # solid angles refract: n² cos θ' dω' = cos θ dω
-                pdf = pdf * cos_o / (self.n_incident ** 2 * dr.maximum(wo_h.z, 1e-12))
-                pdf = pdf * (1.0 - self._coat_probability(ctx, cos_i))
-            return dr.select(active & ok, pdf, 0.0)
-
-        def _sample_rough(self, ctx, si, sample1, sample2, active):
-            active = mask(active)
-            bs = dr.zeros(mi.BSDFSample3f)
-            cos_i = mi.Frame3f.cos_theta(si.wi)
-            active = active & (cos_i > 0)
-            p_coat = self._coat_probability(ctx, cos_i)
-            coat = sample1 < p_coat
-            u = (sample1 - p_coat) / dr.maximum(1.0 - p_coat, 1e-12)  # reuse the uniform below the coat
-            wi_h, _ = self._into_host(si.wi)
-            p = self._lobe_probability()
-            m, _ = self._microfacets().sample(wi_h, sample2)
-            wo_spec = mi.reflect(wi_h, m)
-            if p < 1.0:
-                wo_base = mi.warp.square_to_cosine_hemisphere(sample2)
-                wo_h = dr.select(u < p, wo_spec, wo_base)
-            else:
-                wo_h = wo_spec
-            wo, ok = self._out_of_host(wo_h)
-            ok = ok & dr.isfinite(wo.z)  # Mitsuba's VNDF sampler gives NaN at u = (·, 0) and normal incidence
-            bs.wo = dr.select(coat, mi.reflect(si.wi), dr.select(ok, wo, mi.Vector3f(0.0, 0.0, 1.0)))
-            bs.eta = 1.0
-            bs.sampled_component = dr.select(coat, mi.UInt32(1), mi.UInt32(0))
-            bs.sampled_type = dr.select(coat, mi.UInt32(+mi.BSDFFlags.DeltaReflection),
-                                        mi.UInt32(+mi.BSDFFlags.GlossyReflection))
-            lobe_active = active & ~coat & ok & (mi.Frame3f.cos_theta(bs.wo) > 0)
-            value = self._eval_rough(ctx, si, bs.wo, lobe_active)
-            pdf = self._pdf_rough(ctx, si, bs.wo, lobe_active)
-            weight = value / dr.maximum(pdf, 1e-30)
-            if self.coated:
-                f = self._coat_reflectance(cos_i)
-                weight = dr.select(coat, f / dr.maximum(p_coat, 1e-30), weight)
-                pdf = dr.select(coat, p_coat, pdf)
-            bs.pdf = pdf
-            ok_all = active & (coat | (lobe_active & (pdf > 0)))
-            return bs, dr.select(ok_all, weight, 0.0)
-
-        def _d(self):
+        def _point(self, si):
             return f64(self.d1), f64(self.d2)
 
-        def _kernel(self, lam, s2, side):
-            d1, d2 = self._d()
+        def _kernel(self, lam, s2, side, point):
+            d1, d2 = point
             n2 = complex(self.n2.constant)
             eps2 = optics.Complex(n2.real, n2.imag)
             n0 = self.n_incident

@@ -57,13 +57,6 @@ class Index:
         real index ``n_incident``: lossless and never below it (no total internal reflection)."""
         return self.lossless and self.n_min >= n_incident
 
-    @property
-    def is_real(self) -> bool:
-        """No absorption at any wavelength."""
-        if self.material is None:
-            return self.constant.imag == 0
-        return bool(np.all(self.k_table == 0))
-
     def value(self, lam: float) -> complex:
         """The index at one wavelength (Python number)."""
         if self.material is None:
