@@ -18,24 +18,21 @@ Writes ``OUT.json`` and ``OUT.md`` (the tables of docs/performance.md, "Mitsuba 
 from __future__ import annotations
 
 import argparse
-import glob
 import json
 import math
-import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
-if "DRJIT_LIBLLVM_PATH" not in os.environ:  # Debian 12's libLLVM 15 crashes Dr.Jit; 19 works
-    for _p in sorted(glob.glob("/usr/lib/*/libLLVM-19.so*")):
-        os.environ["DRJIT_LIBLLVM_PATH"] = _p
-        break
-
-import numpy as np  # noqa: E402
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
+
+from torchirid.mitsuba.scenes import find_libllvm  # noqa: E402
+
+find_libllvm()  # Debian 12's libLLVM 15 crashes Dr.Jit; 19 works
 
 PLUGINS = {
     "thin film on gold (rough)": {"type": "torchirid_thin_film", "n_film": 1.45, "thickness": 310.0,
@@ -60,17 +57,12 @@ REFERENCES = {
 
 
 def sphere_scene(mi, bsdf, size, spp):
-    return mi.load_dict({
-        "type": "scene",
-        "integrator": {"type": "path", "max_depth": 3},
-        "sensor": {"type": "perspective", "fov": 30,
-                   "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, 4], target=[0, 0, 0], up=[0, 1, 0]),
-                   "film": {"type": "hdrfilm", "width": size, "height": size, "rfilter": {"type": "box"}},
-                   "sampler": {"type": "independent", "sample_count": spp}},
-        "sphere": {"type": "sphere", "bsdf": bsdf},
-        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.6, 0.7, 0.9]}},
-        "sun": {"type": "directional", "direction": [-1.0, -1.0, -1.0], "irradiance": {"type": "rgb", "value": [3, 3, 3]}},
-    })
+    """The sphere of tests/mitsuba/test_mitsuba_render.py: a constant sky and a sun, seen from the side."""
+    from torchirid.mitsuba.scenes import sphere_scene as scene
+
+    sky = {"type": "constant", "radiance": {"type": "rgb", "value": [0.6, 0.7, 0.9]}}
+    sun = {"type": "directional", "direction": [1.0, -1.0, -1.0], "irradiance": {"type": "rgb", "value": [3, 3, 3]}}
+    return scene(bsdf, environment=sky, extra={"sun": sun}, elevation_deg=0.0, azimuth_deg=90.0, size=size, spp=spp)
 
 
 def timed_render(mi, dr, scene, seed):
