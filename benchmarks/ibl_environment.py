@@ -59,13 +59,30 @@ LABELS = {"fitted": "fitted (default)", "kneiphof": "Kneiphof", "belcour_barla":
 MARK = "ibl-environment"
 
 
-def gallery_sphere(size: int):
-    """Normals, view and thickness of the gallery's sphere pixels (size × size image, rim left out)."""
+def gallery_frame():
+    """The gallery's view (unit, constant: orthographic), and the image plane's right and up."""
     view = torch.tensor([0.8, 0.48, 0.36], dtype=F64)
     view = view / view.norm()
     right = torch.linalg.cross(torch.tensor([0.0, 0.0, 1.0], dtype=F64), view)
     right = right / right.norm()
-    up = torch.linalg.cross(view, right)
+    return view, right, torch.linalg.cross(view, right)
+
+
+def write_docs_section(mark: str, text: str) -> None:
+    """Replace the section between ``<!-- mark:start -->`` and ``<!-- mark:end -->`` of docs/performance.md."""
+    perf = ROOT / "docs/performance.md"
+    doc = perf.read_text()
+    start, end = f"<!-- {mark}:start -->", f"<!-- {mark}:end -->"
+    if start not in doc:
+        raise SystemExit(f"docs/performance.md has no {start} marker")
+    perf.write_text(re.sub(re.escape(start) + ".*?" + re.escape(end), lambda m: f"{start}\n{text}\n{end}", doc,
+                           flags=re.S))
+    print(f"updated {perf}")
+
+
+def gallery_sphere(size: int):
+    """Normals, view and thickness of the gallery's sphere pixels (size × size image, rim left out)."""
+    view, right, up = gallery_frame()
     s = (torch.arange(size, dtype=F64) + 0.5) / size * 2.0 - 1.0
     x, y = s[None, :].expand(size, size), -s[:, None].expand(size, size)
     inside = x * x + y * y < 0.97
@@ -154,14 +171,7 @@ def main(argv=None) -> int:
          "n_film": N_FILM, "levels": list(LEVELS), "maps": results}, indent=1) + "\n")
     (folder / "ibl_environment.md").write_text("# Thin-film IBL under environment maps\n\n" + text + "\n")
     if args.write_docs:
-        perf = ROOT / "docs/performance.md"
-        doc = perf.read_text()
-        start, end = f"<!-- {MARK}:start -->", f"<!-- {MARK}:end -->"
-        if start not in doc:
-            raise SystemExit(f"docs/performance.md has no {start} marker")
-        doc = re.sub(re.escape(start) + ".*?" + re.escape(end), lambda m: f"{start}\n{text}\n{end}", doc, flags=re.S)
-        perf.write_text(doc)
-        print(f"updated {perf}")
+        write_docs_section(MARK, text)
     return 0
 
 

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import time
 from pathlib import Path
@@ -62,30 +61,18 @@ from torchirid.ibl.shading import REFERENCE_WAVELENGTH
 from torchirid.mitsuba.scenes import environment_emitter, find_libllvm, render
 from torchirid.optics import thin_film_reflectance
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ibl_environment import ALPHA, N_BASE, N_FILM, gallery_frame, write_docs_section  # noqa: E402
+from ibl_environment import MAPS as ENVIRONMENT_MAPS  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 F64 = torch.float64
-ALPHA, N_FILM, N_BASE = 0.25, 1.33, 1.0
 D_TOP, D_BOTTOM = 100.0, 800.0
 #: the gallery's maps (benchmarks/ibl_environment.py's, less the constant one)
-MAPS = {
-    "sky": ("synthetic sky (gallery: gradient, ground, sun r 0.12 rad × 40)", dict(sun_radius=0.12, sun_radiance=40.0)),
-    "sun_sky": ("sun and sky (CIE clear sky, sun r 0.03 rad × 2000)",
-                dict(scene="sun_sky", sun_radius=0.03, sun_radiance=2000.0)),
-    "indoor": ("indoor (room, 4 bright area sources)", dict(scene="indoor")),
-}
+MAPS = {name: entry for name, entry in ENVIRONMENT_MAPS.items() if entry[1] is not None}
 #: the gallery's rim cut (pixel centres with x² + y² below it are shaded)
 RIM = 0.97
 MARK = "ibl-mitsuba-check"
-
-
-def gallery_frame():
-    """The gallery's view (unit, constant: orthographic), and the image plane's right and up."""
-    view = torch.tensor([0.8, 0.48, 0.36], dtype=F64)
-    view = view / view.norm()
-    right = torch.linalg.cross(torch.tensor([0.0, 0.0, 1.0], dtype=F64), view)
-    right = right / right.norm()
-    up = torch.linalg.cross(view, right)
-    return view, right, up
 
 
 def thickness_of(y):
@@ -294,14 +281,7 @@ def main(argv=None) -> int:
     (folder / "ibl_mitsuba_check.md").write_text(
         "# The environment-lit texel-sum reference against Mitsuba 3\n\n" + text + "\n")
     if args.write_docs:
-        perf = ROOT / "docs/performance.md"
-        doc = perf.read_text()
-        start, end = f"<!-- {MARK}:start -->", f"<!-- {MARK}:end -->"
-        if start not in doc:
-            raise SystemExit(f"docs/performance.md has no {start} marker")
-        doc = re.sub(re.escape(start) + ".*?" + re.escape(end), lambda m: f"{start}\n{text}\n{end}", doc, flags=re.S)
-        perf.write_text(doc)
-        print(f"updated {perf}")
+        write_docs_section(MARK, text)
     return 0
 
 
